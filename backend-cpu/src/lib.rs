@@ -1,0 +1,180 @@
+//! The CPU backend: the same kernel functions the GPU runs, called natively.
+//!
+//! Workgroups run in parallel on rayon's pool; within a workgroup, invocations run in order (and
+//! kernels with barriers run phase by phase, see `vrrt_core::plan::KernelDesc::cpu`). Storage
+//! buffers are plain `Vec<u32>`, so the CPU backend is also the easiest way to use VRRT-rs from a
+//! Rust program: create buffers, write slices, dispatch, read back.
+
+use rayon::prelude::*;
+use std::fmt;
+use std::time::Instant;
+use vrrt_core::glam::UVec3;
+use vrrt_core::plan::{
+    BufferId, CpuBindings, Executor, Groups, Pass, PassTiming, PlanError, RawBuffer,
+};
+
+/// Errors of the CPU backend.
+#[derive(Debug)]
+pub enum CpuError {
+    /// The pass does not match its kernel.
+    Plan(PlanError),
+    /// A buffer id this executor did not create.
+    UnknownBuffer(BufferId),
+    /// A write or read beyond the end of a buffer.
+    OutOfRange {
+        /// The buffer.
+        buffer: BufferId,
+        /// Bytes asked for.
+        bytes: usize,
+        /// Bytes the buffer has.
+        size: usize,
+    },
+    /// Buffer sizes must be multiples of 4 bytes.
+    UnalignedSize(u64),
+    /// The same buffer bound twice in one pass (kernels get it as disjoint slices).
+    AliasedBinding(BufferId),
+}
+
+impl fmt::Display for CpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CpuError::Plan(e) => write!(f, "{e}"),
+            CpuError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
+            CpuError::OutOfRange { buffer, bytes, size } => {
+                write!(f, "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes")
+            }
+            CpuError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
+            CpuError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
+        }
+    }
+}
+
+impl std::error::Error for CpuError {}
+
+/// Runs plans on the CPU.
+#[derive(Default)]
+pub struct CpuExecutor {
+    buffers: Vec<Vec<u32>>,
+    timings: Vec<PassTiming>,
+}
+
+impl CpuExecutor {
+    /// A new executor with no buffers.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn buffer(&self, id: BufferId) -> Result<&Vec<u32>, CpuError> {
+        self.buffers.get(id.0 as usize).ok_or(CpuError::UnknownBuffer(id))
+    }
+
+    fn buffer_mut(&mut self, id: BufferId) -> Result<&mut Vec<u32>, CpuError> {
+        self.buffers.get_mut(id.0 as usize).ok_or(CpuError::UnknownBuffer(id))
+    }
+
+    /// Contents of a buffer, without copying.
+    pub fn contents(&self, id: BufferId) -> Result<&[u8], CpuError> {
+        Ok(bytemuck::cast_slice(self.buffer(id)?))
+    }
+
+    fn group_counts(&self, groups: Groups) -> Result<[u32; 3], CpuError> {
+        match groups {
+            Groups::Direct(g) => Ok(g),
+            Groups::Indirect { buffer, offset } => {
+                let b = self.buffer(buffer)?;
+                let i = (offset / 4) as usize;
+                b.get(i..i + 3).map(|s| [s[0], s[1], s[2]]).ok_or(CpuError::OutOfRange {
+                    buffer,
+                    bytes: offset as usize + 12,
+                    size: b.len() * 4,
+                })
+            }
+        }
+    }
+}
+
+impl Executor for CpuExecutor {
+    type Error = CpuError;
+
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, CpuError> {
+        if size_bytes % 4 != 0 {
+            return Err(CpuError::UnalignedSize(size_bytes));
+        }
+        self.buffers.push(vec![0u32; (size_bytes / 4) as usize]);
+        Ok(BufferId(self.buffers.len() as u32 - 1))
+    }
+
+    fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), CpuError> {
+        let b = self.buffer_mut(buffer)?;
+        if data.len() > b.len() * 4 {
+            return Err(CpuError::OutOfRange { buffer, bytes: data.len(), size: b.len() * 4 });
+        }
+        bytemuck::cast_slice_mut::<u32, u8>(b)[..data.len()].copy_from_slice(data);
+        Ok(())
+    }
+
+    fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), CpuError> {
+        pass.validate().map_err(CpuError::Plan)?;
+        let groups = self.group_counts(pass.groups)?;
+        for (i, id) in pass.buffers.iter().enumerate() {
+            self.buffer(*id)?;
+            if pass.buffers[..i].contains(id) {
+                return Err(CpuError::AliasedBinding(*id));
+            }
+        }
+        let raw: Vec<RawBuffer> = pass
+            .buffers
+            .iter()
+            .map(|id| {
+                let b = &mut self.buffers[id.0 as usize];
+                RawBuffer { ptr: b.as_mut_ptr() as *mut u8, len: b.len() * 4 }
+            })
+            .collect();
+        let start = Instant::now();
+        // SAFETY: every pointer comes from a distinct live Vec<u32> (aliasing checked above) that
+        // is not touched until the dispatch returns.
+        let bindings = unsafe { CpuBindings::new(&raw, pass.params, pass.kernel.workgroup_size) };
+        let [gx, gy, gz] = groups;
+        let total = gx as u64 * gy as u64 * gz as u64;
+        let run = pass.kernel.cpu;
+        (0..total).into_par_iter().for_each(|g| {
+            let group = UVec3::new(
+                (g % gx as u64) as u32,
+                ((g / gx as u64) % gy as u64) as u32,
+                (g / (gx as u64 * gy as u64)) as u32,
+            );
+            // SAFETY: bindings match the kernel (validated); see `CpuBindings`.
+            unsafe { run(group, &bindings) };
+        });
+        self.timings.push(PassTiming {
+            entry: pass.kernel.entry,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+        });
+        Ok(())
+    }
+
+    fn read_buffer(&mut self, buffer: BufferId, out: &mut [u8]) -> Result<(), CpuError> {
+        let bytes = self.contents(buffer)?;
+        if out.len() > bytes.len() {
+            return Err(CpuError::OutOfRange { buffer, bytes: out.len(), size: bytes.len() });
+        }
+        out.copy_from_slice(&bytes[..out.len()]);
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), CpuError> {
+        Ok(())
+    }
+
+    fn timings(&self) -> &[PassTiming] {
+        &self.timings
+    }
+
+    fn clear_timings(&mut self) {
+        self.timings.clear();
+    }
+}

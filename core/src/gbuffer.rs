@@ -1,0 +1,84 @@
+//! The G-buffer texel every pass reads, and the bilateral tests on it.
+
+use crate::math;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Instance id of a pixel that hit nothing (sky): no signal, no rays, skipped by the filters.
+pub const NO_INSTANCE: u32 = u32::MAX;
+
+/// One pixel of the G-buffer (64 bytes, scalars only so the layout is identical on every target).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Surface {
+    /// World-space position, x.
+    pub px: f32,
+    /// World-space position, y.
+    pub py: f32,
+    /// World-space position, z.
+    pub pz: f32,
+    /// Distance from the camera along its forward axis (linear view depth).
+    pub depth: f32,
+    /// Shading normal (interpolated), x.
+    pub nx: f32,
+    /// Shading normal, y.
+    pub ny: f32,
+    /// Shading normal, z.
+    pub nz: f32,
+    /// Instance hit, or [`NO_INSTANCE`].
+    pub instance: u32,
+    /// Geometric (face) normal, x: the normal rays are offset along.
+    pub gx: f32,
+    /// Geometric normal, y.
+    pub gy: f32,
+    /// Geometric normal, z.
+    pub gz: f32,
+    /// Surface roughness (GGX alpha), 1 for diffuse-only.
+    pub roughness: f32,
+    /// Where this surface point was in the previous frame, in pixels (x).
+    pub prev_x: f32,
+    /// Where this surface point was in the previous frame, in pixels (y).
+    pub prev_y: f32,
+    /// Reserved.
+    pub _pad0: f32,
+    /// Reserved.
+    pub _pad1: f32,
+}
+
+impl Surface {
+    /// World-space position.
+    #[inline]
+    pub fn position(&self) -> Vec3 {
+        Vec3::new(self.px, self.py, self.pz)
+    }
+    /// Shading normal.
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        Vec3::new(self.nx, self.ny, self.nz)
+    }
+    /// Geometric normal.
+    #[inline]
+    pub fn geometric_normal(&self) -> Vec3 {
+        Vec3::new(self.gx, self.gy, self.gz)
+    }
+    /// True when the pixel hit geometry.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.instance != NO_INSTANCE
+    }
+}
+
+/// Normal edge-stopping weight `max(0, n·m)^power` (SVGF uses power 128).
+#[inline]
+pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
+    math::pow(math::max(n.dot(m), 0.0), power)
+}
+
+/// Plane-distance edge-stopping weight: how far `q` lies off the tangent plane of `(p, n)`,
+/// relative to `scale` (typically `sigma * view depth`, so the test is resolution- and
+/// distance-independent).
+#[inline]
+pub fn plane_weight(p: Vec3, n: Vec3, q: Vec3, scale: f32) -> f32 {
+    let d = math::abs(n.dot(q - p));
+    math::exp(-d / math::max(scale, 1e-12))
+}

@@ -1,0 +1,166 @@
+//! One à-trous wavelet iteration of SVGF with edge-stopping weights.
+//!
+//! Seed: q2vkpt-path-tracing-denoising-2019 (SVGF) and vrrt-call-of-duty-2026, "Denoising basics –
+//! variance-guided filtering" (`Weight_Variance`). A 5×5 B3-spline footprint dilated by `step`;
+//! each tap is weighted by normal similarity, distance from the centre's tangent plane, and the
+//! luminance difference relative to the centre's (3×3 pre-blurred) standard deviation. Variance is
+//! filtered along with squared weights, so later iterations blur less where the signal is known.
+
+use super::{pixel_index, plane_index};
+use crate::gbuffer::{self, Surface};
+use crate::math;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec2, UVec3};
+
+/// A filtered signal value and its variance.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Filtered {
+    /// Signal estimate.
+    pub value: f32,
+    /// Variance of the estimate.
+    pub variance: f32,
+}
+
+/// Push constants of [`atrous`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq, Pod, Zeroable)]
+pub struct AtrousParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Tap spacing in pixels: 1, 2, 4, 8, 16 for the five SVGF iterations.
+    pub step: u32,
+    /// Padding.
+    pub _pad: u32,
+    /// Luminance sharpness σ_l (SVGF: 4). Larger blurs more.
+    pub sigma_luminance: f32,
+    /// Plane-distance tolerance per pixel of offset and unit of view depth: σ_p times the angle one
+    /// pixel subtends (host computes it from the field of view and the height).
+    pub plane_scale: f32,
+    /// Exponent of the normal weight (SVGF: 128).
+    pub normal_power: f32,
+    /// Padding.
+    pub _pad1: f32,
+}
+
+impl Default for AtrousParams {
+    fn default() -> Self {
+        AtrousParams {
+            width: 0,
+            height: 0,
+            step: 1,
+            _pad: 0,
+            sigma_luminance: 4.0,
+            plane_scale: 0.01,
+            normal_power: 128.0,
+            _pad1: 0.0,
+        }
+    }
+}
+
+const B3: [f32; 3] = [3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
+const GAUSS3: [f32; 2] = [1.0 / 2.0, 1.0 / 4.0];
+
+#[inline]
+fn clamp_coord(v: i32, n: u32) -> u32 {
+    if v < 0 {
+        0
+    } else if v >= n as i32 {
+        n - 1
+    } else {
+        v as u32
+    }
+}
+
+/// Variance at `(x, y)` blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for the
+/// luminance weight.
+fn blurred_variance(input: &[Filtered], x: u32, y: u32, plane: u32, p: &AtrousParams) -> f32 {
+    let mut sum = 0.0;
+    let mut dy = -1;
+    while dy <= 1 {
+        let mut dx = -1;
+        while dx <= 1 {
+            let qx = clamp_coord(x as i32 + dx, p.width);
+            let qy = clamp_coord(y as i32 + dy, p.height);
+            let w = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
+            sum += w * input[plane_index(UVec3::new(qx, qy, plane), p.width, p.height)].variance;
+            dx += 1;
+        }
+        dy += 1;
+    }
+    sum
+}
+
+/// One invocation per pixel and signal plane.
+pub fn atrous(
+    id: UVec3,
+    p: &AtrousParams,
+    input: &[Filtered],
+    surfaces: &[Surface],
+    out: &mut [Filtered],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let i = plane_index(id, p.width, p.height);
+    let center = input[i];
+    let c = surfaces[pixel_index(id.x, id.y, p.width)];
+    if !c.is_valid() {
+        out[i] = center;
+        return;
+    }
+    let (cp, cn) = (c.position(), c.normal());
+    let sigma = math::sqrt(math::max(blurred_variance(input, id.x, id.y, id.z, p), 0.0));
+    let lum_scale = p.sigma_luminance * sigma + 1e-6;
+
+    let mut sum = center.value;
+    let mut sum_var = center.variance;
+    let mut sum_w = 1.0f32;
+    let step = p.step as i32;
+    let mut ty = -2;
+    while ty <= 2 {
+        let mut tx = -2;
+        while tx <= 2 {
+            let q = IVec2::new(id.x as i32 + tx * step, id.y as i32 + ty * step);
+            let inside = q.x >= 0 && q.y >= 0 && q.x < p.width as i32 && q.y < p.height as i32;
+            if (tx != 0 || ty != 0) && inside {
+                let (qx, qy) = (q.x as u32, q.y as u32);
+                let s = surfaces[pixel_index(qx, qy, p.width)];
+                if s.is_valid() {
+                    let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
+                    let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
+                    let w_n = gbuffer::normal_weight(cn, s.normal(), p.normal_power);
+                    let w_p = gbuffer::plane_weight(
+                        cp,
+                        cn,
+                        s.position(),
+                        p.plane_scale * c.depth * offset_len,
+                    );
+                    let w_l = math::exp(-math::abs(center.value - tap.value) / lum_scale);
+                    let w = B3[tx.unsigned_abs() as usize]
+                        * B3[ty.unsigned_abs() as usize]
+                        * (1.0 / (B3[0] * B3[0]))
+                        * w_n
+                        * w_p
+                        * w_l;
+                    sum += w * tap.value;
+                    sum_var += w * w * tap.variance;
+                    sum_w += w;
+                }
+            }
+            tx += 1;
+        }
+        ty += 1;
+    }
+    out[i] = Filtered { value: sum / sum_w, variance: sum_var / (sum_w * sum_w) };
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`atrous`]: bindings `input`, `surfaces`, `out`.
+    KERNEL = "atrous", atrous, threads(8, 8, 1),
+    params: AtrousParams,
+    bindings: [input: Read Filtered, surfaces: Read Surface, out: ReadWrite Filtered]
+);

@@ -1,0 +1,177 @@
+//! Ray-rate buckets and rings, and the bucket-counting histogram the load balancer reads.
+//!
+//! Seed: vrrt-call-of-duty-2026, "Load balancing" (`VrrtBucketToRayRate`, `VrrtGetRingId`, counting
+//! with `InterlockedAdd` on groupshared memory, then one global atomic per bucket per group).
+//! Workgroups are 16×16 and ring tiles 32×16, so every pixel of a workgroup is in the same ring:
+//! the per-ring histogram costs nothing beyond the per-bucket one.
+
+use super::pixel_index;
+use crate::atomic;
+use bytemuck::{Pod, Zeroable};
+use glam::UVec3;
+
+/// `1 / MIN_RATE_DIVISOR` is the lowest fractional ray rate (1/64).
+pub const MIN_RATE_DIVISOR: u32 = 64;
+/// Highest ray rate (16 rays per pixel).
+pub const MAX_RATE: u32 = 16;
+/// Buckets `0..64` hold rates `1/64 … 1/1`, buckets `64..80` hold `1 … 16` rays (the seed's
+/// mapping: buckets 63 and 64 both mean one ray).
+pub const BUCKET_COUNT: u32 = MIN_RATE_DIVISOR + MAX_RATE;
+/// Request value of a pixel that needs no ray at all (sky, VRS mask off): in no bucket.
+pub const NO_RAYS: u32 = u32::MAX;
+/// Ring tiles, in pixels (the seed's `VRRT_RING_DIM` for 16×16 groups).
+pub const RING_TILE: [u32; 2] = [32, 16];
+/// Most rings counted (a 4K target has 60).
+pub const MAX_RINGS: u32 = 64;
+/// Length in `u32` of the counts buffer: `BUCKET_COUNT` totals, then `BUCKET_COUNT` per ring.
+pub const COUNTS_LEN: u32 = BUCKET_COUNT * (1 + MAX_RINGS);
+/// Workgroup edge of [`count`]; also the ring-tile height.
+pub const GROUP: u32 = 16;
+
+/// Rays per pixel of bucket `b` (the seed's `VrrtBucketToRayRate`).
+#[inline]
+pub fn bucket_to_rate(b: u32) -> f32 {
+    if b >= MIN_RATE_DIVISOR {
+        (b - MIN_RATE_DIVISOR + 1) as f32
+    } else {
+        1.0 / (MIN_RATE_DIVISOR - b) as f32
+    }
+}
+
+/// Number of rings of a `width × height` image, at least 1, at most [`MAX_RINGS`].
+#[inline]
+pub fn ring_count(width: u32, height: u32) -> u32 {
+    let nx = width.div_ceil(RING_TILE[0]);
+    let ny = height.div_ceil(RING_TILE[1]);
+    let n = (if nx < ny { nx } else { ny }).div_ceil(2);
+    n.clamp(1, MAX_RINGS)
+}
+
+/// Ring of pixel `(x, y)`: the distance in tiles to the nearest screen edge (higher = closer to
+/// the centre), clamped to `ring_count - 1`.
+#[inline]
+pub fn ring_id(x: u32, y: u32, width: u32, height: u32) -> u32 {
+    let nx = width.div_ceil(RING_TILE[0]);
+    let ny = height.div_ceil(RING_TILE[1]);
+    let (tx, ty) = (x / RING_TILE[0], y / RING_TILE[1]);
+    let rx = if tx < nx - 1 - tx { tx } else { nx - 1 - tx };
+    let ry = if ty < ny - 1 - ty { ty } else { ny - 1 - ty };
+    let r = if rx < ry { rx } else { ry };
+    let last = ring_count(width, height) - 1;
+    if r < last {
+        r
+    } else {
+        last
+    }
+}
+
+/// Push constants of the bucket-counting kernel.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BucketParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+/// Phase 1: invocations `0..BUCKET_COUNT` zero the workgroup histogram.
+#[inline]
+pub fn clear(local_index: u32, local: &mut [u32; BUCKET_COUNT as usize]) {
+    if local_index < BUCKET_COUNT {
+        local[local_index as usize] = 0;
+    }
+}
+
+/// Phase 2: each pixel adds itself to its bucket in workgroup memory.
+#[inline]
+pub fn count(
+    id: UVec3,
+    p: &BucketParams,
+    requests: &[u32],
+    local: &mut [u32; BUCKET_COUNT as usize],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let b = requests[pixel_index(id.x, id.y, p.width)];
+    if b < BUCKET_COUNT {
+        atomic::add_workgroup(&mut local[b as usize], 1);
+    }
+}
+
+/// Phase 3: invocation `b` adds the workgroup's count of bucket `b` to the global total and to
+/// its ring's row: one global atomic per bucket per workgroup, not one per pixel.
+#[inline]
+pub fn flush(
+    local_index: u32,
+    group: UVec3,
+    p: &BucketParams,
+    local: &[u32; BUCKET_COUNT as usize],
+    counts: &mut [u32],
+) {
+    if local_index >= BUCKET_COUNT {
+        return;
+    }
+    let n = local[local_index as usize];
+    if n == 0 {
+        return;
+    }
+    let ring = ring_id(group.x * GROUP, group.y * GROUP, p.width, p.height);
+    atomic::add(&mut counts[local_index as usize], n);
+    atomic::add(&mut counts[((1 + ring) * BUCKET_COUNT + local_index) as usize], n);
+}
+
+#[cfg(not(target_arch = "spirv"))]
+/// Native entry: the three phases one after another over the workgroup (the barriers of the
+/// SPIR-V entry separate the same phases).
+unsafe fn count_cpu(group: UVec3, b: &crate::plan::CpuBindings<'_>) {
+    let p: BucketParams = b.params();
+    // SAFETY: bindings are (requests: [u32], counts: [u32]) per `KERNEL`.
+    let (requests, counts) = unsafe { (b.read::<u32>(0), b.write::<u32>(1)) };
+    let mut local = [0u32; BUCKET_COUNT as usize];
+    let n = b.workgroup_len();
+    (0..n).for_each(|lid| clear(lid, &mut local));
+    b.invocations(group).for_each(|id| count(id, &p, requests, &mut local));
+    (0..n).for_each(|lid| flush(lid, group, &p, &local, counts));
+}
+
+/// Kernel description of the bucket counter: bindings `requests` (bucket per pixel, or
+/// [`NO_RAYS`]) and `counts` (`COUNTS_LEN` u32, accumulated into: clear it first).
+#[cfg(not(target_arch = "spirv"))]
+pub static KERNEL: crate::plan::KernelDesc = crate::plan::KernelDesc {
+    entry: "count_buckets",
+    workgroup_size: [GROUP, GROUP, 1],
+    bindings: &[crate::plan::Access::Read, crate::plan::Access::ReadWrite],
+    params_size: core::mem::size_of::<BucketParams>() as u32,
+    cpu: count_cpu,
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_match_the_seed() {
+        assert_eq!(bucket_to_rate(0), 1.0 / 64.0);
+        assert_eq!(bucket_to_rate(62), 0.5);
+        assert_eq!(bucket_to_rate(63), 1.0);
+        assert_eq!(bucket_to_rate(64), 1.0);
+        assert_eq!(bucket_to_rate(79), 16.0);
+        for b in 1..BUCKET_COUNT {
+            assert!(bucket_to_rate(b) >= bucket_to_rate(b - 1));
+        }
+    }
+
+    #[test]
+    fn rings_grow_toward_the_centre() {
+        let (w, h) = (1280, 720);
+        assert_eq!(ring_count(w, h), 20);
+        assert_eq!(ring_id(0, 0, w, h), 0);
+        assert_eq!(ring_id(w - 1, h - 1, w, h), 0);
+        assert_eq!(ring_id(w / 2, h / 2, w, h), 19);
+        assert_eq!(ring_count(1, 1), 1);
+        assert_eq!(ring_id(0, 0, 1, 1), 0);
+        assert!(ring_count(3840, 2160) <= MAX_RINGS);
+    }
+}

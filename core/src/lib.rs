@@ -1,0 +1,28 @@
+//! # vrrt-core
+//!
+//! The `no_std` heart of VRRT-rs. Every piece of per-pixel logic (denoiser, load balancer,
+//! sampling, tracing) is a plain function here, compiled twice: to SPIR-V by rust-gpu (through the
+//! thin entry points of `vrrt-shaders`) and natively for the CPU backend. Backends only move bytes
+//! and launch work; they read *what* to launch from [`plan`].
+//!
+//! Layout rules shared by every kernel:
+//! - Images are row-major storage buffers; signal planes are stacked along `z`
+//!   (`index = (z * height + y) * width + x`), so one dispatch serves up to four signals.
+//! - Buffer element types are `#[repr(C)]` structs of 4-byte scalars (no `Vec3`/`Vec4`, whose
+//!   alignment differs between targets).
+//! - Float functions that differ between targets go through [`math`]; atomics through [`atomic`].
+#![no_std]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod atomic;
+pub mod gbuffer;
+pub mod kernels;
+pub mod math;
+pub mod payload;
+#[cfg(not(target_arch = "spirv"))]
+pub mod plan;
+
+pub use glam;

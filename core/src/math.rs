@@ -1,0 +1,219 @@
+//! Scalar math that must give the same bits on every target.
+//!
+//! Transcendentals are evaluated here with plain `+ - * /` on both targets instead of calling the
+//! platform's `exp`/`log` (GLSL.std.450 on the GPU, libm on the CPU), whose results differ in the
+//! last bits. `sqrt` is IEEE correctly rounded on both, so it maps to the native instruction.
+//! `min`/`max`/`clamp` are written as comparisons so NaN handling is defined and identical.
+
+#[cfg(target_arch = "spirv")]
+use spirv_std::num_traits::Float;
+
+/// Correctly rounded square root (native instruction on every target).
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        Float::sqrt(x)
+    }
+    #[cfg(all(not(target_arch = "spirv"), feature = "std"))]
+    {
+        x.sqrt()
+    }
+    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), feature = "libm"))]
+    {
+        libm::sqrtf(x)
+    }
+    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), not(feature = "libm")))]
+    {
+        compile_error!("vrrt-core on a no_std host needs the `libm` feature")
+    }
+}
+
+/// `a` if `a < b`, else `b` (returns `b` when either is NaN).
+#[inline]
+pub fn min(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a` if `a > b`, else `b` (returns `b` when either is NaN).
+#[inline]
+pub fn max(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Clamps to `[lo, hi]`; NaN maps to `lo`.
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x > lo {
+        if x < hi {
+            x
+        } else {
+            hi
+        }
+    } else {
+        lo
+    }
+}
+
+/// Clamps to `[0, 1]`; NaN maps to 0.
+#[inline]
+pub fn saturate(x: f32) -> f32 {
+    clamp(x, 0.0, 1.0)
+}
+
+/// Absolute value (clears the sign bit).
+#[inline]
+pub fn abs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// `a + (b - a) * t`.
+#[inline]
+pub fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    a + (b - a) * t
+}
+
+/// True for finite values (not NaN, not ±Inf).
+#[inline]
+pub fn is_finite(x: f32) -> bool {
+    (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
+}
+
+/// Largest integer not above `x`, for `|x| < 2^31` (exact; larger inputs are returned unchanged).
+#[inline]
+pub fn floor(x: f32) -> f32 {
+    if abs(x) >= 2_147_483_648.0 || !is_finite(x) {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// `2^x`, relative error below 1e-7 over the normal range; 0 below -126, +Inf above 128.
+pub fn exp2(x: f32) -> f32 {
+    if !(x > -126.0) {
+        // Also catches NaN: a weight of 0 is the safe answer for the filters.
+        return 0.0;
+    }
+    if x >= 128.0 {
+        return f32::INFINITY;
+    }
+    let n = floor(x);
+    // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347: degree-7 Taylor is exact to ~5e-9.
+    let y = (x - n - 0.5) * core::f32::consts::LN_2;
+    let p = 1.0
+        + y * (1.0
+            + y * (0.5
+                + y * (1.0 / 6.0
+                    + y * (1.0 / 24.0 + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
+    let scale = f32::from_bits((((n as i32) + 127) as u32) << 23);
+    p * core::f32::consts::SQRT_2 * scale
+}
+
+/// `e^x` through [`exp2`].
+#[inline]
+pub fn exp(x: f32) -> f32 {
+    exp2(x * core::f32::consts::LOG2_E)
+}
+
+/// `log2(x)` for `x > 0` (normal or denormal); `-Inf` for 0, NaN for negatives and NaN.
+pub fn log2(x: f32) -> f32 {
+    if !(x >= 0.0) {
+        return f32::NAN;
+    }
+    if x == 0.0 {
+        return f32::NEG_INFINITY;
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    // Scale denormals into the normal range first.
+    let (x, bias) = if x < 1.175_494_4e-38 { (x * 16_777_216.0, 24.0) } else { (x, 0.0) };
+    let bits = x.to_bits();
+    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
+    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // [1, 2)
+    if m > core::f32::consts::SQRT_2 {
+        m *= 0.5;
+        e += 1;
+    }
+    // ln(m) = 2 atanh(t), t = (m-1)/(m+1), |t| <= 0.172.
+    let t = (m - 1.0) / (m + 1.0);
+    let t2 = t * t;
+    let ln_m = 2.0 * t * (1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0 + t2 * (1.0 / 9.0)))));
+    e as f32 - bias + ln_m * core::f32::consts::LOG2_E
+}
+
+/// `x^y` for `x >= 0` (`0^y = 0` for `y > 0`, `x^0 = 1`).
+pub fn pow(x: f32, y: f32) -> f32 {
+    if y == 0.0 {
+        return 1.0;
+    }
+    if x == 0.0 {
+        return 0.0;
+    }
+    exp2(y * log2(x))
+}
+
+/// Luminance of linear Rec.709 RGB.
+#[inline]
+pub fn luminance(r: f32, g: f32, b: f32) -> f32 {
+    0.2126 * r + 0.7152 * g + 0.0722 * b
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exp2_matches_std() {
+        let mut worst = 0.0f32;
+        let mut x = -125.9f32;
+        while x < 127.9 {
+            let rel = (exp2(x) - x.exp2()).abs() / x.exp2();
+            worst = worst.max(rel);
+            x += 0.0137;
+        }
+        assert!(worst < 5e-7, "worst relative error {worst}");
+        assert_eq!(exp2(-200.0), 0.0);
+        assert_eq!(exp2(f32::NAN), 0.0);
+        assert_eq!(exp2(200.0), f32::INFINITY);
+    }
+
+    #[test]
+    fn log2_matches_std() {
+        for &x in &[1e-40f32, 1e-30, 0.001, 0.5, 1.0, 1.5, 2.0, 3.0, 1e10, 3.4e38] {
+            approx::assert_abs_diff_eq!(log2(x), x.log2(), epsilon = 2e-6 * x.log2().abs().max(1.0));
+        }
+        assert_eq!(log2(0.0), f32::NEG_INFINITY);
+        assert!(log2(-1.0).is_nan());
+    }
+
+    #[test]
+    fn pow_and_floor() {
+        approx::assert_relative_eq!(pow(0.9, 128.0), 0.9f32.powf(128.0), max_relative = 1e-5);
+        for &x in &[-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9] {
+            assert_eq!(floor(x), x.floor(), "{x}");
+        }
+    }
+
+    #[test]
+    fn min_max_clamp_nan() {
+        assert_eq!(clamp(f32::NAN, 0.0, 1.0), 0.0);
+        assert_eq!(saturate(2.0), 1.0);
+        assert_eq!(min(1.0, 2.0), 1.0);
+        assert_eq!(max(1.0, 2.0), 2.0);
+        assert!(!is_finite(f32::INFINITY) && !is_finite(f32::NAN) && is_finite(1e30));
+    }
+}
