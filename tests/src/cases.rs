@@ -1,0 +1,202 @@
+//! Input generators, one per kernel. Values mix the ordinary with the hostile: zeros, huge and
+//! tiny magnitudes, negatives, sky pixels, and image sizes that are not multiples of the
+//! workgroup size.
+
+use crate::{BufferSpec, Case, Word};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
+use vrrt_core::glam::Vec3;
+use vrrt_core::kernels::{accumulate, atrous, buckets};
+use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::plan::KernelDesc;
+
+/// A case generator: `(rng, width, height) -> Case`.
+pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
+
+/// Every kernel's generator. Adding a kernel adds one line here.
+pub static TABLE: &[(&str, Generator)] = &[
+    ("accumulate", accumulate_case),
+    ("atrous", atrous_case),
+    ("count_buckets", buckets_case),
+];
+
+/// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
+pub const SIZES: &[(u32, u32)] = &[(1, 1), (37, 19), (130, 67)];
+
+/// Signal planes used by per-plane kernels.
+pub const PLANES: u32 = 2;
+
+/// Deterministic generator for reproducible cases.
+pub fn rng(seed: u64) -> Pcg32 {
+    Pcg32::seed_from_u64(seed)
+}
+
+/// A float drawn from a hostile mixture: mostly `[0, 1)`, with zeros, huge, tiny and negative
+/// values.
+pub fn value(rng: &mut Pcg32) -> f32 {
+    match rng.random_range(0..100) {
+        0..10 => 0.0,
+        10..15 => rng.random_range(1e20..1e30),
+        15..20 => rng.random_range(1e-30..1e-20),
+        20..25 => -rng.random::<f32>(),
+        25..30 => rng.random_range(1.0..1000.0),
+        _ => rng.random(),
+    }
+}
+
+fn unit_vector(rng: &mut Pcg32) -> Vec3 {
+    loop {
+        let v = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
+            return v.normalize();
+        }
+    }
+}
+
+/// A G-buffer texel: a plausible surface near its neighbours, or sky.
+pub fn surface(rng: &mut Pcg32, x: u32, y: u32) -> Surface {
+    if rng.random_range(0..10) == 0 {
+        return Surface { instance: NO_INSTANCE, ..Surface::default() };
+    }
+    let n = if rng.random_bool(0.7) { Vec3::Y } else { unit_vector(rng) };
+    let depth = rng.random_range(0.5..50.0);
+    let p = Vec3::new(x as f32 * 0.01 * depth, y as f32 * 0.01 * depth, depth);
+    Surface {
+        px: p.x,
+        py: p.y,
+        pz: p.z,
+        depth,
+        nx: n.x,
+        ny: n.y,
+        nz: n.z,
+        instance: rng.random_range(0..4),
+        gx: n.x,
+        gy: n.y,
+        gz: n.z,
+        roughness: 1.0,
+        prev_x: x as f32,
+        prev_y: y as f32,
+        ..Surface::default()
+    }
+}
+
+fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
+    let [x, y, z] = kernel.workgroup_size;
+    [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
+}
+
+const PAYLOAD: &[Word] = &[Word::F32, Word::F32, Word::F32, Word::U32];
+const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
+const FLOATS: &[Word] = &[Word::F32];
+const INTS: &[Word] = &[Word::U32];
+const SURFACE: &[Word] = &[
+    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::U32,
+    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32,
+];
+
+fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let history: Vec<Payload> = (0..n)
+        .map(|_| Payload {
+            m1: value(rng),
+            m2: value(rng),
+            count: [0.0, 0.5, 1.0, 63.5, 64.0, 70.0][rng.random_range(0..6)],
+            rng_index: rng.random(),
+        })
+        .collect();
+    let samples: Vec<Sample> = (0..n)
+        .map(|_| Sample { m1: value(rng), m2: value(rng), rays: rng.random_range(0..17), _pad: 0 })
+        .collect();
+    let params = accumulate::AccumulateParams { width: w, height: h, max_history: 64.0, rng_wrap: 256 };
+    Case {
+        name: format!("accumulate {w}x{h}x{PLANES}"),
+        kernel: &accumulate::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&history, PAYLOAD),
+            BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&accumulate::KERNEL, w, h, PLANES),
+    }
+}
+
+fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let input: Vec<atrous::Filtered> = (0..n)
+        .map(|_| atrous::Filtered { value: value(rng), variance: value(rng).abs() })
+        .collect();
+    let surfaces: Vec<Surface> =
+        (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| surface(rng, x, y)).collect();
+    let params = atrous::AtrousParams {
+        width: w,
+        height: h,
+        step: [1, 2, 4, 8, 16][rng.random_range(0..5)],
+        ..atrous::AtrousParams::default()
+    };
+    Case {
+        name: format!("atrous {w}x{h}x{PLANES} step {}", params.step),
+        kernel: &atrous::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&input, FLOATS),
+            BufferSpec::from_pod(&surfaces, SURFACE),
+            BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&atrous::KERNEL, w, h, PLANES),
+    }
+}
+
+fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let requests: Vec<u32> = (0..w * h)
+        .map(|_| match rng.random_range(0..20) {
+            0 => buckets::NO_RAYS,
+            1 => buckets::BUCKET_COUNT + rng.random_range(0..100),
+            _ => rng.random_range(0..buckets::BUCKET_COUNT),
+        })
+        .collect();
+    // Counts accumulate into whatever the buffer holds.
+    let counts: Vec<u32> = (0..buckets::COUNTS_LEN).map(|_| rng.random_range(0..3)).collect();
+    let params = buckets::BucketParams { width: w, height: h };
+    Case {
+        name: format!("count_buckets {w}x{h}"),
+        kernel: &buckets::KERNEL,
+        buffers: vec![BufferSpec::from_pod(&requests, INTS), BufferSpec::from_pod(&counts, INTS)],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&buckets::KERNEL, w, h, 1),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kernel_has_a_case() {
+        for kernel in vrrt_core::kernels::ALL {
+            assert!(
+                TABLE.iter().any(|(name, _)| *name == kernel.entry),
+                "kernel `{}` has no equivalence case",
+                kernel.entry
+            );
+        }
+    }
+
+    #[test]
+    fn buckets_count_every_requesting_pixel_once() {
+        let case = buckets_case(&mut rng(7), 130, 67);
+        let before = case.buffers[1].data.clone();
+        let out = crate::run_case(&mut vrrt_cpu::CpuExecutor::new(), &case).unwrap();
+        let requests = &case.buffers[0].data;
+        for b in 0..buckets::BUCKET_COUNT as usize {
+            let want = requests.iter().filter(|&&r| r as usize == b).count() as u32;
+            assert_eq!(out[1][b] - before[b], want, "bucket {b}");
+            let per_ring: u32 = (1..=buckets::MAX_RINGS as usize)
+                .map(|ring| out[1][ring * buckets::BUCKET_COUNT as usize + b]
+                    - before[ring * buckets::BUCKET_COUNT as usize + b])
+                .sum();
+            assert_eq!(per_ring, want, "rings of bucket {b}");
+        }
+    }
+}
