@@ -40,8 +40,15 @@ impl fmt::Display for CpuError {
         match self {
             CpuError::Plan(e) => write!(f, "{e}"),
             CpuError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
-            CpuError::OutOfRange { buffer, bytes, size } => {
-                write!(f, "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes")
+            CpuError::OutOfRange {
+                buffer,
+                bytes,
+                size,
+            } => {
+                write!(
+                    f,
+                    "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes"
+                )
             }
             CpuError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
             CpuError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
@@ -65,11 +72,15 @@ impl CpuExecutor {
     }
 
     fn buffer(&self, id: BufferId) -> Result<&Vec<u32>, CpuError> {
-        self.buffers.get(id.0 as usize).ok_or(CpuError::UnknownBuffer(id))
+        self.buffers
+            .get(id.0 as usize)
+            .ok_or(CpuError::UnknownBuffer(id))
     }
 
     fn buffer_mut(&mut self, id: BufferId) -> Result<&mut Vec<u32>, CpuError> {
-        self.buffers.get_mut(id.0 as usize).ok_or(CpuError::UnknownBuffer(id))
+        self.buffers
+            .get_mut(id.0 as usize)
+            .ok_or(CpuError::UnknownBuffer(id))
     }
 
     /// Contents of a buffer, without copying.
@@ -83,11 +94,13 @@ impl CpuExecutor {
             Groups::Indirect { buffer, offset } => {
                 let b = self.buffer(buffer)?;
                 let i = (offset / 4) as usize;
-                b.get(i..i + 3).map(|s| [s[0], s[1], s[2]]).ok_or(CpuError::OutOfRange {
-                    buffer,
-                    bytes: offset as usize + 12,
-                    size: b.len() * 4,
-                })
+                b.get(i..i + 3)
+                    .map(|s| [s[0], s[1], s[2]])
+                    .ok_or(CpuError::OutOfRange {
+                        buffer,
+                        bytes: offset as usize + 12,
+                        size: b.len() * 4,
+                    })
             }
         }
     }
@@ -111,7 +124,11 @@ impl Executor for CpuExecutor {
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), CpuError> {
         let b = self.buffer_mut(buffer)?;
         if data.len() > b.len() * 4 {
-            return Err(CpuError::OutOfRange { buffer, bytes: data.len(), size: b.len() * 4 });
+            return Err(CpuError::OutOfRange {
+                buffer,
+                bytes: data.len(),
+                size: b.len() * 4,
+            });
         }
         bytemuck::cast_slice_mut::<u32, u8>(b)[..data.len()].copy_from_slice(data);
         Ok(())
@@ -131,7 +148,10 @@ impl Executor for CpuExecutor {
             .iter()
             .map(|id| {
                 let b = &mut self.buffers[id.0 as usize];
-                RawBuffer { ptr: b.as_mut_ptr() as *mut u8, len: b.len() * 4 }
+                RawBuffer {
+                    ptr: b.as_mut_ptr() as *mut u8,
+                    len: b.len() * 4,
+                }
             })
             .collect();
         let start = Instant::now();
@@ -160,7 +180,11 @@ impl Executor for CpuExecutor {
     fn read_buffer(&mut self, buffer: BufferId, out: &mut [u8]) -> Result<(), CpuError> {
         let bytes = self.contents(buffer)?;
         if out.len() > bytes.len() {
-            return Err(CpuError::OutOfRange { buffer, bytes: out.len(), size: bytes.len() });
+            return Err(CpuError::OutOfRange {
+                buffer,
+                bytes: out.len(),
+                size: bytes.len(),
+            });
         }
         out.copy_from_slice(&bytes[..out.len()]);
         Ok(())

@@ -75,12 +75,22 @@ mod tests {
     use super::*;
 
     fn sample(v: f32, rays: u32) -> Sample {
-        Sample { m1: v, m2: v * v, rays, _pad: 0 }
+        Sample {
+            m1: v,
+            m2: v * v,
+            rays,
+            _pad: 0,
+        }
     }
 
     #[test]
     fn clamp_after_accumulation_keeps_new_sample_weight() {
-        let prev = Payload { m1: 0.0, m2: 0.0, count: 64.0, rng_index: 10 };
+        let prev = Payload {
+            m1: 0.0,
+            m2: 0.0,
+            count: 64.0,
+            rng_index: 10,
+        };
         let out = accumulate(prev, sample(1.0, 1), 64.0, 256);
         // Weight of the new ray is 1/65, not 0: history is clamped only after the merge.
         approx::assert_relative_eq!(out.m1, 1.0 / 65.0);
@@ -91,7 +101,12 @@ mod tests {
     #[test]
     fn converges_from_stale_history() {
         // The seed's r8 case: unshadowed pixel with stale 0 history reaches 1.
-        let mut p = Payload { m1: 0.0, m2: 0.0, count: 64.0, rng_index: 0 };
+        let mut p = Payload {
+            m1: 0.0,
+            m2: 0.0,
+            count: 64.0,
+            rng_index: 0,
+        };
         for _ in 0..2000 {
             p = accumulate(p, sample(1.0, 1), 64.0, 0);
         }
@@ -100,7 +115,12 @@ mod tests {
 
     #[test]
     fn zero_rays_carry_history_and_rng_wraps() {
-        let prev = Payload { m1: 0.3, m2: 0.2, count: 5.0, rng_index: 255 };
+        let prev = Payload {
+            m1: 0.3,
+            m2: 0.2,
+            count: 5.0,
+            rng_index: 255,
+        };
         assert_eq!(accumulate(prev, sample(1.0, 0), 64.0, 256), prev);
         let out = accumulate(prev, sample(1.0, 4), 64.0, 256);
         assert_eq!(out.rng_index, 3);
@@ -109,7 +129,12 @@ mod tests {
 
     #[test]
     fn variance_is_never_negative() {
-        let p = Payload { m1: 0.5, m2: 0.2499, count: 1.0, rng_index: 0 };
+        let p = Payload {
+            m1: 0.5,
+            m2: 0.2499,
+            count: 1.0,
+            rng_index: 0,
+        };
         assert_eq!(p.variance(), 0.0);
     }
 }

@@ -119,7 +119,10 @@ impl<'a> Pass<'a> {
         }
         if let Groups::Indirect { offset, .. } = self.groups {
             if offset % 4 != 0 {
-                return Err(PlanError::IndirectOffset { entry: self.kernel.entry, offset });
+                return Err(PlanError::IndirectOffset {
+                    entry: self.kernel.entry,
+                    offset,
+                });
             }
         }
         Ok(())
@@ -159,14 +162,31 @@ pub enum PlanError {
 impl fmt::Display for PlanError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            PlanError::BindingCount { entry, expected, got } => {
-                write!(f, "pass `{entry}`: kernel has {expected} bindings, {got} buffers given")
+            PlanError::BindingCount {
+                entry,
+                expected,
+                got,
+            } => {
+                write!(
+                    f,
+                    "pass `{entry}`: kernel has {expected} bindings, {got} buffers given"
+                )
             }
-            PlanError::ParamsSize { entry, expected, got } => {
-                write!(f, "pass `{entry}`: kernel takes {expected} bytes of parameters, {got} given")
+            PlanError::ParamsSize {
+                entry,
+                expected,
+                got,
+            } => {
+                write!(
+                    f,
+                    "pass `{entry}`: kernel takes {expected} bytes of parameters, {got} given"
+                )
             }
             PlanError::IndirectOffset { entry, offset } => {
-                write!(f, "pass `{entry}`: indirect offset {offset} is not a multiple of 4")
+                write!(
+                    f,
+                    "pass `{entry}`: indirect offset {offset} is not a multiple of 4"
+                )
             }
         }
     }
@@ -229,8 +249,16 @@ impl<'a> CpuBindings<'a> {
     /// # Safety
     /// Each buffer must be valid for reads and writes of `len` bytes, 4-byte aligned, and live
     /// for `'a`; nothing else may access them while kernels run.
-    pub unsafe fn new(buffers: &'a [RawBuffer], params: &'a [u8], workgroup_size: [u32; 3]) -> Self {
-        CpuBindings { buffers, params, workgroup_size: UVec3::from_array(workgroup_size) }
+    pub unsafe fn new(
+        buffers: &'a [RawBuffer],
+        params: &'a [u8],
+        workgroup_size: [u32; 3],
+    ) -> Self {
+        CpuBindings {
+            buffers,
+            params,
+            workgroup_size: UVec3::from_array(workgroup_size),
+        }
     }
 
     /// Binding `i` as a shared slice.
@@ -254,7 +282,9 @@ impl<'a> CpuBindings<'a> {
         let b = self.buffers[i];
         assert!(core::mem::align_of::<T>() <= 4);
         // SAFETY: as `read`; disjointness of writes is the kernel's contract.
-        unsafe { core::slice::from_raw_parts_mut(b.ptr as *mut T, b.len / core::mem::size_of::<T>()) }
+        unsafe {
+            core::slice::from_raw_parts_mut(b.ptr as *mut T, b.len / core::mem::size_of::<T>())
+        }
     }
 
     /// The push constants.

@@ -47,7 +47,11 @@ pub fn value(rng: &mut Pcg32) -> f32 {
 
 fn unit_vector(rng: &mut Pcg32) -> Vec3 {
     loop {
-        let v = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
         if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
             return v.normalize();
         }
@@ -57,9 +61,16 @@ fn unit_vector(rng: &mut Pcg32) -> Vec3 {
 /// A G-buffer texel: a plausible surface near its neighbours, or sky.
 pub fn surface(rng: &mut Pcg32, x: u32, y: u32) -> Surface {
     if rng.random_range(0..10) == 0 {
-        return Surface { instance: NO_INSTANCE, ..Surface::default() };
+        return Surface {
+            instance: NO_INSTANCE,
+            ..Surface::default()
+        };
     }
-    let n = if rng.random_bool(0.7) { Vec3::Y } else { unit_vector(rng) };
+    let n = if rng.random_bool(0.7) {
+        Vec3::Y
+    } else {
+        unit_vector(rng)
+    };
     let depth = rng.random_range(0.5..50.0);
     let p = Vec3::new(x as f32 * 0.01 * depth, y as f32 * 0.01 * depth, depth);
     Surface {
@@ -91,8 +102,22 @@ const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
 const FLOATS: &[Word] = &[Word::F32];
 const INTS: &[Word] = &[Word::U32];
 const SURFACE: &[Word] = &[
-    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::U32,
-    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::U32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
 ];
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
@@ -106,9 +131,19 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     let samples: Vec<Sample> = (0..n)
-        .map(|_| Sample { m1: value(rng), m2: value(rng), rays: rng.random_range(0..17), _pad: 0 })
+        .map(|_| Sample {
+            m1: value(rng),
+            m2: value(rng),
+            rays: rng.random_range(0..17),
+            _pad: 0,
+        })
         .collect();
-    let params = accumulate::AccumulateParams { width: w, height: h, max_history: 64.0, rng_wrap: 256 };
+    let params = accumulate::AccumulateParams {
+        width: w,
+        height: h,
+        max_history: 64.0,
+        rng_wrap: 256,
+    };
     Case {
         name: format!("accumulate {w}x{h}x{PLANES}"),
         kernel: &accumulate::KERNEL,
@@ -125,10 +160,15 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
     let input: Vec<atrous::Filtered> = (0..n)
-        .map(|_| atrous::Filtered { value: value(rng), variance: value(rng).abs() })
+        .map(|_| atrous::Filtered {
+            value: value(rng),
+            variance: value(rng).abs(),
+        })
         .collect();
-    let surfaces: Vec<Surface> =
-        (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| surface(rng, x, y)).collect();
+    let surfaces: Vec<Surface> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| surface(rng, x, y))
+        .collect();
     let params = atrous::AtrousParams {
         width: w,
         height: h,
@@ -157,12 +197,20 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     // Counts accumulate into whatever the buffer holds.
-    let counts: Vec<u32> = (0..buckets::COUNTS_LEN).map(|_| rng.random_range(0..3)).collect();
-    let params = buckets::BucketParams { width: w, height: h };
+    let counts: Vec<u32> = (0..buckets::COUNTS_LEN)
+        .map(|_| rng.random_range(0..3))
+        .collect();
+    let params = buckets::BucketParams {
+        width: w,
+        height: h,
+    };
     Case {
         name: format!("count_buckets {w}x{h}"),
         kernel: &buckets::KERNEL,
-        buffers: vec![BufferSpec::from_pod(&requests, INTS), BufferSpec::from_pod(&counts, INTS)],
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&counts, INTS),
+        ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&buckets::KERNEL, w, h, 1),
     }
@@ -193,8 +241,10 @@ mod tests {
             let want = requests.iter().filter(|&&r| r as usize == b).count() as u32;
             assert_eq!(out[1][b] - before[b], want, "bucket {b}");
             let per_ring: u32 = (1..=buckets::MAX_RINGS as usize)
-                .map(|ring| out[1][ring * buckets::BUCKET_COUNT as usize + b]
-                    - before[ring * buckets::BUCKET_COUNT as usize + b])
+                .map(|ring| {
+                    out[1][ring * buckets::BUCKET_COUNT as usize + b]
+                        - before[ring * buckets::BUCKET_COUNT as usize + b]
+                })
                 .sum();
             assert_eq!(per_ring, want, "rings of bucket {b}");
         }

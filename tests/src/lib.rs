@@ -35,7 +35,10 @@ pub struct BufferSpec {
 impl BufferSpec {
     /// A buffer initialised from `Pod` elements.
     pub fn from_pod<T: bytemuck::Pod>(elems: &[T], layout: &'static [Word]) -> Self {
-        BufferSpec { data: bytemuck::cast_slice(elems).to_vec(), layout }
+        BufferSpec {
+            data: bytemuck::cast_slice(elems).to_vec(),
+            layout,
+        }
     }
 }
 
@@ -94,7 +97,9 @@ pub fn ulp_distance(a: u32, b: u32) -> u32 {
             x as i64
         }
     };
-    (ordered(a) - ordered(b)).unsigned_abs().min(u32::MAX as u64) as u32
+    (ordered(a) - ordered(b))
+        .unsigned_abs()
+        .min(u32::MAX as u64) as u32
 }
 
 /// The first differing word of a comparison.
@@ -159,7 +164,12 @@ pub fn compare(case: &Case, expected: &[Vec<u32>], got: &[Vec<u32>]) -> Report {
                 }
             }
             if r.first.is_none() {
-                r.first = Some(Difference { binding, word, expected: a, got: b });
+                r.first = Some(Difference {
+                    binding,
+                    word,
+                    expected: a,
+                    got: b,
+                });
             }
         }
     }
@@ -173,9 +183,21 @@ mod tests {
     #[test]
     fn ulp_distance_is_monotonic_across_zero() {
         assert_eq!(ulp_distance(1.0f32.to_bits(), 1.0f32.to_bits()), 0);
-        assert_eq!(ulp_distance(1.0f32.to_bits(), f32::from_bits(1.0f32.to_bits() + 3).to_bits()), 3);
+        assert_eq!(
+            ulp_distance(
+                1.0f32.to_bits(),
+                f32::from_bits(1.0f32.to_bits() + 3).to_bits()
+            ),
+            3
+        );
         assert_eq!(ulp_distance(0.0f32.to_bits(), (-0.0f32).to_bits()), 0);
-        assert_eq!(ulp_distance(f32::from_bits(1).to_bits(), f32::from_bits(0x8000_0001).to_bits()), 2);
+        assert_eq!(
+            ulp_distance(
+                f32::from_bits(1).to_bits(),
+                f32::from_bits(0x8000_0001).to_bits()
+            ),
+            2
+        );
         assert_eq!(ulp_distance(f32::NAN.to_bits(), 1.0f32.to_bits()), u32::MAX);
         assert_eq!(ulp_distance(f32::NAN.to_bits(), f32::NAN.to_bits()), 0);
     }

@@ -30,7 +30,10 @@ const STORAGE_STORAGE_BUFFER: u32 = 12;
 fn literal_string(words: &[u32]) -> (String, usize) {
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
     let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
-    (String::from_utf8_lossy(&bytes[..end]).into_owned(), end / 4 + 1)
+    (
+        String::from_utf8_lossy(&bytes[..end]).into_owned(),
+        end / 4 + 1,
+    )
 }
 
 /// Parses the compute entry points of a SPIR-V module.
@@ -38,8 +41,10 @@ pub fn entry_points(module: &[u8]) -> Result<Vec<EntryPoint>, String> {
     if module.len() % 4 != 0 || module.len() < 20 {
         return Err("not a SPIR-V module: bad length".into());
     }
-    let words: Vec<u32> =
-        module.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let words: Vec<u32> = module
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
     if words[0] != 0x0723_0203 {
         return Err("not a SPIR-V module: bad magic".into());
     }
@@ -59,7 +64,14 @@ pub fn entry_points(module: &[u8]) -> Result<Vec<EntryPoint>, String> {
             OP_ENTRY_POINT if args.len() >= 3 => {
                 let (name, used) = literal_string(&args[2..]);
                 let interface = args[2 + used..].to_vec();
-                entries.push((args[1], EntryPoint { name, ..Default::default() }, interface));
+                entries.push((
+                    args[1],
+                    EntryPoint {
+                        name,
+                        ..Default::default()
+                    },
+                    interface,
+                ));
             }
             OP_EXECUTION_MODE if args.len() >= 5 && args[1] == MODE_LOCAL_SIZE => {
                 local_size.insert(args[0], [args[2], args[3], args[4]]);

@@ -154,7 +154,10 @@ pub fn atrous(
         }
         ty += 1;
     }
-    out[i] = Filtered { value: sum / sum_w, variance: sum_var / (sum_w * sum_w) };
+    out[i] = Filtered {
+        value: sum / sum_w,
+        variance: sum_var / (sum_w * sum_w),
+    };
 }
 
 #[cfg(not(target_arch = "spirv"))]

@@ -119,7 +119,10 @@ pub fn flush(
     }
     let ring = ring_id(group.x * GROUP, group.y * GROUP, p.width, p.height);
     atomic::add(&mut counts[local_index as usize], n);
-    atomic::add(&mut counts[((1 + ring) * BUCKET_COUNT + local_index) as usize], n);
+    atomic::add(
+        &mut counts[((1 + ring) * BUCKET_COUNT + local_index) as usize],
+        n,
+    );
 }
 
 #[cfg(not(target_arch = "spirv"))]
@@ -132,7 +135,8 @@ unsafe fn count_cpu(group: UVec3, b: &crate::plan::CpuBindings<'_>) {
     let mut local = [0u32; BUCKET_COUNT as usize];
     let n = b.workgroup_len();
     (0..n).for_each(|lid| clear(lid, &mut local));
-    b.invocations(group).for_each(|id| count(id, &p, requests, &mut local));
+    b.invocations(group)
+        .for_each(|id| count(id, &p, requests, &mut local));
     (0..n).for_each(|lid| flush(lid, group, &p, &local, counts));
 }
 
