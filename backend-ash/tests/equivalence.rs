@@ -1,0 +1,477 @@
+//! Runs kernels on the ash backend and on the CPU backend with the same inputs and compares the
+//! results bit for bit (a lavapipe fact; real GPUs may differ in the last bits of float math).
+//!
+//! Without a Vulkan adapter every test prints "skipped: no Vulkan adapter" and passes, unless
+//! `VRRT_REQUIRE_VULKAN=1`. Validation is on unless `VRRT_VALIDATION=0`; each test asserts that
+//! it reported no error.
+
+mod common;
+
+use bytemuck::Pod;
+use common::executor;
+use vrrt_ash::ash::vk;
+use vrrt_ash::{AshError, AshExecutor};
+use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
+use vrrt_core::kernels::accumulate::{self, AccumulateParams};
+use vrrt_core::kernels::atrous::{self, AtrousParams, Filtered};
+use vrrt_core::kernels::buckets::{self, BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
+use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
+use vrrt_cpu::CpuExecutor;
+
+const W: u32 = 37;
+const H: u32 = 19;
+const PLANES: u32 = 2;
+/// Float tolerance of one à-trous pass when the module allows FMA contraction.
+const ATROUS_ULP: u32 = 1000;
+
+/// xorshift32: deterministic "random" inputs.
+struct Rng(u32);
+impl Rng {
+    fn next(&mut self) -> u32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 17;
+        self.0 ^= self.0 << 5;
+        self.0
+    }
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f32 {
+        (self.next() >> 8) as f32 / (1u32 << 24) as f32
+    }
+}
+
+/// Creates and fills the same buffers on both executors.
+fn upload<E: Executor>(ex: &mut E, data: &[&[u8]]) -> Vec<BufferId> {
+    data.iter()
+        .map(|d| {
+            let b = ex.create_buffer(d.len() as u64).unwrap();
+            ex.write_buffer(b, d).unwrap();
+            b
+        })
+        .collect()
+}
+
+fn read<E: Executor, T: Pod>(ex: &mut E, b: BufferId, len: usize) -> Vec<T> {
+    let mut out = vec![T::zeroed(); len];
+    ex.read_buffer(b, bytemuck::cast_slice_mut(&mut out))
+        .unwrap();
+    out
+}
+
+/// Distance in units in the last place between two f32 bit patterns (0 for +0/-0).
+fn ulp(a: u32, b: u32) -> u32 {
+    let key = |x: u32| {
+        if x & 0x8000_0000 != 0 {
+            0x8000_0000 - (x & 0x7fff_ffff)
+        } else {
+            0x8000_0000 + x
+        }
+    };
+    key(a).abs_diff(key(b))
+}
+
+/// Whether the embedded module decorates float arithmetic `NoContraction`. Without it, drivers
+/// may fuse `a * b + c` into an FMA (lavapipe does), so float results can differ from the CPU by a
+/// few ULP; with it, lavapipe is bit-exact.
+fn module_forbids_contraction() -> bool {
+    let bytes = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/vrrt.spv"));
+    let words: Vec<u32> = bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let mut i = 5;
+    while i < words.len() {
+        let (op, n) = (words[i] & 0xffff, (words[i] >> 16) as usize);
+        // OpDecorate %id NoContraction
+        if op == 71 && n >= 3 && words[i + 2] == 42 {
+            return true;
+        }
+        i += n.max(1);
+    }
+    false
+}
+
+/// Integer words must match exactly; float words bit-exactly when `exact_floats`, else within
+/// `max_ulp` (reported).
+fn assert_bits<T: Pod + std::fmt::Debug>(
+    what: &str,
+    gpu: &[T],
+    cpu: &[T],
+    floats: bool,
+    max_ulp: u32,
+) {
+    let (g, c): (&[u32], &[u32]) = (bytemuck::cast_slice(gpu), bytemuck::cast_slice(cpu));
+    assert_eq!(g.len(), c.len());
+    let exact = !floats || module_forbids_contraction();
+    let diff = g.iter().zip(c).filter(|(a, b)| a != b).count();
+    let worst = g.iter().zip(c).map(|(&a, &b)| ulp(a, b)).max().unwrap_or(0);
+    println!(
+        "{what}: {diff} of {} words differ, max {worst} ULP",
+        g.len()
+    );
+    let limit = if exact { 0 } else { max_ulp };
+    if (exact && diff > 0) || worst > limit {
+        let i = g.iter().zip(c).position(|(a, b)| a != b).unwrap() * 4 / std::mem::size_of::<T>();
+        panic!(
+            "{what}: {diff} words differ (max {worst} ULP, allowed {limit}); first element {i}: gpu {:?} cpu {:?}",
+            gpu[i], cpu[i]
+        );
+    }
+    if !exact && diff > 0 {
+        println!("  (module lacks NoContraction: FMA contraction allowed, not bit-exact)");
+    }
+}
+
+fn check_validation(ex: &AshExecutor) {
+    assert_eq!(
+        ex.validation_errors(),
+        0,
+        "validation reported errors (see stderr)"
+    );
+}
+
+/// Runs `kernel` over a `w × h × planes` grid, with buffers created from `inputs`, on both
+/// executors; returns (gpu, cpu) contents of buffer `out`.
+#[allow(clippy::too_many_arguments)]
+fn run_both<T: Pod>(
+    ex: &mut AshExecutor,
+    inputs: &[&[u8]],
+    out: usize,
+    out_len: usize,
+    kernel: &'static KernelDesc,
+    params: &[u8],
+    [w, h, planes]: [u32; 3],
+) -> (Vec<T>, Vec<T>) {
+    let mut cpu = CpuExecutor::new();
+    let gb = upload(ex, inputs);
+    let cb = upload(&mut cpu, inputs);
+    ex.dispatch(&Pass::over_grid(kernel, &gb, params, w, h, planes))
+        .unwrap();
+    cpu.dispatch(&Pass::over_grid(kernel, &cb, params, w, h, planes))
+        .unwrap();
+    (read(ex, gb[out], out_len), read(&mut cpu, cb[out], out_len))
+}
+
+#[test]
+fn accumulate_matches_cpu() {
+    let Some(mut ex) = executor() else { return };
+    let n = (W * H * PLANES) as usize;
+    let mut rng = Rng(0x1234_5678);
+    let history: Vec<Payload> = (0..n)
+        .map(|_| {
+            let m1 = rng.unit() * 4.0;
+            Payload {
+                m1,
+                m2: m1 * m1 + rng.unit(),
+                count: rng.unit() * 80.0 - 2.0,
+                rng_index: rng.next(),
+            }
+        })
+        .collect();
+    let samples: Vec<Sample> = (0..n)
+        .map(|_| {
+            let m1 = rng.unit() * 8.0;
+            Sample {
+                m1,
+                m2: m1 * m1 * (1.0 + rng.unit()),
+                rays: rng.next() % 5,
+                _pad: 0,
+            }
+        })
+        .collect();
+    let params = AccumulateParams {
+        width: W,
+        height: H,
+        max_history: 64.0,
+        rng_wrap: 1 << 16,
+        ..Default::default()
+    };
+    let out = vec![0u8; n * 16];
+    let inputs: [&[u8]; 3] = [
+        bytemuck::cast_slice(&history),
+        bytemuck::cast_slice(&samples),
+        &out,
+    ];
+    let p = bytemuck::bytes_of(&params);
+    let (gpu, cpu) = run_both::<Payload>(
+        &mut ex,
+        &inputs,
+        2,
+        n,
+        &accumulate::KERNEL,
+        p,
+        [W, H, PLANES],
+    );
+    assert_bits("accumulate", &gpu, &cpu, true, 0);
+    assert!(gpu.iter().any(|p| p.count > 0.0));
+    ex.finish().unwrap();
+    let t = ex.timings();
+    assert_eq!(t.len(), usize::from(ex.adapter_info().timestamps));
+    if let Some(t) = t.first() {
+        println!("accumulate: {} ms", t.ms);
+        assert_eq!(t.entry, "accumulate");
+        assert!(t.ms > 0.0, "timestamp delta is zero");
+    }
+    check_validation(&ex);
+}
+
+fn surfaces(rng: &mut Rng) -> Vec<Surface> {
+    (0..W * H)
+        .map(|i| {
+            let (x, y) = ((i % W) as f32, (i / W) as f32);
+            let mut s = Surface {
+                px: x * 0.1,
+                py: y * 0.1,
+                pz: 5.0 + rng.unit() * 0.05,
+                depth: 5.0 + rng.unit(),
+                nx: rng.unit() * 0.2,
+                ny: rng.unit() * 0.2,
+                nz: 1.0,
+                instance: rng.next() % 3,
+                roughness: 1.0,
+                ..Surface::default()
+            };
+            let len = (s.nx * s.nx + s.ny * s.ny + s.nz * s.nz).sqrt();
+            (s.nx, s.ny, s.nz) = (s.nx / len, s.ny / len, s.nz / len);
+            if rng.next().is_multiple_of(11) {
+                s.instance = NO_INSTANCE;
+            }
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn atrous_matches_cpu() {
+    let Some(mut ex) = executor() else { return };
+    let n = (W * H * PLANES) as usize;
+    let mut rng = Rng(0x9e37_79b9);
+    let input: Vec<Filtered> = (0..n)
+        .map(|_| Filtered {
+            value: rng.unit() * 3.0,
+            variance: rng.unit() * rng.unit(),
+        })
+        .collect();
+    let surf = surfaces(&mut rng);
+    let out = vec![0u8; n * 8];
+    for step in [1u32, 2, 4] {
+        let params = AtrousParams {
+            width: W,
+            height: H,
+            step,
+            ..AtrousParams::default()
+        };
+        let inputs: [&[u8]; 3] = [
+            bytemuck::cast_slice(&input),
+            bytemuck::cast_slice(&surf),
+            &out,
+        ];
+        let p = bytemuck::bytes_of(&params);
+        let (gpu, cpu) =
+            run_both::<Filtered>(&mut ex, &inputs, 2, n, &atrous::KERNEL, p, [W, H, PLANES]);
+        assert_bits(&format!("atrous step {step}"), &gpu, &cpu, true, ATROUS_ULP);
+        assert_ne!(gpu, input, "the filter did nothing");
+    }
+    check_validation(&ex);
+}
+
+fn requests(rng: &mut Rng, w: u32, h: u32) -> Vec<u32> {
+    (0..w * h)
+        .map(|_| match rng.next() % 10 {
+            0 => NO_RAYS,
+            1 => BUCKET_COUNT + rng.next() % 5, // out of range: in no bucket
+            _ => rng.next() % BUCKET_COUNT,
+        })
+        .collect()
+}
+
+#[test]
+fn buckets_match_cpu() {
+    let Some(mut ex) = executor() else { return };
+    let mut rng = Rng(0xdead_beef);
+    for (w, h) in [(W, H), (131, 77)] {
+        let req = requests(&mut rng, w, h);
+        let counts = vec![0u8; COUNTS_LEN as usize * 4];
+        let params = BucketParams {
+            width: w,
+            height: h,
+        };
+        let inputs: [&[u8]; 2] = [bytemuck::cast_slice(&req), &counts];
+        let p = bytemuck::bytes_of(&params);
+        let (gpu, cpu) = run_both::<u32>(
+            &mut ex,
+            &inputs,
+            1,
+            COUNTS_LEN as usize,
+            &buckets::KERNEL,
+            p,
+            [w, h, 1],
+        );
+        assert_bits("count_buckets", &gpu, &cpu, false, 0);
+        let expected = req.iter().filter(|&&r| r < BUCKET_COUNT).count() as u32;
+        assert_eq!(gpu[..BUCKET_COUNT as usize].iter().sum::<u32>(), expected);
+    }
+    check_validation(&ex);
+}
+
+/// Five dependent à-trous passes (ping-pong) recorded without waits, the fourth launched
+/// indirectly, with a `write_buffer` in the middle of the stream. Returns the final buffer.
+fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> BufferId {
+    let zeros = vec![0u8; std::mem::size_of_val(input)];
+    let groups = [W.div_ceil(8), H.div_ceil(8), PLANES];
+    let indirect: Vec<u32> = [7u32].into_iter().chain(groups).collect(); // counts at byte 4
+    let b = upload(
+        ex,
+        &[
+            bytemuck::cast_slice(input),
+            bytemuck::cast_slice(surf),
+            &zeros,
+            &zeros,
+            bytemuck::cast_slice(&indirect),
+        ],
+    );
+    let (s, ind) = (b[1], b[4]);
+    let mut prev = b[0];
+    for (i, step) in [1u32, 2, 4, 8, 16].into_iter().enumerate() {
+        let params = AtrousParams {
+            width: W,
+            height: H,
+            step,
+            ..AtrousParams::default()
+        };
+        let out = b[2 + i % 2];
+        let bufs = [prev, s, out];
+        let mut pass = Pass::over_grid(
+            &atrous::KERNEL,
+            &bufs,
+            bytemuck::bytes_of(&params),
+            W,
+            H,
+            PLANES,
+        );
+        if i == 3 {
+            pass.groups = Groups::Indirect {
+                buffer: ind,
+                offset: 4,
+            };
+        }
+        ex.dispatch(&pass).unwrap();
+        if i == 2 {
+            // Rows 3..6 of the surfaces replace rows 0..3 mid-stream: later passes must see it
+            // (and earlier ones must not).
+            ex.write_buffer(
+                s,
+                bytemuck::cast_slice(&surf[W as usize * 3..W as usize * 6]),
+            )
+            .unwrap();
+        }
+        prev = out;
+    }
+    prev
+}
+
+#[test]
+fn chained_passes_indirect_and_timestamps() {
+    let Some(mut ex) = executor() else { return };
+    let mut cpu = CpuExecutor::new();
+    let n = (W * H * PLANES) as usize;
+    let mut rng = Rng(0x0bad_f00d);
+    let input: Vec<Filtered> = (0..n)
+        .map(|_| Filtered {
+            value: rng.unit(),
+            variance: rng.unit() * 0.1,
+        })
+        .collect();
+    let surf = surfaces(&mut rng);
+    let g = chain(&mut ex, &input, &surf);
+    let c = chain(&mut cpu, &input, &surf);
+    assert!(ex.timings().is_empty(), "nothing completed yet");
+    let gpu: Vec<Filtered> = read(&mut ex, g, n);
+    let want: Vec<Filtered> = read(&mut cpu, c, n);
+    assert_bits("5 chained atrous passes", &gpu, &want, true, ATROUS_ULP * 5);
+    if ex.adapter_info().timestamps {
+        let t = ex.timings();
+        assert_eq!(t.len(), 5);
+        for t in t {
+            println!("{}: {:.4} ms", t.entry, t.ms);
+            assert_eq!(t.entry, "atrous");
+            assert!(t.ms > 0.0, "timestamp delta is zero");
+        }
+    }
+    ex.clear_timings();
+    assert!(ex.timings().is_empty());
+    check_validation(&ex);
+}
+
+#[test]
+fn errors_are_reported_not_panicked() {
+    let Some(mut ex) = executor() else { return };
+    assert!(matches!(
+        ex.create_buffer(6),
+        Err(AshError::UnalignedSize(6))
+    ));
+    let a = ex.create_buffer(16).unwrap();
+    assert!(matches!(
+        ex.write_buffer(a, &[0; 20]),
+        Err(AshError::OutOfRange { .. })
+    ));
+    assert!(matches!(
+        ex.write_buffer(BufferId(99), &[0; 4]),
+        Err(AshError::UnknownBuffer(_))
+    ));
+    let params = BucketParams {
+        width: 2,
+        height: 2,
+    };
+    let aliased = [a, a];
+    let pass = Pass::over_grid(
+        &buckets::KERNEL,
+        &aliased,
+        bytemuck::bytes_of(&params),
+        2,
+        2,
+        1,
+    );
+    assert!(matches!(
+        ex.dispatch(&pass),
+        Err(AshError::AliasedBinding(_))
+    ));
+    let one = [a];
+    let pass = Pass::over_grid(&buckets::KERNEL, &one, bytemuck::bytes_of(&params), 2, 2, 1);
+    assert!(matches!(ex.dispatch(&pass), Err(AshError::Plan(_))));
+    // Zero-sized buffers work and read back nothing.
+    let z = ex.create_buffer(0).unwrap();
+    ex.read_buffer(z, &mut []).unwrap();
+    let mut four = [1u8; 16];
+    ex.read_buffer(a, &mut four).unwrap();
+    assert_eq!(four, [0; 16], "buffers start zeroed");
+    ex.destroy_buffer(a).unwrap();
+    assert!(matches!(ex.raw_buffer(a), Err(AshError::UnknownBuffer(_))));
+    check_validation(&ex);
+}
+
+/// The messenger really counts: a deliberately invalid call (buffer without usage) is reported.
+#[test]
+fn validation_messenger_counts_errors() {
+    let Some(ex) = executor() else { return };
+    if !ex.validation_enabled() {
+        println!("validation off: nothing to check");
+        return;
+    }
+    assert_eq!(ex.validation_errors(), 0);
+    let info = vk::BufferCreateInfo::default()
+        .size(64)
+        .usage(vk::BufferUsageFlags::empty());
+    // SAFETY: invalid on purpose (VUID-VkBufferCreateInfo-usage-requiredbitmask), harmless to
+    // the driver; the buffer is destroyed right away.
+    unsafe {
+        if let Ok(b) = ex.device().create_buffer(&info, None) {
+            ex.device().destroy_buffer(b, None);
+        }
+    }
+    println!(
+        "errors counted after one invalid call: {}",
+        ex.validation_errors()
+    );
+    assert!(ex.validation_errors() > 0);
+}
