@@ -1111,3 +1111,9 @@ impl Drop for AshExecutor {
         }
     }
 }
+
+// The executor can move between threads (e.g. into a render thread).
+const _: fn() = || {
+    fn assert_send<T: Send>() {}
+    assert_send::<AshExecutor>();
+};
