@@ -9,4 +9,5 @@ here=$(cd "$(dirname "$0")" && pwd)
 export VRRT_SHADER_CACHE=${VRRT_SHADER_CACHE:-$HOME/.cache/vrrt-shaders}
 export CARGO_TARGET_DIR=$VRRT_SHADER_CACHE/builder
 cd "$here"
-exec cargo +nightly-2026-08-15 run --release --quiet -- "$@"
+cargo +nightly-2026-08-15 run --release --quiet -- "$@"
+spirv-val --target-env vulkan1.2 ../shaders/vrrt.spv

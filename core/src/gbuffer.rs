@@ -7,7 +7,7 @@ use glam::Vec3;
 /// Instance id of a pixel that hit nothing (sky): no signal, no rays, skipped by the filters.
 pub const NO_INSTANCE: u32 = u32::MAX;
 
-/// One pixel of the G-buffer (64 bytes, scalars only so the layout is identical on every target).
+/// One pixel of the G-buffer (80 bytes, scalars only so the layout is identical on every target).
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Surface {
@@ -35,14 +35,24 @@ pub struct Surface {
     pub gz: f32,
     /// Surface roughness (GGX alpha), 1 for diffuse-only.
     pub roughness: f32,
-    /// Where this surface point was in the previous frame, in pixels (x).
+    /// Where this surface point was in the previous frame, in pixels (x; pixel centres at integer
+    /// coordinates, see `camera`).
     pub prev_x: f32,
     /// Where this surface point was in the previous frame, in pixels (y).
     pub prev_y: f32,
+    /// Where this surface point was in the previous frame, in world space (x): reprojection
+    /// compares it with the previous G-buffer, so moving objects keep their history.
+    pub prev_px: f32,
+    /// Previous world-space position, y.
+    pub prev_py: f32,
+    /// Previous world-space position, z.
+    pub prev_pz: f32,
     /// Reserved.
     pub _pad0: f32,
     /// Reserved.
     pub _pad1: f32,
+    /// Reserved.
+    pub _pad2: f32,
 }
 
 impl Surface {
@@ -50,6 +60,11 @@ impl Surface {
     #[inline]
     pub fn position(&self) -> Vec3 {
         Vec3::new(self.px, self.py, self.pz)
+    }
+    /// World-space position in the previous frame.
+    #[inline]
+    pub fn prev_position(&self) -> Vec3 {
+        Vec3::new(self.prev_px, self.prev_py, self.prev_pz)
     }
     /// Shading normal.
     #[inline]
@@ -81,4 +96,24 @@ pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
 pub fn plane_weight(p: Vec3, n: Vec3, q: Vec3, scale: f32) -> f32 {
     let d = math::abs(n.dot(q - p));
     math::exp(-d / math::max(scale, 1e-12))
+}
+
+/// Combined geometric edge-stopping weight of neighbour `s` seen from centre `c` at `offset_px`
+/// pixels: normal similarity times plane distance, the tolerance growing with the offset and the
+/// centre's view depth (`plane_scale` = σ times the angle one pixel subtends).
+#[inline]
+pub fn geometry_weight(
+    c: &Surface,
+    s: &Surface,
+    offset_px: f32,
+    plane_scale: f32,
+    normal_power: f32,
+) -> f32 {
+    normal_weight(c.normal(), s.normal(), normal_power)
+        * plane_weight(
+            c.position(),
+            c.normal(),
+            s.position(),
+            plane_scale * c.depth * offset_px,
+        )
 }

@@ -13,16 +13,25 @@
 //! - Float functions that differ between targets go through [`math`]; atomics through [`atomic`].
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
+// `!(x > 0.0)` is how kernels say "not positive, or NaN" in one comparison; `partial_cmp` would
+// not compile to the same single instruction on every target.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 #[cfg(feature = "std")]
 extern crate std;
 
 pub mod atomic;
+pub mod blue_noise;
+pub mod camera;
+#[cfg(not(target_arch = "spirv"))]
+pub mod denoiser;
 pub mod gbuffer;
 pub mod kernels;
 pub mod math;
 pub mod payload;
 #[cfg(not(target_arch = "spirv"))]
 pub mod plan;
+pub mod sampling;
+pub mod trace;
 
 pub use glam;

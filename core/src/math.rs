@@ -4,6 +4,10 @@
 //! platform's `exp`/`log` (GLSL.std.450 on the GPU, libm on the CPU), whose results differ in the
 //! last bits. `sqrt` is IEEE correctly rounded on both, so it maps to the native instruction.
 //! `min`/`max`/`clamp` are written as comparisons so NaN handling is defined and identical.
+//!
+//! No function here returns a NaN or infinite *constant*: naga (wgpu's SPIR-V front end) rejects
+//! non-finite literals, so out-of-range results saturate to finite values or pass the input
+//! through.
 
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
@@ -23,7 +27,11 @@ pub fn sqrt(x: f32) -> f32 {
     {
         libm::sqrtf(x)
     }
-    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), not(feature = "libm")))]
+    #[cfg(all(
+        not(target_arch = "spirv"),
+        not(feature = "std"),
+        not(feature = "libm")
+    ))]
     {
         compile_error!("vrrt-core on a no_std host needs the `libm` feature")
     }
@@ -101,14 +109,15 @@ pub fn floor(x: f32) -> f32 {
     }
 }
 
-/// `2^x`, relative error below 1e-7 over the normal range; 0 below -126, +Inf above 128.
+/// `2^x`, relative error below 1e-7 over the normal range; 0 below -126 (and for NaN),
+/// `f32::MAX` from 128 up.
 pub fn exp2(x: f32) -> f32 {
     if !(x > -126.0) {
         // Also catches NaN: a weight of 0 is the safe answer for the filters.
         return 0.0;
     }
     if x >= 128.0 {
-        return f32::INFINITY;
+        return f32::MAX;
     }
     let n = floor(x);
     // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347: degree-7 Taylor is exact to ~5e-9.
@@ -117,7 +126,8 @@ pub fn exp2(x: f32) -> f32 {
         + y * (1.0
             + y * (0.5
                 + y * (1.0 / 6.0
-                    + y * (1.0 / 24.0 + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
+                    + y * (1.0 / 24.0
+                        + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
     let scale = f32::from_bits((((n as i32) + 127) as u32) << 23);
     p * core::f32::consts::SQRT_2 * scale
 }
@@ -128,19 +138,21 @@ pub fn exp(x: f32) -> f32 {
     exp2(x * core::f32::consts::LOG2_E)
 }
 
-/// `log2(x)` for `x > 0` (normal or denormal); `-Inf` for 0, NaN for negatives and NaN.
+/// `log2(x)` for `x > 0` (normal or denormal); `-f32::MAX` for 0, negatives and NaN; `+Inf`
+/// for `+Inf`.
 pub fn log2(x: f32) -> f32 {
-    if !(x >= 0.0) {
-        return f32::NAN;
+    if !(x > 0.0) {
+        return -f32::MAX;
     }
-    if x == 0.0 {
-        return f32::NEG_INFINITY;
-    }
-    if x == f32::INFINITY {
+    if !is_finite(x) {
         return x;
     }
     // Scale denormals into the normal range first.
-    let (x, bias) = if x < 1.175_494_4e-38 { (x * 16_777_216.0, 24.0) } else { (x, 0.0) };
+    let (x, bias) = if x < 1.175_494_4e-38 {
+        (x * 16_777_216.0, 24.0)
+    } else {
+        (x, 0.0)
+    };
     let bits = x.to_bits();
     let mut e = ((bits >> 23) & 0xff) as i32 - 127;
     let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // [1, 2)
@@ -151,7 +163,8 @@ pub fn log2(x: f32) -> f32 {
     // ln(m) = 2 atanh(t), t = (m-1)/(m+1), |t| <= 0.172.
     let t = (m - 1.0) / (m + 1.0);
     let t2 = t * t;
-    let ln_m = 2.0 * t * (1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0 + t2 * (1.0 / 9.0)))));
+    let ln_m =
+        2.0 * t * (1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0 + t2 * (1.0 / 9.0)))));
     e as f32 - bias + ln_m * core::f32::consts::LOG2_E
 }
 
@@ -164,6 +177,99 @@ pub fn pow(x: f32, y: f32) -> f32 {
         return 0.0;
     }
     exp2(y * log2(x))
+}
+
+/// `x` rounded to the nearest integer, ties away from zero, for `|x| < 2^31`.
+#[inline]
+pub fn round(x: f32) -> f32 {
+    if x >= 0.0 {
+        floor(x + 0.5)
+    } else {
+        -floor(0.5 - x)
+    }
+}
+
+/// `(sin x, cos x)`, absolute error below 1e-6 for `|x| <= 8192` (accuracy degrades slowly
+/// beyond, as the reduction loses bits).
+///
+/// Plain `+ - * /` on every target so the GPU and the CPU agree bit-exactly: the argument is
+/// reduced by multiples of `π/2` in three parts (Cody–Waite, the high parts have trailing zero bits
+/// so `k * part` is exact), then Taylor polynomials of degree 9 (sin) and 10 (cos) run on
+/// `[-π/4, π/4]`, where their truncation error is below 2e-9.
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    if !is_finite(x) {
+        // NaN from the input itself (`inf * 0`), not from a constant.
+        return (x * 0.0, x * 0.0);
+    }
+    // π/2 split into three parts: 1.5703125 (8 significant bits), then the remainders.
+    const P1: f32 = 1.570_312_5;
+    const P2: f32 = 4.837_512_969_970_703e-4;
+    const P3: f32 = 7.549_790_1e-8;
+    let k = round(x * core::f32::consts::FRAC_2_PI);
+    let r = ((x - k * P1) - k * P2) - k * P3;
+    let (s, c) = sin_cos_quarter(r);
+    // Quadrant from k mod 4 (k is an exact integer, |k| < 2^31 for the supported range).
+    let q = (k as i32) & 3;
+    if q == 0 {
+        (s, c)
+    } else if q == 1 {
+        (c, -s)
+    } else if q == 2 {
+        (-s, -c)
+    } else {
+        (-c, s)
+    }
+}
+
+/// `(sin 2πt, cos 2πt)` for an angle given in turns (`t = 0.25` is 90°), absolute error below
+/// 1e-6 for any finite `t`. The reduction is exact (multiples of a quarter turn are exact in
+/// binary), which makes it the right call for sampling, where angles are `2π · u`.
+pub fn sin_cos_turns(t: f32) -> (f32, f32) {
+    if !is_finite(t) {
+        return (t * 0.0, t * 0.0);
+    }
+    let q4 = t * 4.0;
+    // Keep |t| in i32 range for the quadrant; beyond 2^24 every float is a whole number of turns.
+    let q4 = if abs(q4) >= 16_777_216.0 { 0.0 } else { q4 };
+    let k = round(q4);
+    let r = (q4 - k) * core::f32::consts::FRAC_PI_2;
+    let (s, c) = sin_cos_quarter(r);
+    let q = (k as i32) & 3;
+    if q == 0 {
+        (s, c)
+    } else if q == 1 {
+        (c, -s)
+    } else if q == 2 {
+        (-s, -c)
+    } else {
+        (-c, s)
+    }
+}
+
+/// `sin x` (see [`sin_cos`]).
+#[inline]
+pub fn sin(x: f32) -> f32 {
+    sin_cos(x).0
+}
+
+/// `cos x` (see [`sin_cos`]).
+#[inline]
+pub fn cos(x: f32) -> f32 {
+    sin_cos(x).1
+}
+
+/// Taylor sin and cos on `[-π/4, π/4]`.
+#[inline]
+fn sin_cos_quarter(r: f32) -> (f32, f32) {
+    let r2 = r * r;
+    let s = r + r
+        * r2
+        * (-1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0))));
+    let c = 1.0
+        + r2 * (-0.5
+            + r2 * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0)))));
+    (s, c)
 }
 
 /// Luminance of linear Rec.709 RGB.
@@ -188,16 +294,23 @@ mod tests {
         assert!(worst < 5e-7, "worst relative error {worst}");
         assert_eq!(exp2(-200.0), 0.0);
         assert_eq!(exp2(f32::NAN), 0.0);
-        assert_eq!(exp2(200.0), f32::INFINITY);
+        assert_eq!(exp2(200.0), f32::MAX);
     }
 
     #[test]
     fn log2_matches_std() {
-        for &x in &[1e-40f32, 1e-30, 0.001, 0.5, 1.0, 1.5, 2.0, 3.0, 1e10, 3.4e38] {
-            approx::assert_abs_diff_eq!(log2(x), x.log2(), epsilon = 2e-6 * x.log2().abs().max(1.0));
+        for &x in &[
+            1e-40f32, 1e-30, 0.001, 0.5, 1.0, 1.5, 2.0, 3.0, 1e10, 3.4e38,
+        ] {
+            approx::assert_abs_diff_eq!(
+                log2(x),
+                x.log2(),
+                epsilon = 2e-6 * x.log2().abs().max(1.0)
+            );
         }
-        assert_eq!(log2(0.0), f32::NEG_INFINITY);
-        assert!(log2(-1.0).is_nan());
+        assert_eq!(log2(0.0), -f32::MAX);
+        assert_eq!(log2(-1.0), -f32::MAX);
+        assert_eq!(log2(f32::INFINITY), f32::INFINITY);
     }
 
     #[test]
@@ -206,6 +319,50 @@ mod tests {
         for &x in &[-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9] {
             assert_eq!(floor(x), x.floor(), "{x}");
         }
+    }
+
+    #[test]
+    fn sin_cos_match_std() {
+        let mut worst = 0.0f32;
+        let mut x = -8192.0f32;
+        while x < 8192.0 {
+            let (s, c) = sin_cos(x);
+            let (xs, xc) = (x as f64).sin_cos();
+            worst = worst
+                .max((s as f64 - xs).abs() as f32)
+                .max((c as f64 - xc).abs() as f32);
+            x += 0.377;
+        }
+        for i in -2000..2000 {
+            let x = i as f32 * 0.001_3;
+            let (s, c) = sin_cos(x);
+            let (xs, xc) = (x as f64).sin_cos();
+            worst = worst
+                .max((s as f64 - xs).abs() as f32)
+                .max((c as f64 - xc).abs() as f32);
+        }
+        assert!(worst < 1e-6, "worst absolute error {worst}");
+        assert_eq!(sin_cos(0.0), (0.0, 1.0));
+        assert!(sin(f32::NAN).is_nan() && cos(f32::INFINITY).is_nan());
+    }
+
+    #[test]
+    fn sin_cos_turns_match_std() {
+        let mut worst = 0.0f64;
+        for i in -100_000..100_000 {
+            let t = i as f32 * 0.000_137;
+            let (s, c) = sin_cos_turns(t);
+            let a = t as f64 * core::f64::consts::TAU;
+            worst = worst
+                .max((s as f64 - a.sin()).abs())
+                .max((c as f64 - a.cos()).abs());
+        }
+        assert!(worst < 1e-6, "worst absolute error {worst}");
+        assert_eq!(sin_cos_turns(0.25), (1.0, 0.0));
+        assert_eq!(sin_cos_turns(0.5), (0.0, -1.0));
+        assert_eq!(round(-2.5), -3.0);
+        assert_eq!(round(2.5), 3.0);
+        assert_eq!(round(-0.4), 0.0);
     }
 
     #[test]

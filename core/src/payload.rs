@@ -50,10 +50,12 @@ impl Payload {
 /// at `max_history` that receives a ray still gives it weight `1 / (max_history + 1)` instead of
 /// dissipating. A pixel that traced no ray keeps its history unchanged (it is not decayed). The
 /// rng index advances by the rays traced, so no ray is ever re-traced; it wraps at `rng_wrap`
-/// (0 = no wrap), the width of the index in the storage format.
+/// (0 = no wrap), the width of the index in the storage format. A sample whose moments are not
+/// finite (NaN/Inf from a broken raygen) is dropped like an untraced pixel, so it never enters
+/// history.
 #[inline]
 pub fn accumulate(prev: Payload, curr: Sample, max_history: f32, rng_wrap: u32) -> Payload {
-    if curr.rays == 0 {
+    if curr.rays == 0 || !math::is_finite(curr.m1) || !math::is_finite(curr.m2) {
         return prev;
     }
     let n = curr.rays as f32;
@@ -125,6 +127,46 @@ mod tests {
         let out = accumulate(prev, sample(1.0, 4), 64.0, 256);
         assert_eq!(out.rng_index, 3);
         assert_eq!(out.count, 9.0);
+    }
+
+    #[test]
+    fn non_finite_samples_never_enter_history() {
+        let prev = Payload {
+            m1: 0.3,
+            m2: 0.2,
+            count: 5.0,
+            rng_index: 7,
+        };
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(
+                accumulate(
+                    prev,
+                    Sample {
+                        m1: bad,
+                        m2: 1.0,
+                        rays: 1,
+                        _pad: 0
+                    },
+                    64.0,
+                    0
+                ),
+                prev
+            );
+            assert_eq!(
+                accumulate(
+                    prev,
+                    Sample {
+                        m1: 1.0,
+                        m2: bad,
+                        rays: 1,
+                        _pad: 0
+                    },
+                    64.0,
+                    0
+                ),
+                prev
+            );
+        }
     }
 
     #[test]

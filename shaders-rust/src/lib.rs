@@ -7,8 +7,11 @@
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 use vrrt_core::gbuffer::Surface;
-use vrrt_core::kernels::{accumulate, atrous, buckets};
+use vrrt_core::kernels::{
+    accumulate, apply, atrous, balance, buckets, clear, gbuffer, raygen, reproject, variance,
+};
 use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::trace::{BvhNode, Triangle, TriangleNormals};
 
 #[spirv(compute(threads(8, 8, 1)))]
 pub fn accumulate(
@@ -47,4 +50,116 @@ pub fn count_buckets(
     buckets::count(id, p, requests, local);
     vrrt_core::atomic::workgroup_barrier();
     buckets::flush(lid, group, p, local, counts);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn gbuffer(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &gbuffer::GbufferParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] normals: &[TriangleNormals],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] instances: &[gbuffer::InstanceData],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] out: &mut [Surface],
+) {
+    gbuffer::gbuffer(id, p, nodes, tris, normals, instances, out);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn raygen_ao(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &raygen::AoParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] rng_index: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] out: &mut [Sample],
+) {
+    raygen::raygen_ao(id, p, surfaces, rng_index, nodes, tris, out);
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn raygen_shadow(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &raygen::ShadowParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] rng_index: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[raygen::AreaLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] out: &mut [Sample],
+) {
+    raygen::raygen_shadow(id, p, surfaces, rng_index, nodes, tris, lights, out);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn reproject(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &reproject::ReprojectParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] prev_surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] history: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] mask: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] out: &mut [Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] requests: &mut [u32],
+) {
+    reproject::reproject(
+        id,
+        p,
+        surfaces,
+        prev_surfaces,
+        history,
+        mask,
+        out,
+        flags,
+        requests,
+    );
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn variance(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &variance::VarianceParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] payload: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] out: &mut [atrous::Filtered],
+) {
+    variance::variance(id, p, payload, surfaces, out);
+}
+
+#[spirv(compute(threads(1, 1, 1)))]
+pub fn balance(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &balance::BalanceParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] out: &mut [balance::Balance],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] args: &mut [u32],
+) {
+    balance::balance(id, p, counts, out, args);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn apply(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &apply::ApplyParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] requests: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] decision: &[balance::Balance],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] noise: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] rays: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] work: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] args: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] samples: &mut [Sample],
+) {
+    apply::apply(id, p, requests, decision, noise, rays, work, args, samples);
+}
+
+#[spirv(compute(threads(64, 1, 1)))]
+pub fn fill(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &clear::FillParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] buf: &mut [u32],
+) {
+    clear::fill(id, p, buf);
 }

@@ -7,7 +7,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
-use vrrt_core::kernels::{accumulate, atrous, buckets};
+use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 
@@ -19,6 +19,11 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("accumulate", accumulate_case),
     ("atrous", atrous_case),
     ("count_buckets", buckets_case),
+    ("reproject", reproject_case),
+    ("variance", variance_case),
+    ("balance", balance_case),
+    ("apply", apply_case),
+    ("fill", fill_case),
 ];
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
@@ -88,6 +93,9 @@ pub fn surface(rng: &mut Pcg32, x: u32, y: u32) -> Surface {
         roughness: 1.0,
         prev_x: x as f32,
         prev_y: y as f32,
+        prev_px: p.x,
+        prev_py: p.y,
+        prev_pz: p.z,
         ..Surface::default()
     }
 }
@@ -101,23 +109,12 @@ const PAYLOAD: &[Word] = &[Word::F32, Word::F32, Word::F32, Word::U32];
 const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
 const FLOATS: &[Word] = &[Word::F32];
 const INTS: &[Word] = &[Word::U32];
+/// `Surface`: all floats but `instance` (word 7).
+#[rustfmt::skip]
 const SURFACE: &[Word] = &[
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::U32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
+    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::U32,
+    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32,
+    Word::F32, Word::F32, Word::F32, Word::F32,
 ];
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
@@ -143,9 +140,17 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         max_history: 64.0,
         rng_wrap: 256,
+        clamp_radius: if rng.random_bool(0.5) {
+            rng.random_range(1..4)
+        } else {
+            0
+        },
+        clamp_gamma: 1.0,
+        firefly_max: if rng.random_bool(0.5) { 10.0 } else { 0.0 },
+        _pad: 0,
     };
     Case {
-        name: format!("accumulate {w}x{h}x{PLANES}"),
+        name: format!("accumulate {w}x{h}x{PLANES} clamp {}", params.clamp_radius),
         kernel: &accumulate::KERNEL,
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
@@ -213,6 +218,197 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&buckets::KERNEL, w, h, 1),
+    }
+}
+
+fn history(rng: &mut Pcg32, n: usize) -> Vec<Payload> {
+    (0..n)
+        .map(|_| Payload {
+            m1: value(rng),
+            m2: value(rng),
+            count: [0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0][rng.random_range(0..8)],
+            rng_index: rng.random(),
+        })
+        .collect()
+}
+
+fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| surface(rng, x, y))
+        .collect()
+}
+
+fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let mut current = surfaces(rng, w, h);
+    for s in &mut current {
+        // Motion of up to 1.5 pixels, sometimes far off screen.
+        s.prev_x += rng.random_range(-1.5..1.5);
+        s.prev_y += rng.random_range(-1.5..1.5);
+        if rng.random_range(0..20) == 0 {
+            s.prev_x = -1.0e9;
+        }
+    }
+    let mut previous = current.clone();
+    for s in &mut previous {
+        if rng.random_range(0..5) == 0 {
+            *s = surface(rng, 0, 0);
+        }
+    }
+    let n = (w * h * PLANES) as usize;
+    let params = reproject::ReprojectParams {
+        width: w,
+        height: h,
+        planes: PLANES,
+        reset: rng.random_range(0..8) / 7,
+        frame_index: rng.random(),
+        supersample_target: [0.0, 16.0, 64.0][rng.random_range(0..3)],
+        use_mask: rng.random_range(0..2),
+        ..Default::default()
+    };
+    let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();
+    Case {
+        name: format!("reproject {w}x{h}x{PLANES} reset {}", params.reset),
+        kernel: &reproject::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&current, SURFACE),
+            BufferSpec::from_pod(&previous, SURFACE),
+            BufferSpec::from_pod(&history(rng, n), PAYLOAD),
+            BufferSpec::from_pod(&mask, INTS),
+            BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&reproject::KERNEL, w, h, 1),
+    }
+}
+
+fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let params = variance::VarianceParams {
+        width: w,
+        height: h,
+        ..Default::default()
+    };
+    Case {
+        name: format!("variance {w}x{h}x{PLANES}"),
+        kernel: &variance::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&history(rng, n), PAYLOAD),
+            BufferSpec::from_pod(&surfaces(rng, w, h), SURFACE),
+            BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&variance::KERNEL, w, h, PLANES),
+    }
+}
+
+/// A bucket histogram of random requests, as `count_buckets` would produce.
+fn histogram(rng: &mut Pcg32, w: u32, h: u32) -> (Vec<u32>, Vec<u32>) {
+    let requests: Vec<u32> = (0..w * h)
+        .map(|_| match rng.random_range(0..10) {
+            0 => buckets::NO_RAYS,
+            1..4 => buckets::MIN_RATE_DIVISOR + rng.random_range(0..buckets::MAX_RATE),
+            4..6 => buckets::MIN_RATE_DIVISOR,
+            _ => rng.random_range(0..buckets::BUCKET_COUNT),
+        })
+        .collect();
+    let mut counts = vec![0u32; buckets::COUNTS_LEN as usize];
+    for (i, &b) in requests.iter().enumerate() {
+        if b < buckets::BUCKET_COUNT {
+            let ring = buckets::ring_id(i as u32 % w, i as u32 / w, w, h);
+            counts[b as usize] += 1;
+            counts[((1 + ring) * buckets::BUCKET_COUNT + b) as usize] += 1;
+        }
+    }
+    (requests, counts)
+}
+
+const BALANCE: &[Word] = &[
+    Word::U32,
+    Word::U32,
+    Word::U32,
+    Word::U32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+];
+
+fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
+    balance::BalanceParams {
+        budget: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)] * (w * h) as f32,
+        ring_count: buckets::ring_count(w, h),
+        raise: rng.random_range(0..2),
+        _pad: 0,
+    }
+}
+
+fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (_, counts) = histogram(rng, w, h);
+    let params = balance_params(rng, w, h);
+    Case {
+        name: format!("balance {w}x{h} budget {}", params.budget),
+        kernel: &balance::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&counts, INTS),
+            BufferSpec::from_pod(&[balance::Balance::default()], BALANCE),
+            BufferSpec::from_pod(&[7u32, 7, 7, 7], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [1, 1, 1],
+    }
+}
+
+fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, counts) = histogram(rng, w, h);
+    let decision = balance::solve(&counts, &balance_params(rng, w, h));
+    let n = (w * h) as usize;
+    let samples: Vec<Sample> = (0..n * PLANES as usize)
+        .map(|_| Sample {
+            m1: value(rng),
+            m2: value(rng),
+            rays: rng.random_range(0..5),
+            _pad: 0,
+        })
+        .collect();
+    let params = apply::ApplyParams {
+        width: w,
+        height: h,
+        planes: PLANES,
+        frame_index: rng.random(),
+    };
+    Case {
+        name: format!("apply {w}x{h}x{PLANES} mode {}", decision.mode),
+        kernel: &apply::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&[decision], BALANCE),
+            BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
+            BufferSpec::from_pod(&vec![0u32; n], INTS),
+            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1], INTS),
+            BufferSpec::from_pod(&samples, SAMPLE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&apply::KERNEL, w, h, 1),
+    }
+}
+
+fn fill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let len = w * h + 5;
+    let data: Vec<u32> = (0..len + 7).map(|_| rng.random()).collect();
+    let params = clear::FillParams {
+        len,
+        value: rng.random(),
+    };
+    Case {
+        name: format!("fill {len}"),
+        kernel: &clear::KERNEL,
+        buffers: vec![BufferSpec::from_pod(&data, INTS)],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [len.div_ceil(clear::GROUP), 1, 1],
     }
 }
 

@@ -30,6 +30,9 @@ pub struct BufferSpec {
     pub data: Vec<u32>,
     /// Word kinds of one element, repeated over the buffer (e.g. `[F32, F32, F32, U32]`).
     pub layout: &'static [Word],
+    /// Compare as a multiset of `u32` words: for lists filled through an atomic counter, whose
+    /// order legitimately differs between backends and runs.
+    pub unordered: bool,
 }
 
 impl BufferSpec {
@@ -38,7 +41,14 @@ impl BufferSpec {
         BufferSpec {
             data: bytemuck::cast_slice(elems).to_vec(),
             layout,
+            unordered: false,
         }
+    }
+
+    /// The same buffer, compared without regard to order.
+    pub fn unordered(mut self) -> Self {
+        self.unordered = true;
+        self
     }
 }
 
@@ -143,7 +153,17 @@ impl Report {
 pub fn compare(case: &Case, expected: &[Vec<u32>], got: &[Vec<u32>]) -> Report {
     let mut r = Report::default();
     for (binding, ((spec, e), g)) in case.buffers.iter().zip(expected).zip(got).enumerate() {
-        for (word, (&a, &b)) in e.iter().zip(g).enumerate() {
+        let sorted = |v: &[u32]| {
+            let mut v = v.to_vec();
+            v.sort_unstable();
+            v
+        };
+        let (e, g) = if spec.unordered {
+            (sorted(e), sorted(g))
+        } else {
+            (e.clone(), g.clone())
+        };
+        for (word, (&a, &b)) in e.iter().zip(&g).enumerate() {
             r.words += 1;
             let both_nan = f32::from_bits(a).is_nan() && f32::from_bits(b).is_nan();
             if a == b || (both_nan && spec.layout[word % spec.layout.len()] == Word::F32) {

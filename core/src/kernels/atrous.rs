@@ -111,7 +111,6 @@ pub fn atrous(
         out[i] = center;
         return;
     }
-    let (cp, cn) = (c.position(), c.normal());
     let sigma = math::sqrt(math::max(blurred_variance(input, id.x, id.y, id.z, p), 0.0));
     let lum_scale = p.sigma_luminance * sigma + 1e-6;
 
@@ -131,19 +130,13 @@ pub fn atrous(
                 if s.is_valid() {
                     let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
                     let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
-                    let w_n = gbuffer::normal_weight(cn, s.normal(), p.normal_power);
-                    let w_p = gbuffer::plane_weight(
-                        cp,
-                        cn,
-                        s.position(),
-                        p.plane_scale * c.depth * offset_len,
-                    );
+                    let w_g =
+                        gbuffer::geometry_weight(&c, &s, offset_len, p.plane_scale, p.normal_power);
                     let w_l = math::exp(-math::abs(center.value - tap.value) / lum_scale);
                     let w = B3[tx.unsigned_abs() as usize]
                         * B3[ty.unsigned_abs() as usize]
                         * (1.0 / (B3[0] * B3[0]))
-                        * w_n
-                        * w_p
+                        * w_g
                         * w_l;
                     sum += w * tap.value;
                     sum_var += w * w * tap.variance;

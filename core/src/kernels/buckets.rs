@@ -38,6 +38,31 @@ pub fn bucket_to_rate(b: u32) -> f32 {
     }
 }
 
+/// Bucket whose rate is nearest to `rate` (rays per pixel): `rate >= 1` rounds to whole rays
+/// (buckets 64..80, capped at 16), fractions round `1/rate` (buckets 0..63, floored at 1/64).
+/// Zero or negative or NaN rates map to [`NO_RAYS`].
+#[inline]
+pub fn rate_to_bucket(rate: f32) -> u32 {
+    if !(rate > 0.0) {
+        return NO_RAYS;
+    }
+    if rate >= 1.0 {
+        let r = crate::math::min(crate::math::floor(rate + 0.5), MAX_RATE as f32) as u32;
+        MIN_RATE_DIVISOR + r - 1
+    } else {
+        let d = crate::math::min(
+            crate::math::floor(1.0 / rate + 0.5),
+            MIN_RATE_DIVISOR as f32,
+        ) as u32;
+        // d = 1 only for rates in [2/3, 1): one ray, bucket 64 (63 would mean the same rate).
+        if d <= 1 {
+            MIN_RATE_DIVISOR
+        } else {
+            MIN_RATE_DIVISOR - d
+        }
+    }
+}
+
 /// Number of rings of a `width × height` image, at least 1, at most [`MAX_RINGS`].
 #[inline]
 pub fn ring_count(width: u32, height: u32) -> u32 {
@@ -165,6 +190,21 @@ mod tests {
         for b in 1..BUCKET_COUNT {
             assert!(bucket_to_rate(b) >= bucket_to_rate(b - 1));
         }
+    }
+
+    #[test]
+    fn rate_to_bucket_inverts_bucket_to_rate() {
+        for b in 0..BUCKET_COUNT {
+            if b == 63 {
+                continue; // same rate as 64; requests use 64
+            }
+            assert_eq!(rate_to_bucket(bucket_to_rate(b)), b, "bucket {b}");
+        }
+        assert_eq!(rate_to_bucket(0.0), NO_RAYS);
+        assert_eq!(rate_to_bucket(f32::NAN), NO_RAYS);
+        assert_eq!(rate_to_bucket(1000.0), BUCKET_COUNT - 1);
+        assert_eq!(rate_to_bucket(1e-9), 0);
+        assert_eq!(rate_to_bucket(0.9), MIN_RATE_DIVISOR);
     }
 
     #[test]

@@ -2,8 +2,15 @@
 //! push-constant struct, and (on the host) its [`KernelDesc`](crate::plan::KernelDesc).
 
 pub mod accumulate;
+pub mod apply;
 pub mod atrous;
+pub mod balance;
 pub mod buckets;
+pub mod clear;
+pub mod gbuffer;
+pub mod raygen;
+pub mod reproject;
+pub mod variance;
 
 use glam::UVec3;
 
@@ -21,5 +28,16 @@ pub fn pixel_index(x: u32, y: u32, width: u32) -> usize {
 
 /// Every kernel, for backends that build all pipelines up front and for the equivalence tests.
 #[cfg(not(target_arch = "spirv"))]
-pub static ALL: &[&crate::plan::KernelDesc] =
-    &[&accumulate::KERNEL, &atrous::KERNEL, &buckets::KERNEL];
+pub static ALL: &[&crate::plan::KernelDesc] = &[
+    &accumulate::KERNEL,
+    &atrous::KERNEL,
+    &buckets::KERNEL,
+    &gbuffer::KERNEL,
+    &raygen::AO_KERNEL,
+    &raygen::SHADOW_KERNEL,
+    &reproject::KERNEL,
+    &variance::KERNEL,
+    &balance::KERNEL,
+    &apply::KERNEL,
+    &clear::KERNEL,
+];

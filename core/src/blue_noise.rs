@@ -1,0 +1,155 @@
+//! Spatio-temporal blue-noise thresholds for the stochastic tests of fractional ray rates.
+//!
+//! Seed: vrrt-call-of-duty-2026, "Undersampling" (`BlueNoiseSpatioTemporal(dtid, frameIndex)`) and
+//! q2vkpt-2019 ("blue noise dither mask … white noise with a low pass filter leaves lots of noise").
+//! A 64×64 void-and-cluster mask (Ulichney 1993) gives the spatial distribution; each frame adds
+//! the golden ratio to every threshold (mod 1), so a pixel's thresholds over time form a
+//! low-discrepancy sequence: a pixel asking for rate 1/4 is traced once every ~4 frames, evenly,
+//! and neighbours take turns.
+
+use crate::math;
+
+/// Edge of the tiled mask.
+pub const SIZE: u32 = 64;
+/// Number of thresholds in the mask.
+pub const LEN: usize = (SIZE * SIZE) as usize;
+
+/// Threshold in `[0, 1)` of pixel `(x, y)` in frame `frame`, from a mask of [`LEN`] thresholds.
+#[inline]
+pub fn blue_noise(mask: &[f32], x: u32, y: u32, frame: u32) -> f32 {
+    let v = mask[((y % SIZE) * SIZE + (x % SIZE)) as usize];
+    // Frame offset in 2^-24 units of the golden ratio, so large frame numbers stay exact.
+    let offset = ((frame.wrapping_mul(10_368_890) & 0x00ff_ffff) as f32) * (1.0 / 16_777_216.0);
+    let t = v + offset;
+    t - math::floor(t)
+}
+
+/// Builds the void-and-cluster mask (deterministic; ~20 ms).
+#[cfg(not(target_arch = "spirv"))]
+pub fn generate_mask() -> [f32; LEN] {
+    const SIGMA: f32 = 1.5;
+    const RADIUS: i32 = 7;
+    let n = SIZE as i32;
+    let mut kernel = [[0.0f32; (2 * RADIUS + 1) as usize]; (2 * RADIUS + 1) as usize];
+    for (dy, row) in kernel.iter_mut().enumerate() {
+        for (dx, k) in row.iter_mut().enumerate() {
+            let (fx, fy) = ((dx as i32 - RADIUS) as f32, (dy as i32 - RADIUS) as f32);
+            *k = math::exp(-(fx * fx + fy * fy) / (2.0 * SIGMA * SIGMA));
+        }
+    }
+    let mut energy = [0.0f32; LEN];
+    let mut on = [false; LEN];
+    let splat = |energy: &mut [f32; LEN], i: usize, sign: f32| {
+        let (x, y) = ((i as i32) % n, (i as i32) / n);
+        for dy in -RADIUS..=RADIUS {
+            for dx in -RADIUS..=RADIUS {
+                let j = ((y + dy).rem_euclid(n) * n + (x + dx).rem_euclid(n)) as usize;
+                energy[j] += sign * kernel[(dy + RADIUS) as usize][(dx + RADIUS) as usize];
+            }
+        }
+    };
+    // Tightest cluster (max energy among `want`) or largest void (min energy among `want`).
+    let extreme = |energy: &[f32; LEN], on: &[bool; LEN], want: bool, max: bool| -> usize {
+        let mut best = usize::MAX;
+        for i in 0..LEN {
+            if on[i] == want
+                && (best == usize::MAX
+                    || (max && energy[i] > energy[best])
+                    || (!max && energy[i] < energy[best]))
+            {
+                best = i;
+            }
+        }
+        best
+    };
+    // Initial pattern: 10% of pixels from a fixed xorshift sequence, then relaxed.
+    let mut state = 0x9e37_79b9u32;
+    let mut ones = 0;
+    while ones < LEN / 10 {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        let i = (state as usize) % LEN;
+        if !on[i] {
+            on[i] = true;
+            splat(&mut energy, i, 1.0);
+            ones += 1;
+        }
+    }
+    loop {
+        let c = extreme(&energy, &on, true, true);
+        on[c] = false;
+        splat(&mut energy, c, -1.0);
+        let v = extreme(&energy, &on, false, false);
+        on[v] = true;
+        splat(&mut energy, v, 1.0);
+        if v == c {
+            break;
+        }
+    }
+    let mut rank = [0u32; LEN];
+    // Phase 1: rank the initial ones by removing clusters.
+    let (mut e1, mut on1) = (energy, on);
+    for r in (0..ones).rev() {
+        let c = extreme(&e1, &on1, true, true);
+        on1[c] = false;
+        splat(&mut e1, c, -1.0);
+        rank[c] = r as u32;
+    }
+    // Phases 2 and 3: fill voids until every pixel is ranked.
+    for r in ones..LEN {
+        let v = extreme(&energy, &on, false, false);
+        on[v] = true;
+        splat(&mut energy, v, 1.0);
+        rank[v] = r as u32;
+    }
+    let mut mask = [0.0f32; LEN];
+    for i in 0..LEN {
+        mask[i] = (rank[i] as f32 + 0.5) / LEN as f32;
+    }
+    mask
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mask_is_a_permutation_of_uniform_thresholds() {
+        let m = generate_mask();
+        let mut ranks: std::vec::Vec<u32> = m.iter().map(|&v| (v * LEN as f32) as u32).collect();
+        ranks.sort();
+        assert!(ranks.iter().enumerate().all(|(i, &r)| r == i as u32));
+    }
+
+    #[test]
+    fn mask_is_blue_neighbours_differ() {
+        // Blue noise: adjacent thresholds are anti-correlated compared with white noise (whose
+        // mean absolute neighbour difference is 1/3).
+        let m = generate_mask();
+        let mut sum = 0.0;
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let a = m[(y * SIZE + x) as usize];
+                let b = m[(y * SIZE + (x + 1) % SIZE) as usize];
+                sum += (a - b).abs();
+            }
+        }
+        let mean = sum / LEN as f32;
+        assert!(mean > 0.38, "mean neighbour difference {mean}");
+    }
+
+    #[test]
+    fn fractional_rate_is_met_over_time() {
+        let m = generate_mask();
+        for rate in [1.0 / 64.0, 0.25, 0.5] {
+            let traced = (0..256u32)
+                .filter(|&f| rate > blue_noise(&m, 5, 9, f))
+                .count() as f32;
+            assert!(
+                (traced / 256.0 - rate).abs() < 0.02,
+                "rate {rate}: {traced}/256"
+            );
+        }
+    }
+}

@@ -1,0 +1,695 @@
+//! The denoiser as a frame plan: which passes run, in which order, on which buffers, with which
+//! parameters. Backends only execute the passes it hands them.
+//!
+//! Per frame (seed vrrt-call-of-duty-2026, "Full pipeline"; SVGF from q2vkpt-2019):
+//!
+//! ```text
+//! G-buffer ─► reproject ─► fill ─► count_buckets ─► balance ─► apply ─► raygen ─► accumulate ─► variance ─► atrous × N
+//! (caller)    + requests   counts=0   histogram      thresholds  rays,      (caller,   history[cur]   filtered ping-pong
+//!             history[prev] → reprojected                        work list  indirect)
+//! ```
+//!
+//! The ray budget is decided before raygen: reprojection asks for a rate per pixel (refill lost
+//! history, undersample converged pixels), the balancer fits the requests to
+//! `rays_per_pixel × pixels`, apply grants each pixel its rays and compacts a work list. The
+//! fixed-rate SVGF baseline is the same plan with requests off (every pixel asks for
+//! `rays_per_pixel`) and no balancing.
+//!
+//! History is ping-ponged explicitly: `history[prev]` is read by reprojection and
+//! `history[cur]` written by accumulation; the spatial filter's output never feeds back into
+//! history (seed: "spatial output is NOT being fed to temporal").
+
+use crate::blue_noise;
+use crate::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
+use crate::plan::{BufferId, Executor, Groups, Pass};
+use core::fmt;
+
+/// Every tunable of the denoiser, with documented defaults and ranges (like NRD's settings).
+/// `Settings::default()` is full VRRT; [`Settings::svgf`] the fixed-rate baseline.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1).
+    pub rays_per_pixel: f32,
+    /// VRRT supersampling: pixels with less history than this many rays ask for the difference
+    /// (up to 16 a frame); 0 turns VRRT requests off and every pixel asks for `rays_per_pixel`
+    /// (0 or 1..=max_history; default 16).
+    pub supersample_target: f32,
+    /// Fit requests to the budget with the load balancer (default on). Off: requests are traced
+    /// as asked, whatever they cost.
+    pub load_balance: bool,
+    /// Spend budget left over by raising low requests, inner rings first (default on); off is the
+    /// "save" mode.
+    pub spend_saved_rays: bool,
+    /// VRRT undersampling of converged pixels by variance (default on).
+    pub undersample: bool,
+    /// Undersampling variance thresholds, increasing (default `[1e-4, 1e-3, 1e-2, 0]`).
+    pub variance_threshold: [f32; 4],
+    /// Undersampling rates of those thresholds, in `[1/64, 16]` (default `[1/8, 1/4, 1/2, 1]`).
+    pub variance_rate: [f32; 4],
+    /// Scalar signal planes denoised together (1..=4: AO, shadows of up to 4 lights).
+    pub planes: u32,
+    /// History length clamp in rays (1..=65504; default 64).
+    pub max_history: f32,
+    /// À-trous iterations, strides 1, 2, 4, … (0..=5; default 5).
+    pub atrous_iterations: u32,
+    /// Luminance edge-stopping σ_l (> 0; default 4).
+    pub sigma_luminance: f32,
+    /// Normal edge-stopping exponent (>= 0; default 128).
+    pub normal_power: f32,
+    /// Plane-distance tolerance in pixel footprints (> 0; default 8).
+    pub plane_tolerance: f32,
+    /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
+    pub spatial_until: f32,
+    /// Window radius of the spatial variance estimate (0..=5; default 3, i.e. 7×7).
+    pub spatial_radius: u32,
+    /// Variance clamp of history against this frame's samples: window radius, 0 = off (default
+    /// off; the SVGF baseline turns it on, VRRT does not need it).
+    pub clamp_radius: u32,
+    /// Variance clamp width in standard deviations (> 0; default 1).
+    pub clamp_gamma: f32,
+    /// Firefly clamp of this frame's per-pixel mean; 0 = off (default off).
+    pub firefly_max: f32,
+    /// Reprojection: minimum cosine between normals (default 0.9).
+    pub normal_threshold: f32,
+    /// Reprojection: maximum plane distance as a fraction of view depth (default 0.02).
+    pub plane_threshold: f32,
+    /// Width of the stored rng index (wraps there; 0 = 32 bits, default).
+    pub rng_wrap: u32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            rays_per_pixel: 1.0,
+            supersample_target: 16.0,
+            load_balance: true,
+            spend_saved_rays: true,
+            undersample: true,
+            variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
+            variance_rate: [0.125, 0.25, 0.5, 1.0],
+            planes: 1,
+            max_history: 64.0,
+            atrous_iterations: 5,
+            sigma_luminance: 4.0,
+            normal_power: 128.0,
+            plane_tolerance: 8.0,
+            spatial_until: 4.0,
+            spatial_radius: 3,
+            clamp_radius: 0,
+            clamp_gamma: 1.0,
+            firefly_max: 0.0,
+            normal_threshold: 0.9,
+            plane_threshold: 0.02,
+            rng_wrap: 0,
+        }
+    }
+}
+
+/// A setting out of its range.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SettingsError {
+    /// Width or height is zero.
+    Resolution {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// A field outside its documented range.
+    OutOfRange {
+        /// Field name.
+        field: &'static str,
+        /// Value given.
+        value: f32,
+        /// The range, in words.
+        range: &'static str,
+    },
+}
+
+impl fmt::Display for SettingsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SettingsError::Resolution { width, height } => {
+                write!(
+                    f,
+                    "resolution {width}x{height}: width and height must be at least 1"
+                )
+            }
+            SettingsError::OutOfRange {
+                field,
+                value,
+                range,
+            } => {
+                write!(f, "setting `{field}` = {value} is out of range ({range})")
+            }
+        }
+    }
+}
+
+impl Settings {
+    /// The SVGF baseline VRRT is measured against: every pixel traces `rays_per_pixel`, no
+    /// requests, no balancing.
+    pub fn svgf(rays_per_pixel: f32) -> Self {
+        Settings {
+            rays_per_pixel,
+            supersample_target: 0.0,
+            load_balance: false,
+            undersample: false,
+            ..Settings::default()
+        }
+    }
+
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let check = |ok: bool, field, value: f32, range| {
+            if ok {
+                Ok(())
+            } else {
+                Err(SettingsError::OutOfRange {
+                    field,
+                    value,
+                    range,
+                })
+            }
+        };
+        let finite = |v: f32| v.is_finite();
+        check(
+            finite(self.rays_per_pixel) && self.rays_per_pixel > 0.0 && self.rays_per_pixel <= 16.0,
+            "rays_per_pixel",
+            self.rays_per_pixel,
+            "0 < r <= 16",
+        )?;
+        check(
+            finite(self.supersample_target)
+                && (self.supersample_target == 0.0
+                    || (self.supersample_target >= 1.0
+                        && self.supersample_target <= self.max_history)),
+            "supersample_target",
+            self.supersample_target,
+            "0 or 1..=max_history",
+        )?;
+        for i in 0..4 {
+            let t = self.variance_threshold[i];
+            check(
+                finite(t) && t >= 0.0,
+                "variance_threshold",
+                t,
+                ">= 0, finite",
+            )?;
+            if i > 0 && t != 0.0 {
+                let prev = self.variance_threshold[i - 1];
+                check(
+                    t >= prev,
+                    "variance_threshold",
+                    t,
+                    "increasing (0 ends the list)",
+                )?;
+            }
+            let r = self.variance_rate[i];
+            check(
+                finite(r) && (1.0 / 64.0..=16.0).contains(&r),
+                "variance_rate",
+                r,
+                "1/64..=16",
+            )?;
+        }
+        check(
+            (1..=4).contains(&self.planes),
+            "planes",
+            self.planes as f32,
+            "1..=4",
+        )?;
+        check(
+            finite(self.max_history) && self.max_history >= 1.0 && self.max_history <= 65504.0,
+            "max_history",
+            self.max_history,
+            "1..=65504",
+        )?;
+        check(
+            self.atrous_iterations <= 5,
+            "atrous_iterations",
+            self.atrous_iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.sigma_luminance) && self.sigma_luminance > 0.0,
+            "sigma_luminance",
+            self.sigma_luminance,
+            "> 0",
+        )?;
+        check(
+            finite(self.normal_power) && self.normal_power >= 0.0,
+            "normal_power",
+            self.normal_power,
+            ">= 0",
+        )?;
+        check(
+            finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
+            "plane_tolerance",
+            self.plane_tolerance,
+            "> 0",
+        )?;
+        check(
+            finite(self.spatial_until) && self.spatial_until >= 0.0,
+            "spatial_until",
+            self.spatial_until,
+            ">= 0",
+        )?;
+        check(
+            self.spatial_radius <= 5,
+            "spatial_radius",
+            self.spatial_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            self.clamp_radius <= 5,
+            "clamp_radius",
+            self.clamp_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.clamp_gamma) && self.clamp_gamma > 0.0,
+            "clamp_gamma",
+            self.clamp_gamma,
+            "> 0",
+        )?;
+        check(
+            finite(self.firefly_max) && self.firefly_max >= 0.0,
+            "firefly_max",
+            self.firefly_max,
+            ">= 0",
+        )?;
+        check(
+            finite(self.normal_threshold) && (-1.0..=1.0).contains(&self.normal_threshold),
+            "normal_threshold",
+            self.normal_threshold,
+            "-1..=1",
+        )?;
+        check(
+            finite(self.plane_threshold) && self.plane_threshold > 0.0,
+            "plane_threshold",
+            self.plane_threshold,
+            "> 0",
+        )?;
+        Ok(())
+    }
+}
+
+/// A denoiser failure: bad settings or a backend error.
+#[derive(Debug)]
+pub enum DenoiserError<E> {
+    /// Settings or resolution out of range.
+    Settings(SettingsError),
+    /// The backend failed.
+    Backend(E),
+}
+
+impl<E: fmt::Display> fmt::Display for DenoiserError<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DenoiserError::Settings(e) => write!(f, "{e}"),
+            DenoiserError::Backend(e) => write!(f, "backend: {e}"),
+        }
+    }
+}
+
+impl<E> From<E> for DenoiserError<E> {
+    fn from(e: E) -> Self {
+        DenoiserError::Backend(e)
+    }
+}
+
+/// Per-frame inputs that are not images.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct FrameInfo {
+    /// Frame number; seeds the rng index of pixels whose history was lost.
+    pub index: u32,
+    /// First frame or camera cut: discard all history.
+    pub reset: bool,
+    /// Angle one pixel subtends, radians (`2·tan(fov_y/2) / height`): scales plane tolerances.
+    pub pixel_angle: f32,
+    /// Read [`Denoiser::mask`] this frame.
+    pub use_mask: bool,
+}
+
+/// The buffers of one denoiser instance and the passes that run on them.
+#[derive(Clone, Debug)]
+pub struct Denoiser {
+    settings: Settings,
+    width: u32,
+    height: u32,
+    surfaces: [BufferId; 2],
+    history: [BufferId; 2],
+    reprojected: BufferId,
+    flags: BufferId,
+    samples: BufferId,
+    filtered: [BufferId; 2],
+    mask: BufferId,
+    requests: BufferId,
+    counts: BufferId,
+    decision: BufferId,
+    noise: BufferId,
+    rays: BufferId,
+    work: BufferId,
+    args: BufferId,
+    cur: usize,
+    out: usize,
+    frame: FrameInfo,
+}
+
+/// Bytes of one element of each buffer kind.
+const SURFACE_BYTES: u64 = core::mem::size_of::<crate::gbuffer::Surface>() as u64;
+const PAYLOAD_BYTES: u64 = core::mem::size_of::<crate::payload::Payload>() as u64;
+const SAMPLE_BYTES: u64 = core::mem::size_of::<crate::payload::Sample>() as u64;
+const FILTERED_BYTES: u64 = core::mem::size_of::<atrous::Filtered>() as u64;
+
+impl Denoiser {
+    /// Validates `settings` and allocates every buffer for a `width × height` image.
+    pub fn new<E: Executor>(
+        exec: &mut E,
+        width: u32,
+        height: u32,
+        settings: Settings,
+    ) -> Result<Self, DenoiserError<E::Error>> {
+        if width == 0 || height == 0 {
+            return Err(DenoiserError::Settings(SettingsError::Resolution {
+                width,
+                height,
+            }));
+        }
+        settings.validate().map_err(DenoiserError::Settings)?;
+        let pixels = width as u64 * height as u64;
+        let planes = pixels * settings.planes as u64;
+        let noise = exec.create_buffer(blue_noise::LEN as u64 * 4)?;
+        exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
+        Ok(Denoiser {
+            settings,
+            width,
+            height,
+            surfaces: [
+                exec.create_buffer(pixels * SURFACE_BYTES)?,
+                exec.create_buffer(pixels * SURFACE_BYTES)?,
+            ],
+            history: [
+                exec.create_buffer(planes * PAYLOAD_BYTES)?,
+                exec.create_buffer(planes * PAYLOAD_BYTES)?,
+            ],
+            reprojected: exec.create_buffer(planes * PAYLOAD_BYTES)?,
+            flags: exec.create_buffer(pixels * 4)?,
+            samples: exec.create_buffer(planes * SAMPLE_BYTES)?,
+            filtered: [
+                exec.create_buffer(planes * FILTERED_BYTES)?,
+                exec.create_buffer(planes * FILTERED_BYTES)?,
+            ],
+            mask: exec.create_buffer(pixels * 4)?,
+            requests: exec.create_buffer(pixels * 4)?,
+            counts: exec.create_buffer(buckets::COUNTS_LEN as u64 * 4)?,
+            decision: exec.create_buffer(core::mem::size_of::<balance::Balance>() as u64)?,
+            noise,
+            rays: exec.create_buffer(pixels * 4)?,
+            work: exec.create_buffer(pixels * 4)?,
+            args: exec.create_buffer(apply::ARGS_LEN as u64 * 4)?,
+            cur: 0,
+            out: 0,
+            frame: FrameInfo {
+                index: 0,
+                reset: true,
+                pixel_angle: 1.0 / height as f32,
+                use_mask: false,
+            },
+        })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Image size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// This frame's G-buffer (`Surface` per pixel): the caller fills it before [`Self::reproject`].
+    pub fn surfaces(&self) -> BufferId {
+        self.surfaces[self.cur]
+    }
+
+    /// Last frame's G-buffer.
+    pub fn prev_surfaces(&self) -> BufferId {
+        self.surfaces[1 - self.cur]
+    }
+
+    /// Reprojected history (`Payload` per pixel and plane): raygen reads each pixel's rng index
+    /// from it.
+    pub fn reprojected(&self) -> BufferId {
+        self.reprojected
+    }
+
+    /// Optional VRS-style mask (`u32` per pixel, 0 = needs no ray), used when
+    /// [`FrameInfo::use_mask`] is set; the caller writes it.
+    pub fn mask(&self) -> BufferId {
+        self.mask
+    }
+
+    /// Requested bucket per pixel (after [`Self::plan_rays`]).
+    pub fn requests(&self) -> BufferId {
+        self.requests
+    }
+
+    /// The balancer's decision (`balance::Balance`, after [`Self::plan_rays`]).
+    pub fn decision(&self) -> BufferId {
+        self.decision
+    }
+
+    /// Rays granted per pixel (`u32`, after [`Self::plan_rays`]): raygen traces exactly these.
+    pub fn rays(&self) -> BufferId {
+        self.rays
+    }
+
+    /// Compacted list of tracing pixels (`u32` pixel indices, after [`Self::plan_rays`]).
+    pub fn work(&self) -> BufferId {
+        self.work
+    }
+
+    /// `[count, groups_x, 1, 1]` of the work list: indirect dispatch arguments at byte offset 4.
+    pub fn args(&self) -> BufferId {
+        self.args
+    }
+
+    /// Per-pixel reprojection flags (`reproject::FLAG_*`).
+    pub fn flags(&self) -> BufferId {
+        self.flags
+    }
+
+    /// This frame's raygen output (`Sample` per pixel and plane): the caller fills it between
+    /// [`Self::reproject`] and [`Self::resolve`].
+    pub fn samples(&self) -> BufferId {
+        self.samples
+    }
+
+    /// Accumulated history after [`Self::resolve`] (`Payload` per pixel and plane).
+    pub fn history(&self) -> BufferId {
+        self.history[self.cur]
+    }
+
+    /// The denoised signal after [`Self::resolve`] (`Filtered` per pixel and plane).
+    pub fn output(&self) -> BufferId {
+        self.filtered[self.out]
+    }
+
+    /// Starts a frame: swaps the ping-pong G-buffer and history so last frame's become `prev`.
+    pub fn begin_frame(&mut self, frame: FrameInfo) {
+        self.cur = 1 - self.cur;
+        self.frame = frame;
+    }
+
+    /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
+    /// and apply. Afterwards [`Self::rays`], [`Self::work`] and [`Self::args`] say what to trace.
+    pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h) = (self.width, self.height);
+        let vrrt = s.supersample_target > 0.0;
+        let params = reproject::ReprojectParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            reset: self.frame.reset as u32,
+            normal_threshold: s.normal_threshold,
+            plane_threshold: s.plane_threshold,
+            frame_index: self.frame.index,
+            supersample_target: s.supersample_target,
+            full_history: s.max_history,
+            base_rate: if vrrt { 1.0 } else { s.rays_per_pixel },
+            use_mask: self.frame.use_mask as u32,
+            variance_threshold: if s.undersample {
+                s.variance_threshold
+            } else {
+                [0.0; 4]
+            },
+            variance_rate: s.variance_rate,
+            ..Default::default()
+        };
+        let buffers = [
+            self.surfaces[self.cur],
+            self.surfaces[1 - self.cur],
+            self.history[1 - self.cur],
+            self.mask,
+            self.reprojected,
+            self.flags,
+            self.requests,
+        ];
+        exec.dispatch(&Pass::over_grid(
+            &reproject::KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&params),
+            w,
+            h,
+            1,
+        ))?;
+
+        let fill = clear::FillParams {
+            len: buckets::COUNTS_LEN,
+            value: 0,
+        };
+        exec.dispatch(&Pass::over_grid(
+            &clear::KERNEL,
+            &[self.counts],
+            bytemuck::bytes_of(&fill),
+            fill.len,
+            1,
+            1,
+        ))?;
+        let count = buckets::BucketParams {
+            width: w,
+            height: h,
+        };
+        exec.dispatch(&Pass::over_grid(
+            &buckets::KERNEL,
+            &[self.requests, self.counts],
+            bytemuck::bytes_of(&count),
+            w,
+            h,
+            1,
+        ))?;
+
+        let bal = balance::BalanceParams {
+            budget: if s.load_balance {
+                s.rays_per_pixel * (w as f32 * h as f32)
+            } else {
+                f32::MAX
+            },
+            ring_count: buckets::ring_count(w, h),
+            raise: (s.load_balance && s.spend_saved_rays) as u32,
+            _pad: 0,
+        };
+        let buffers = [self.counts, self.decision, self.args];
+        exec.dispatch(&Pass {
+            kernel: &balance::KERNEL,
+            buffers: &buffers,
+            params: bytemuck::bytes_of(&bal),
+            groups: Groups::Direct([1, 1, 1]),
+        })?;
+
+        let app = apply::ApplyParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            frame_index: self.frame.index,
+        };
+        let buffers = [
+            self.requests,
+            self.decision,
+            self.noise,
+            self.rays,
+            self.work,
+            self.args,
+            self.samples,
+        ];
+        exec.dispatch(&Pass::over_grid(
+            &apply::KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&app),
+            w,
+            h,
+            1,
+        ))
+    }
+
+    /// Passes 2.. (after raygen): accumulation, variance estimation and the à-trous iterations.
+    pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
+        let acc = accumulate::AccumulateParams {
+            width: w,
+            height: h,
+            max_history: s.max_history,
+            rng_wrap: s.rng_wrap,
+            clamp_radius: s.clamp_radius,
+            clamp_gamma: s.clamp_gamma,
+            firefly_max: s.firefly_max,
+            _pad: 0,
+        };
+        let buffers = [self.reprojected, self.samples, self.history[self.cur]];
+        exec.dispatch(&Pass::over_grid(
+            &accumulate::KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&acc),
+            w,
+            h,
+            planes,
+        ))?;
+
+        let plane_scale = s.plane_tolerance * self.frame.pixel_angle;
+        let var = variance::VarianceParams {
+            width: w,
+            height: h,
+            radius: s.spatial_radius,
+            spatial_until: s.spatial_until,
+            plane_scale,
+            normal_power: s.normal_power,
+            ..Default::default()
+        };
+        let buffers = [
+            self.history[self.cur],
+            self.surfaces[self.cur],
+            self.filtered[0],
+        ];
+        exec.dispatch(&Pass::over_grid(
+            &variance::KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&var),
+            w,
+            h,
+            planes,
+        ))?;
+
+        self.out = 0;
+        for i in 0..s.atrous_iterations {
+            let params = atrous::AtrousParams {
+                width: w,
+                height: h,
+                step: 1 << i,
+                sigma_luminance: s.sigma_luminance,
+                plane_scale,
+                normal_power: s.normal_power,
+                ..Default::default()
+            };
+            let buffers = [
+                self.filtered[self.out],
+                self.surfaces[self.cur],
+                self.filtered[1 - self.out],
+            ];
+            exec.dispatch(&Pass::over_grid(
+                &atrous::KERNEL,
+                &buffers,
+                bytemuck::bytes_of(&params),
+                w,
+                h,
+                planes,
+            ))?;
+            self.out = 1 - self.out;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,110 @@
+//! VRRT apply: turns each pixel's requested bucket and the balancer's thresholds into the rays it
+//! traces this frame, and compacts the pixels that trace into a work list for an indirect raygen.
+//!
+//! Seed: vrrt-call-of-duty-2026, "VRRT Apply / Produce ray args" (`VrrtApply`) and "Undersampling"
+//! (fractional rates realised by a spatio-temporal blue-noise test, `rate > noise ? 1 : 0`).
+//! Pixels that trace nothing get an empty [`Sample`] in every plane here, so accumulation sees
+//! "no ray" instead of last frame's sample.
+
+use super::balance::{granted_bucket, Balance};
+use super::buckets::{bucket_to_rate, ring_id, BUCKET_COUNT};
+use super::pixel_index;
+use crate::atomic;
+use crate::blue_noise::blue_noise;
+use crate::payload::Sample;
+use bytemuck::{Pod, Zeroable};
+use glam::UVec3;
+
+/// Invocations per workgroup of list-driven kernels (the work list's dispatch granularity).
+pub const LIST_GROUP: u32 = 64;
+/// Words of the indirect-arguments buffer: `[count, groups_x, groups_y, groups_z]`.
+pub const ARGS_LEN: u32 = 4;
+
+/// Push constants of [`apply`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ApplyParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Signal planes (empty samples are written to each).
+    pub planes: u32,
+    /// Frame number: animates the blue-noise thresholds.
+    pub frame_index: u32,
+}
+
+/// Rays pixel `(x, y)` traces: its granted rate, realised stochastically when fractional.
+#[inline]
+pub fn resolve_rays(
+    x: u32,
+    y: u32,
+    bucket: u32,
+    p: &ApplyParams,
+    d: &Balance,
+    noise: &[f32],
+) -> u32 {
+    if bucket >= BUCKET_COUNT {
+        return 0;
+    }
+    let g = granted_bucket(bucket, ring_id(x, y, p.width, p.height), d);
+    let rate = bucket_to_rate(g);
+    if rate >= 1.0 {
+        rate as u32
+    } else {
+        (rate > blue_noise(noise, x, y, p.frame_index)) as u32
+    }
+}
+
+/// One invocation per pixel. Writes `rays[pixel]`, appends tracing pixels to `work` and counts
+/// them in `args[0]`; `args[1]` ends as the number of [`LIST_GROUP`]-wide groups (the balancer
+/// reset `args` to `[0, 0, 1, 1]` before this pass).
+#[allow(clippy::too_many_arguments)]
+pub fn apply(
+    id: UVec3,
+    p: &ApplyParams,
+    requests: &[u32],
+    decision: &[Balance],
+    noise: &[f32],
+    rays: &mut [u32],
+    work: &mut [u32],
+    args: &mut [u32],
+    samples: &mut [Sample],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let pix = pixel_index(id.x, id.y, p.width);
+    let n = resolve_rays(id.x, id.y, requests[pix], p, &decision[0], noise);
+    rays[pix] = n;
+    if n == 0 {
+        let mut z = 0;
+        while z < p.planes {
+            samples[(z * p.width * p.height) as usize + pix] = Sample::default();
+            z += 1;
+        }
+        return;
+    }
+    let slot = atomic::add(&mut args[0], 1);
+    work[slot as usize] = pix as u32;
+    if slot.is_multiple_of(LIST_GROUP) {
+        atomic::max(&mut args[1], slot / LIST_GROUP + 1);
+    }
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`apply`]: bindings `requests`, `decision`, `noise`, `rays`,
+    /// `work`, `args`, `samples`.
+    KERNEL = "apply", apply, threads(8, 8, 1),
+    params: ApplyParams,
+    bindings: [
+        requests: Read u32,
+        decision: Read Balance,
+        noise: Read f32,
+        rays: ReadWrite u32,
+        work: ReadWrite u32,
+        args: ReadWrite u32,
+        samples: ReadWrite Sample,
+    ]
+);

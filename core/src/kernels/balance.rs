@@ -1,0 +1,355 @@
+//! The load balancer: from the bucket histogram, choose the bucket threshold and ring threshold
+//! that bring the expected rays of the frame to the budget (water filling).
+//!
+//! Seed: vrrt-call-of-duty-2026, "Load balancing" and "Load balancer - refinement"; the garbled
+//! listing is read as ALGORITHMS.md "Load balancer (water filling)" states it:
+//!
+//! - Over budget: the largest threshold `t` with `Σ_b c[b]·rate(min(b, t)) <= R`; every pixel gets
+//!   `min(b, t)`, and pixels in rings `>= k` (the screen centre) keep one more step, `min(b, t+1)`,
+//!   with the smallest `k` (most inner rings) that keeps the total within `R`.
+//! - Under budget: the largest `t` with `Σ_b c[b]·rate(max(b, t)) <= R`; every pixel gets
+//!   `max(b, t)`, inner rings `>= k` get `max(b, t+1)`.
+//!
+//! Both sums are non-decreasing in `t`, so the expected rays granted never exceed `R` whenever the
+//! budget can be met at all (even 1/64 ray for every requesting pixel may be too much: then `t = 0`
+//! and the overshoot is reported). The balancer only picks thresholds; [`super::apply`] applies them.
+
+use super::buckets::{bucket_to_rate, BUCKET_COUNT};
+use bytemuck::{Pod, Zeroable};
+use glam::UVec3;
+
+/// No threshold applied: the requests fit the budget exactly (or raising is off).
+pub const MODE_KEEP: u32 = 0;
+/// Requests clamped down to the threshold.
+pub const MODE_OVER: u32 = 1;
+/// Requests raised up to the threshold.
+pub const MODE_UNDER: u32 = 2;
+
+/// Push constants of the balancer.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BalanceParams {
+    /// Ray budget of the frame: target rays per pixel × pixels.
+    pub budget: f32,
+    /// Rings of the image (`buckets::ring_count`).
+    pub ring_count: u32,
+    /// Nonzero: spend unused budget by raising low requests; zero ("save" mode): leave it unspent.
+    pub raise: u32,
+    /// Padding.
+    pub _pad: u32,
+}
+
+/// The balancer's decision (what [`super::apply`] reads) and its bookkeeping.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Balance {
+    /// [`MODE_KEEP`], [`MODE_OVER`] or [`MODE_UNDER`].
+    pub mode: u32,
+    /// Bucket threshold `t`.
+    pub bucket_threshold: u32,
+    /// Rings `>= ring_threshold` get one more step (`t + 1`); `ring_count` means none.
+    pub ring_threshold: u32,
+    /// Padding.
+    pub _pad: u32,
+    /// Expected rays requested (sum of requested rates).
+    pub requested: f32,
+    /// Expected rays granted (sum of granted rates).
+    pub granted: f32,
+    /// The budget the decision was made for.
+    pub budget: f32,
+    /// Padding.
+    pub _pad1: f32,
+}
+
+/// The bucket a pixel requesting bucket `b` in ring `ring` is granted.
+#[inline]
+pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
+    let t = d.bucket_threshold + (ring >= d.ring_threshold) as u32;
+    match d.mode {
+        MODE_OVER => {
+            if b < t {
+                b
+            } else {
+                t
+            }
+        }
+        MODE_UNDER => {
+            if b > t {
+                b
+            } else {
+                t
+            }
+        }
+        _ => b,
+    }
+}
+
+/// Expected rays if every bucket `b` is mapped to `min(b, t)` (`down`) or `max(b, t)`.
+fn rays_at(counts: &[u32], t: u32, down: bool) -> f32 {
+    let mut sum = 0.0f32;
+    let mut b = 0;
+    while b < BUCKET_COUNT {
+        let g = if down == (b < t) { b } else { t };
+        sum += counts[b as usize] as f32 * bucket_to_rate(g);
+        b += 1;
+    }
+    sum
+}
+
+/// Pixels of ring `r` that the extra step of threshold `t` would change (`b > t` over budget,
+/// `b <= t` under).
+fn ring_pixels_moved(counts: &[u32], r: u32, t: u32, down: bool) -> f32 {
+    let base = ((1 + r) * BUCKET_COUNT) as usize;
+    let mut n = 0u32;
+    let mut b = 0;
+    while b < BUCKET_COUNT {
+        if down == (b > t) {
+            n += counts[base + b as usize];
+        }
+        b += 1;
+    }
+    n as f32
+}
+
+/// Solves for the thresholds. `counts` is the histogram of `buckets::count` (totals, then one row
+/// per ring).
+pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
+    let requested = rays_at(counts, 0, false);
+    let keep = Balance {
+        mode: MODE_KEEP,
+        ring_threshold: p.ring_count,
+        requested,
+        granted: requested,
+        budget: p.budget,
+        ..Balance::default()
+    };
+    let down = requested > p.budget;
+    if requested == p.budget || (!down && p.raise == 0) {
+        return keep;
+    }
+    // Largest t whose total fits (both sums are non-decreasing in t).
+    let mut t = 0u32;
+    let mut base = rays_at(counts, 0, down);
+    let mut cand = 1;
+    while cand < BUCKET_COUNT {
+        let r = rays_at(counts, cand, down);
+        if r <= p.budget {
+            t = cand;
+            base = r;
+        }
+        cand += 1;
+    }
+    // Rings from the centre outward get t + 1 while it fits.
+    let mut k = p.ring_count;
+    let mut granted = base;
+    if base <= p.budget && t + 1 < BUCKET_COUNT {
+        let step = bucket_to_rate(t + 1) - bucket_to_rate(t);
+        let mut extra = 0.0f32;
+        while k > 0 {
+            let add = step * ring_pixels_moved(counts, k - 1, t, down);
+            if base + extra + add > p.budget {
+                break;
+            }
+            extra += add;
+            k -= 1;
+        }
+        granted = base + extra;
+    }
+    Balance {
+        mode: if down { MODE_OVER } else { MODE_UNDER },
+        bucket_threshold: t,
+        ring_threshold: k,
+        requested,
+        granted,
+        budget: p.budget,
+        ..Balance::default()
+    }
+}
+
+/// One invocation: writes [`solve`]'s decision to `out[0]` and resets the apply pass's work-list
+/// arguments to `[0, 0, 1, 1]` (count, groups x, y, z).
+pub fn balance(
+    id: UVec3,
+    p: &BalanceParams,
+    counts: &[u32],
+    out: &mut [Balance],
+    args: &mut [u32],
+) {
+    if id.x == 0 && id.y == 0 && id.z == 0 {
+        out[0] = solve(counts, p);
+        args[0] = 0;
+        args[1] = 0;
+        args[2] = 1;
+        args[3] = 1;
+    }
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`balance`]: bindings `counts` (`buckets::COUNTS_LEN` u32), `out`
+    /// (one [`Balance`]), `args` (`apply::ARGS_LEN` u32); dispatch one workgroup.
+    KERNEL = "balance", balance, threads(1, 1, 1),
+    params: BalanceParams,
+    bindings: [counts: Read u32, out: ReadWrite Balance, args: ReadWrite u32]
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernels::buckets::{COUNTS_LEN, MAX_RINGS};
+
+    /// A histogram with `n` pixels per (bucket, ring) entry given.
+    fn histogram(entries: &[(u32, u32, u32)]) -> [u32; COUNTS_LEN as usize] {
+        let mut c = [0u32; COUNTS_LEN as usize];
+        for &(b, ring, n) in entries {
+            c[b as usize] += n;
+            c[((1 + ring) * BUCKET_COUNT + b) as usize] += n;
+        }
+        c
+    }
+
+    /// Expected rays granted, recomputed pixel group by pixel group from `granted_bucket`.
+    fn granted(c: &[u32], rings: u32, d: &Balance) -> f64 {
+        let mut sum = 0.0;
+        for r in 0..rings {
+            for b in 0..BUCKET_COUNT {
+                let n = c[((1 + r) * BUCKET_COUNT + b) as usize] as f64;
+                sum += n * bucket_to_rate(granted_bucket(b, r, d)) as f64;
+            }
+        }
+        sum
+    }
+
+    #[test]
+    fn converged_image_at_one_and_a_half_rays_gives_the_centre_two() {
+        // 4 rings of 100 pixels, all asking for 1 ray; budget 1.5 rays per pixel.
+        let c = histogram(&[(64, 0, 100), (64, 1, 100), (64, 2, 100), (64, 3, 100)]);
+        let d = solve(
+            &c,
+            &BalanceParams {
+                budget: 600.0,
+                ring_count: 4,
+                raise: 1,
+                _pad: 0,
+            },
+        );
+        assert_eq!(d.mode, MODE_UNDER);
+        assert_eq!(d.bucket_threshold, 64);
+        assert_eq!(d.ring_threshold, 2, "inner half of the rings get 2 rays");
+        assert_eq!(granted(&c, 4, &d), 600.0);
+        // Save mode leaves the budget unspent.
+        let d = solve(
+            &c,
+            &BalanceParams {
+                budget: 600.0,
+                ring_count: 4,
+                raise: 0,
+                _pad: 0,
+            },
+        );
+        assert_eq!(d.mode, MODE_KEEP);
+    }
+
+    #[test]
+    fn over_budget_drops_the_highest_requests_first() {
+        // 10 disoccluded pixels want 16 rays, 90 converged want 1; budget 1 ray per pixel.
+        let c = histogram(&[(79, 0, 10), (64, 0, 90)]);
+        let d = solve(
+            &c,
+            &BalanceParams {
+                budget: 100.0,
+                ring_count: 1,
+                raise: 1,
+                _pad: 0,
+            },
+        );
+        assert_eq!(d.mode, MODE_OVER);
+        assert!(granted(&c, 1, &d) <= 100.0);
+        assert_eq!(
+            granted_bucket(64, 0, &d),
+            64,
+            "converged pixels keep their ray"
+        );
+        assert!(bucket_to_rate(granted_bucket(79, 0, &d)) >= 1.0);
+    }
+
+    #[test]
+    fn infeasible_budget_clamps_to_the_lowest_rate() {
+        let c = histogram(&[(64, 0, 1000)]);
+        let d = solve(
+            &c,
+            &BalanceParams {
+                budget: 1.0,
+                ring_count: 1,
+                raise: 1,
+                _pad: 0,
+            },
+        );
+        assert_eq!(d.bucket_threshold, 0);
+        assert!(d.granted > d.budget);
+    }
+
+    /// Budget invariant over random histograms: whenever the budget can be met, expected rays
+    /// granted never exceed it; and the balancer spends it to within one bucket step of one ring.
+    #[test]
+    fn budget_invariant_over_random_histograms() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for case in 0..3000 {
+            let rings = 1 + (next() % MAX_RINGS as u64) as u32;
+            let mut entries = [(0u32, 0u32, 0u32); 40];
+            for e in entries.iter_mut() {
+                *e = (
+                    (next() % BUCKET_COUNT as u64) as u32,
+                    (next() % rings as u64) as u32,
+                    (next() % 2000) as u32,
+                );
+            }
+            let c = histogram(&entries);
+            let pixels: u32 = c[..BUCKET_COUNT as usize].iter().sum();
+            let rpp = [0.25f32, 0.5, 1.0, 1.5, 2.0, 4.0][case % 6];
+            let p = BalanceParams {
+                budget: rpp * pixels as f32,
+                ring_count: rings,
+                raise: 1,
+                _pad: 0,
+            };
+            let d = solve(&c, &p);
+            let got = granted(&c, rings, &d);
+            let feasible = (pixels as f64 / 64.0) <= p.budget as f64;
+            if feasible {
+                // f32 accumulation in the solver vs f64 here: allow relative rounding only.
+                assert!(
+                    got <= p.budget as f64 * (1.0 + 1e-5),
+                    "case {case}: {got} > {}",
+                    p.budget
+                );
+                approx::assert_relative_eq!(got as f32, d.granted, max_relative = 1e-4);
+            }
+            if d.mode != MODE_KEEP && d.bucket_threshold + 1 < BUCKET_COUNT {
+                // Not spending one more ring's step means it would not have fit.
+                let step = (bucket_to_rate(d.bucket_threshold + 1)
+                    - bucket_to_rate(d.bucket_threshold)) as f64;
+                let max_ring: f64 = (0..rings)
+                    .map(|r| {
+                        (0..BUCKET_COUNT)
+                            .map(|b| c[((1 + r) * BUCKET_COUNT + b) as usize] as f64)
+                            .sum::<f64>()
+                    })
+                    .fold(0.0, f64::max);
+                if feasible && d.mode == MODE_UNDER {
+                    assert!(
+                        p.budget as f64 - got <= step * max_ring + 1e-3 * p.budget as f64 + 1.0,
+                        "case {case}: left {} unspent",
+                        p.budget as f64 - got
+                    );
+                }
+            }
+        }
+    }
+}

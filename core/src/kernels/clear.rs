@@ -1,0 +1,33 @@
+//! Fills a `u32` buffer with a value: resets counters (the bucket histogram) on the GPU timeline,
+//! so a frame needs no host writes between passes and records into one command buffer.
+
+use bytemuck::{Pod, Zeroable};
+use glam::UVec3;
+
+/// Invocations per workgroup.
+pub const GROUP: u32 = 64;
+
+/// Push constants of [`fill`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FillParams {
+    /// Words to write, from the start of the buffer.
+    pub len: u32,
+    /// Value written.
+    pub value: u32,
+}
+
+/// One invocation per word.
+pub fn fill(id: UVec3, p: &FillParams, buf: &mut [u32]) {
+    if id.x < p.len {
+        buf[id.x as usize] = p.value;
+    }
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`fill`]: binding `buf`; dispatch `len.div_ceil(GROUP)` groups.
+    KERNEL = "fill", fill, threads(64, 1, 1),
+    params: FillParams,
+    bindings: [buf: ReadWrite u32]
+);

@@ -1,0 +1,220 @@
+//! G-buffer: one primary ray per pixel through its centre, writing the [`Surface`] every later
+//! pass reads, including the pixel's motion vector (where the surface point was last frame).
+//!
+//! Conventions (what an independent renderer must match):
+//! - `position` is the barycentric interpolation of the hit triangle's vertices (on the surface,
+//!   not `origin + t·dir`); `depth` is its distance along the camera's forward axis.
+//! - Surfaces are two-sided. The geometric normal is the normalized face normal, flipped to face
+//!   the camera (`g · dir < 0`); the shading normal (interpolated vertex normals, normalized) is
+//!   flipped together with it. A degenerate shading normal (zero or non-finite) is replaced by `g`.
+//! - Motion: `prev = prev_from_current(instance) · position` (stored as `prev_p*`), projected
+//!   with the previous frame's camera (pixel centres at integer coordinates, [`crate::camera::OFFSCREEN`] when behind it).
+//! - Sky pixels get [`NO_INSTANCE`], zero position/normals/depth, and the previous pixel of their
+//!   view direction under the previous camera's rotation.
+
+use super::pixel_index;
+use crate::camera::Camera;
+use crate::gbuffer::{Surface, NO_INSTANCE};
+use crate::math;
+use crate::trace::{self, normalize, BvhNode, Triangle, TriangleNormals};
+use bytemuck::{Pod, Zeroable};
+use glam::{UVec3, Vec3};
+
+/// Far limit of primary rays.
+pub const PRIMARY_T_MAX: f32 = 1.0e30;
+
+/// Per-instance data of the G-buffer pass (64 bytes), indexed by [`Triangle::instance`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq, Pod, Zeroable)]
+pub struct InstanceData {
+    /// Rigid (or affine) map from this frame's world position of a point on the instance to the
+    /// same point's world position last frame, row-major 3×4: row 0 `m00 m01 m02 m03`.
+    pub m00: f32,
+    /// Row 0, column 1.
+    pub m01: f32,
+    /// Row 0, column 2.
+    pub m02: f32,
+    /// Row 0, translation.
+    pub m03: f32,
+    /// Row 1, column 0.
+    pub m10: f32,
+    /// Row 1, column 1.
+    pub m11: f32,
+    /// Row 1, column 2.
+    pub m12: f32,
+    /// Row 1, translation.
+    pub m13: f32,
+    /// Row 2, column 0.
+    pub m20: f32,
+    /// Row 2, column 1.
+    pub m21: f32,
+    /// Row 2, column 2.
+    pub m22: f32,
+    /// Row 2, translation.
+    pub m23: f32,
+    /// GGX alpha written to [`Surface::roughness`] (1 = diffuse).
+    pub roughness: f32,
+    /// Reserved.
+    pub _pad0: f32,
+    /// Reserved.
+    pub _pad1: f32,
+    /// Reserved.
+    pub _pad2: f32,
+}
+
+impl Default for InstanceData {
+    fn default() -> Self {
+        InstanceData::from_rows(
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            1.0,
+        )
+    }
+}
+
+impl InstanceData {
+    /// From the three rows of the current→previous map and a roughness.
+    pub fn from_rows(r0: [f32; 4], r1: [f32; 4], r2: [f32; 4], roughness: f32) -> Self {
+        InstanceData {
+            m00: r0[0],
+            m01: r0[1],
+            m02: r0[2],
+            m03: r0[3],
+            m10: r1[0],
+            m11: r1[1],
+            m12: r1[2],
+            m13: r1[3],
+            m20: r2[0],
+            m21: r2[1],
+            m22: r2[2],
+            m23: r2[3],
+            roughness,
+            _pad0: 0.0,
+            _pad1: 0.0,
+            _pad2: 0.0,
+        }
+    }
+
+    /// Where the point now at `p` was last frame.
+    #[inline]
+    pub fn previous_position(&self, p: Vec3) -> Vec3 {
+        Vec3::new(
+            self.m00 * p.x + self.m01 * p.y + self.m02 * p.z + self.m03,
+            self.m10 * p.x + self.m11 * p.y + self.m12 * p.z + self.m13,
+            self.m20 * p.x + self.m21 * p.y + self.m22 * p.z + self.m23,
+        )
+    }
+}
+
+/// Push constants of [`gbuffer`] (112 bytes, within Vulkan's guaranteed 128).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GbufferParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// This frame's camera.
+    pub camera: Camera,
+    /// Last frame's camera (equal to `camera` on the first frame).
+    pub prev_camera: Camera,
+}
+
+/// The G-buffer texel of pixel `(x, y)`: trace its primary ray and shade the hit.
+pub fn surface_at(
+    x: u32,
+    y: u32,
+    p: &GbufferParams,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+    normals: &[TriangleNormals],
+    instances: &[InstanceData],
+) -> Surface {
+    let ray = p.camera.primary_ray(x, y, p.width, p.height);
+    let hit = trace::closest_hit(nodes, tris, &ray, PRIMARY_T_MAX);
+    if !hit.is_hit() {
+        let (prev_x, prev_y) = p.prev_camera.project_direction(ray.dir, p.width, p.height);
+        return Surface {
+            instance: NO_INSTANCE,
+            roughness: 1.0,
+            prev_x,
+            prev_y,
+            ..Surface::default()
+        };
+    }
+    let tri = tris[hit.tri as usize];
+    let position = tri.point(hit.b1, hit.b2);
+    let mut g = normalize(tri.face_normal());
+    let mut n = normalize(normals[hit.tri as usize].interpolate(hit.b1, hit.b2));
+    if g.dot(ray.dir) > 0.0 {
+        g = -g;
+        n = -n;
+    }
+    if !(math::is_finite(n.x) && math::is_finite(n.y) && math::is_finite(n.z)) {
+        n = g;
+    }
+    let (prev_position, roughness) = if (tri.instance as usize) < instances.len() {
+        let inst = instances[tri.instance as usize];
+        (inst.previous_position(position), inst.roughness)
+    } else {
+        (position, 1.0)
+    };
+    let (prev_x, prev_y) = p
+        .prev_camera
+        .project_point(prev_position, p.width, p.height);
+    Surface {
+        px: position.x,
+        py: position.y,
+        pz: position.z,
+        depth: p.camera.depth(position),
+        nx: n.x,
+        ny: n.y,
+        nz: n.z,
+        instance: tri.instance,
+        gx: g.x,
+        gy: g.y,
+        gz: g.z,
+        roughness,
+        prev_x,
+        prev_y,
+        prev_px: prev_position.x,
+        prev_py: prev_position.y,
+        prev_pz: prev_position.z,
+        _pad0: 0.0,
+        _pad1: 0.0,
+        _pad2: 0.0,
+    }
+}
+
+/// One invocation per pixel (`id.z` must be 0): `out[pixel] = surface_at(pixel)`.
+pub fn gbuffer(
+    id: UVec3,
+    p: &GbufferParams,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+    normals: &[TriangleNormals],
+    instances: &[InstanceData],
+    out: &mut [Surface],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    out[pixel_index(id.x, id.y, p.width)] =
+        surface_at(id.x, id.y, p, nodes, tris, normals, instances);
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`gbuffer`]: bindings `nodes`, `triangles`, `normals`, `instances`,
+    /// `out` (one [`Surface`] per pixel).
+    KERNEL = "gbuffer", gbuffer, threads(8, 8, 1),
+    params: GbufferParams,
+    bindings: [
+        nodes: Read BvhNode,
+        tris: Read Triangle,
+        normals: Read TriangleNormals,
+        instances: Read InstanceData,
+        out: ReadWrite Surface,
+    ]
+);

@@ -1,0 +1,357 @@
+//! Ray generation for the denoised signals: ambient occlusion and area-light shadows.
+//!
+//! Each pixel traces `rays` rays whose random numbers come from its own sequence: seed
+//! [`pixel_seed`]`(x, y, z)` (`z` = signal plane), index `rng_index[pixel, z] + i` for the `i`-th
+//! ray. A ray is a pure function of `(seed, index, Surface)` — [`ao_ray`] / [`shadow_ray`] — so
+//! the temporal-gradient pass can re-trace last frame's ray exactly. The per-pixel functions take
+//! the ray count as an argument; today the kernels read it from the push constants, the VRRT apply
+//! pass will drive it per pixel.
+//!
+//! Output per pixel and plane: [`Sample`] `{ m1 = mean(v), m2 = mean(v²), rays }` over the ray
+//! values `v ∈ {0, 1}`. Sky pixels ([`NO_INSTANCE`]) trace nothing and write `rays = 0`.
+//!
+//! **Ray origin.** Every secondary ray starts at `position + g · ε`, `g` the (camera-facing)
+//! geometric normal and `ε = RAY_OFFSET · max(1, |px|, |py|, |pz|)` with
+//! [`RAY_OFFSET`] `= 1e-4`: a relative offset, because float spacing grows with the coordinates.
+//!
+//! **AO convention.** Random numbers `u1 = rand(seed, index, 0)`, `u2 = rand(seed, index, 1)`.
+//! Normal `n` = the shading normal if `n · g > 0`, else `g`. Direction
+//! `ω = cosine_hemisphere(n, u1, u2)` (Malley: `r = √u1`, `φ = 2π·u2`, basis of
+//! [`orthonormal_basis`](crate::sampling::orthonormal_basis)). Value `1` (unoccluded) iff `ω · g > 0` and no triangle is hit with
+//! `0 < t < max_distance` from the offset origin (`ω` is unit length, so `t` is a distance);
+//! otherwise `0`. Directions below the geometric surface count as occluded. The expectation is
+//! the cosine-weighted unoccluded fraction of the hemisphere within `max_distance`.
+//!
+//! **Shadow convention.** One rectangular (parallelogram) area light per signal plane:
+//! `lights[z]`. Random numbers `u1 = rand(seed, index, 0)`, `u2 = rand(seed, index, 1)`; light
+//! point `q = corner + u1·edge_u + u2·edge_v` (uniform in area). `d = q − o` from the offset
+//! origin `o`, `dist = |d|`, `ω = d / dist`. Value `1` (visible) iff `ω · g > 0` and no triangle
+//! is hit with `0 < t < dist · (1 − SHADOW_T_SHRINK)` ([`SHADOW_T_SHRINK`] `= 1e-4`, so geometry
+//! touching the light does not shadow it); otherwise `0`. The light is two-sided, and the value
+//! is pure visibility: **no** cosine, distance or area factor — the expectation is the fraction
+//! of the light's area visible from the point (from above its geometric surface). Light geometry
+//! is never in the BVH.
+
+use super::plane_index;
+use crate::gbuffer::{Surface, NO_INSTANCE};
+use crate::math;
+use crate::payload::Sample;
+use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
+use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
+use bytemuck::{Pod, Zeroable};
+use glam::{UVec3, Vec3};
+
+/// Relative ray-origin offset along the geometric normal (see the module docs).
+pub const RAY_OFFSET: f32 = 1e-4;
+
+/// Shadow rays stop this fraction short of the light point.
+pub const SHADOW_T_SHRINK: f32 = 1e-4;
+
+/// A parallelogram area light (48 bytes): the points `corner + a·edge_u + b·edge_v`, `a, b ∈ [0,1]`.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AreaLight {
+    /// Corner, x.
+    pub corner_x: f32,
+    /// Corner, y.
+    pub corner_y: f32,
+    /// Corner, z.
+    pub corner_z: f32,
+    /// First edge, x.
+    pub edge_u_x: f32,
+    /// First edge, y.
+    pub edge_u_y: f32,
+    /// First edge, z.
+    pub edge_u_z: f32,
+    /// Second edge, x.
+    pub edge_v_x: f32,
+    /// Second edge, y.
+    pub edge_v_y: f32,
+    /// Second edge, z.
+    pub edge_v_z: f32,
+    /// Reserved.
+    pub _pad0: f32,
+    /// Reserved.
+    pub _pad1: f32,
+    /// Reserved.
+    pub _pad2: f32,
+}
+
+impl AreaLight {
+    /// A light from its corner and edges.
+    pub fn new(corner: Vec3, edge_u: Vec3, edge_v: Vec3) -> Self {
+        AreaLight {
+            corner_x: corner.x,
+            corner_y: corner.y,
+            corner_z: corner.z,
+            edge_u_x: edge_u.x,
+            edge_u_y: edge_u.y,
+            edge_u_z: edge_u.z,
+            edge_v_x: edge_v.x,
+            edge_v_y: edge_v.y,
+            edge_v_z: edge_v.z,
+            _pad0: 0.0,
+            _pad1: 0.0,
+            _pad2: 0.0,
+        }
+    }
+    /// Corner.
+    #[inline]
+    pub fn corner(&self) -> Vec3 {
+        Vec3::new(self.corner_x, self.corner_y, self.corner_z)
+    }
+    /// First edge.
+    #[inline]
+    pub fn edge_u(&self) -> Vec3 {
+        Vec3::new(self.edge_u_x, self.edge_u_y, self.edge_u_z)
+    }
+    /// Second edge.
+    #[inline]
+    pub fn edge_v(&self) -> Vec3 {
+        Vec3::new(self.edge_v_x, self.edge_v_y, self.edge_v_z)
+    }
+}
+
+/// Push constants of [`raygen_ao`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AoParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Rays per pixel this frame.
+    pub rays: u32,
+    /// AO radius: occluders farther than this do not count.
+    pub max_distance: f32,
+}
+
+/// Push constants of [`raygen_shadow`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShadowParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Rays per pixel this frame.
+    pub rays: u32,
+    /// Reserved.
+    pub _pad: u32,
+}
+
+/// Origin of the secondary rays of `s`: its position pushed off the surface along `g`.
+#[inline]
+pub fn ray_origin(s: &Surface) -> Vec3 {
+    let scale = math::max(
+        1.0,
+        math::max(math::abs(s.px), math::max(math::abs(s.py), math::abs(s.pz))),
+    );
+    s.position() + s.geometric_normal() * (RAY_OFFSET * scale)
+}
+
+/// Value of AO ray `index` of a pixel with sequence `seed` (AO convention in the module docs).
+pub fn ao_ray(
+    s: &Surface,
+    seed: u32,
+    index: u32,
+    max_distance: f32,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+) -> f32 {
+    let g = s.geometric_normal();
+    let ns = s.normal();
+    let n = if ns.dot(g) > 0.0 { ns } else { g };
+    let dir = cosine_hemisphere(n, rand(seed, index, 0), rand(seed, index, 1));
+    if !(dir.dot(g) > 0.0) {
+        return 0.0;
+    }
+    let ray = Ray {
+        origin: ray_origin(s),
+        dir,
+    };
+    if trace::occluded(nodes, tris, &ray, max_distance) {
+        0.0
+    } else {
+        1.0
+    }
+}
+
+/// Value of shadow ray `index` towards `light` (shadow convention in the module docs).
+pub fn shadow_ray(
+    s: &Surface,
+    light: &AreaLight,
+    seed: u32,
+    index: u32,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+) -> f32 {
+    let g = s.geometric_normal();
+    let origin = ray_origin(s);
+    let q = parallelogram_point(
+        light.corner(),
+        light.edge_u(),
+        light.edge_v(),
+        rand(seed, index, 0),
+        rand(seed, index, 1),
+    );
+    let d = q - origin;
+    let dist = math::sqrt(d.dot(d));
+    if !(dist > 0.0) {
+        return 0.0;
+    }
+    let dir = normalize(d);
+    if !(dir.dot(g) > 0.0) {
+        return 0.0;
+    }
+    let ray = Ray { origin, dir };
+    if trace::occluded(nodes, tris, &ray, dist * (1.0 - SHADOW_T_SHRINK)) {
+        0.0
+    } else {
+        1.0
+    }
+}
+
+/// Folds ray values into a [`Sample`]: running sums of `v` and `v²`, divided by the count.
+#[inline]
+fn finish(sum: f32, sum_sq: f32, rays: u32) -> Sample {
+    if rays == 0 {
+        return Sample::default();
+    }
+    let n = rays as f32;
+    Sample {
+        m1: sum / n,
+        m2: sum_sq / n,
+        rays,
+        _pad: 0,
+    }
+}
+
+/// AO of one pixel: `rays` rays with indices `first_index ..`, as a [`Sample`].
+pub fn ao_pixel(
+    s: &Surface,
+    seed: u32,
+    first_index: u32,
+    rays: u32,
+    max_distance: f32,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+) -> Sample {
+    if s.instance == NO_INSTANCE {
+        return Sample::default();
+    }
+    let (mut sum, mut sum_sq) = (0.0f32, 0.0f32);
+    let mut i = 0u32;
+    while i < rays {
+        let v = ao_ray(
+            s,
+            seed,
+            first_index.wrapping_add(i),
+            max_distance,
+            nodes,
+            tris,
+        );
+        sum += v;
+        sum_sq += v * v;
+        i += 1;
+    }
+    finish(sum, sum_sq, rays)
+}
+
+/// Shadow of one pixel towards `light`: `rays` rays with indices `first_index ..`.
+pub fn shadow_pixel(
+    s: &Surface,
+    light: &AreaLight,
+    seed: u32,
+    first_index: u32,
+    rays: u32,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+) -> Sample {
+    if s.instance == NO_INSTANCE {
+        return Sample::default();
+    }
+    let (mut sum, mut sum_sq) = (0.0f32, 0.0f32);
+    let mut i = 0u32;
+    while i < rays {
+        let v = shadow_ray(s, light, seed, first_index.wrapping_add(i), nodes, tris);
+        sum += v;
+        sum_sq += v * v;
+        i += 1;
+    }
+    finish(sum, sum_sq, rays)
+}
+
+/// One invocation per pixel and plane: AO samples. Bindings: surfaces (per pixel), rng index
+/// (per pixel and plane), nodes, triangles, out (per pixel and plane).
+pub fn raygen_ao(
+    id: UVec3,
+    p: &AoParams,
+    surfaces: &[Surface],
+    rng_index: &[u32],
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+    out: &mut [Sample],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let i = plane_index(id, p.width, p.height);
+    let s = surfaces[super::pixel_index(id.x, id.y, p.width)];
+    let seed = pixel_seed(id.x, id.y, id.z);
+    out[i] = ao_pixel(&s, seed, rng_index[i], p.rays, p.max_distance, nodes, tris);
+}
+
+#[allow(clippy::too_many_arguments)]
+/// One invocation per pixel and plane: shadow samples of light `lights[z]`. Bindings: surfaces,
+/// rng index, nodes, triangles, lights, out.
+pub fn raygen_shadow(
+    id: UVec3,
+    p: &ShadowParams,
+    surfaces: &[Surface],
+    rng_index: &[u32],
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+    lights: &[AreaLight],
+    out: &mut [Sample],
+) {
+    if id.x >= p.width || id.y >= p.height || id.z as usize >= lights.len() {
+        return;
+    }
+    let i = plane_index(id, p.width, p.height);
+    let s = surfaces[super::pixel_index(id.x, id.y, p.width)];
+    let seed = pixel_seed(id.x, id.y, id.z);
+    let light = lights[id.z as usize];
+    out[i] = shadow_pixel(&s, &light, seed, rng_index[i], p.rays, nodes, tris);
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`raygen_ao`]: bindings `surfaces`, `rng_index`, `nodes`,
+    /// `triangles`, `out`.
+    AO_KERNEL = "raygen_ao", raygen_ao, threads(8, 8, 1),
+    params: AoParams,
+    bindings: [
+        surfaces: Read Surface,
+        rng_index: Read u32,
+        nodes: Read BvhNode,
+        tris: Read Triangle,
+        out: ReadWrite Sample,
+    ]
+);
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`raygen_shadow`]: bindings `surfaces`, `rng_index`, `nodes`,
+    /// `triangles`, `lights`, `out`.
+    SHADOW_KERNEL = "raygen_shadow", raygen_shadow, threads(8, 8, 1),
+    params: ShadowParams,
+    bindings: [
+        surfaces: Read Surface,
+        rng_index: Read u32,
+        nodes: Read BvhNode,
+        tris: Read Triangle,
+        lights: Read AreaLight,
+        out: ReadWrite Sample,
+    ]
+);

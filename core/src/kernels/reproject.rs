@@ -1,0 +1,260 @@
+//! Temporal reprojection, its own pass before raygen, so the ray budget can be decided from what
+//! history survived.
+//!
+//! Seed: vrrt-call-of-duty-2026, "Supersampling" (`TemporalReprojection`, `GetRejectionWeights`)
+//! and ALGORITHMS.md "Reprojection with per-texel rejection". Each texel of the 2×2 bilinear
+//! footprint is tested on its own (normal, plane distance, non-empty history; depth and normals
+//! are never interpolated); the payload is the bilinear blend of the valid texels only, and never
+//! weighted by history length (that makes the signal swim). The rng index is point-sampled from
+//! the valid texel with the largest bilinear weight.
+//!
+//! Reprojection is also where VRRT decides how many rays each pixel asks for (seed: "Temporal
+//! reprojection pass is where most of the magic happens"): pixels with less history than
+//! `supersample_target` ask for enough rays to refill it (up to 16), pixels with full history ask
+//! for a fraction of a ray picked from their variance (4 thresholds, seed "Advanced
+//! undersampling"), sky and VRS-masked pixels ask for none. The request is a bucket index
+//! (`buckets::rate_to_bucket`).
+
+use super::buckets::rate_to_bucket;
+use super::{pixel_index, plane_index};
+use crate::gbuffer::Surface;
+use crate::math;
+use crate::payload::Payload;
+use bytemuck::{Pod, Zeroable};
+use glam::UVec3;
+
+/// Flag: no texel of the footprint was valid — history is lost (disocclusion, camera cut).
+pub const FLAG_DISOCCLUDED: u32 = 1;
+/// Flag: the pixel hit no geometry.
+pub const FLAG_SKY: u32 = 2;
+
+/// Push constants of [`reproject`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReprojectParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Signal planes (1..=4).
+    pub planes: u32,
+    /// Nonzero on the first frame and on camera cuts: every pixel starts empty.
+    pub reset: u32,
+    /// A texel is valid when `dot(n, n_prev)` is at least this (cosine).
+    pub normal_threshold: f32,
+    /// A texel is valid when its distance from the current point's previous tangent plane is at
+    /// most this fraction of its view depth.
+    pub plane_threshold: f32,
+    /// Footprint weight sum below which the pixel counts as disoccluded.
+    pub disocclusion_threshold: f32,
+    /// Starting rng index of pixels whose history was lost (the frame index).
+    pub frame_index: u32,
+    /// Supersampling: pixels with less history (rays) than this ask for the difference, up to 16
+    /// rays. 0 turns VRRT requests off: every geometry pixel asks for `base_rate`.
+    pub supersample_target: f32,
+    /// History length from which a pixel counts as converged and may undersample.
+    pub full_history: f32,
+    /// Rate of pixels that are neither refilling nor converged, and of every pixel without VRRT.
+    pub base_rate: f32,
+    /// Nonzero: `mask[pixel] == 0` means the pixel needs no ray (a VRS-style mask).
+    pub use_mask: u32,
+    /// Variance thresholds of the undersampling buckets, increasing; a converged pixel whose
+    /// (largest-plane) temporal variance is below `variance_threshold[i]` asks for
+    /// `variance_rate[i]`.
+    pub variance_threshold: [f32; 4],
+    /// Ray rates of the undersampling buckets.
+    pub variance_rate: [f32; 4],
+}
+
+impl Default for ReprojectParams {
+    fn default() -> Self {
+        ReprojectParams {
+            width: 0,
+            height: 0,
+            planes: 1,
+            reset: 0,
+            normal_threshold: 0.9,
+            plane_threshold: 0.02,
+            disocclusion_threshold: 1e-3,
+            frame_index: 0,
+            supersample_target: 0.0,
+            full_history: 64.0,
+            base_rate: 1.0,
+            use_mask: 0,
+            variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
+            variance_rate: [0.125, 0.25, 0.5, 1.0],
+        }
+    }
+}
+
+/// Whether previous-frame texel `t` shows the same surface as current texel `c`.
+#[inline]
+pub fn same_surface(c: &Surface, t: &Surface, p: &ReprojectParams) -> bool {
+    if !t.is_valid() {
+        return false;
+    }
+    let n_ok = c.normal().dot(t.normal()) >= p.normal_threshold;
+    let dist = math::abs(t.normal().dot(c.prev_position() - t.position()));
+    n_ok && dist <= p.plane_threshold * math::max(t.depth, 1e-6)
+}
+
+/// Ray rate a pixel asks for, from its shortest history and largest variance over the planes.
+#[inline]
+pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) -> f32 {
+    if p.supersample_target <= 0.0 {
+        return p.base_rate;
+    }
+    if min_count < p.supersample_target {
+        return math::clamp(
+            math::floor(p.supersample_target - min_count + 0.5),
+            1.0,
+            16.0,
+        );
+    }
+    if min_count >= p.full_history {
+        let mut i = 0;
+        while i < 4 {
+            if max_variance < p.variance_threshold[i] {
+                return p.variance_rate[i];
+            }
+            i += 1;
+        }
+    }
+    p.base_rate
+}
+
+/// One invocation per pixel; loops over the signal planes so the geometric tests run once.
+/// Writes the reprojected history of every plane to `out`, the pixel's flags to `flags` and its
+/// ray request (a bucket) to `requests`.
+#[allow(clippy::too_many_arguments)]
+pub fn reproject(
+    id: UVec3,
+    p: &ReprojectParams,
+    surfaces: &[Surface],
+    prev_surfaces: &[Surface],
+    history: &[Payload],
+    mask: &[u32],
+    out: &mut [Payload],
+    flags: &mut [u32],
+    requests: &mut [u32],
+) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let pix = pixel_index(id.x, id.y, p.width);
+    let c = surfaces[pix];
+    let empty = Payload {
+        m1: 0.0,
+        m2: 0.0,
+        count: 0.0,
+        rng_index: p.frame_index,
+    };
+
+    // Footprint: texel centres are at integer pixel coordinates.
+    let x0f = math::floor(c.prev_x);
+    let y0f = math::floor(c.prev_y);
+    let (ax, ay) = (c.prev_x - x0f, c.prev_y - y0f);
+    let geometry_ok = c.is_valid() && p.reset == 0 && math::is_finite(ax) && math::is_finite(ay);
+    let mut texel = [0usize; 4];
+    let mut bilinear = [
+        (1.0 - ax) * (1.0 - ay),
+        ax * (1.0 - ay),
+        (1.0 - ax) * ay,
+        ax * ay,
+    ];
+    let mut any = false;
+    let mut k = 0;
+    while k < 4 {
+        let tx = x0f + (k & 1) as f32;
+        let ty = y0f + (k >> 1) as f32;
+        let inside = tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32;
+        if geometry_ok && inside {
+            texel[k] = pixel_index(tx as u32, ty as u32, p.width);
+            if same_surface(&c, &prev_surfaces[texel[k]], p) {
+                any = true;
+            } else {
+                bilinear[k] = 0.0;
+            }
+        } else {
+            bilinear[k] = 0.0;
+        }
+        k += 1;
+    }
+
+    let mut lost = !any;
+    let mut min_count = f32::MAX;
+    let mut max_variance = 0.0f32;
+    let mut z = 0;
+    while z < p.planes {
+        let i = plane_index(UVec3::new(id.x, id.y, z), p.width, p.height);
+        let mut acc = Payload::default();
+        let mut sum_w = 0.0;
+        let mut best_w = 0.0;
+        let mut rng_index = p.frame_index;
+        let mut k = 0;
+        while k < 4 {
+            if bilinear[k] > 0.0 {
+                let h = history[z as usize * (p.width * p.height) as usize + texel[k]];
+                // Empty texels (undersampled, never traced) are rejected one by one.
+                let w = if h.count >= 1.0 { bilinear[k] } else { 0.0 };
+                if w > 0.0 {
+                    acc.m1 += w * h.m1;
+                    acc.m2 += w * h.m2;
+                    acc.count += w * h.count;
+                    sum_w += w;
+                    if w > best_w {
+                        best_w = w;
+                        rng_index = h.rng_index;
+                    }
+                }
+            }
+            k += 1;
+        }
+        let reprojected = if sum_w > p.disocclusion_threshold {
+            Payload {
+                m1: acc.m1 / sum_w,
+                m2: acc.m2 / sum_w,
+                count: acc.count / sum_w,
+                rng_index,
+            }
+        } else {
+            lost = true;
+            empty
+        };
+        min_count = math::min(min_count, reprojected.count);
+        max_variance = math::max(max_variance, reprojected.variance());
+        out[i] = reprojected;
+        z += 1;
+    }
+    let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
+    requests[pix] = if wanted {
+        rate_to_bucket(requested_rate(min_count, max_variance, p))
+    } else {
+        super::buckets::NO_RAYS
+    };
+    flags[pix] = if !c.is_valid() {
+        FLAG_SKY
+    } else if lost {
+        FLAG_DISOCCLUDED
+    } else {
+        0
+    };
+}
+
+#[cfg(not(target_arch = "spirv"))]
+crate::per_invocation_kernel!(
+    /// Kernel description of [`reproject`]: bindings `surfaces`, `prev_surfaces`, `history`,
+    /// `mask`, `out`, `flags`, `requests`; dispatch over `width × height` (planes are looped
+    /// inside).
+    KERNEL = "reproject", reproject, threads(8, 8, 1),
+    params: ReprojectParams,
+    bindings: [
+        surfaces: Read Surface,
+        prev_surfaces: Read Surface,
+        history: Read Payload,
+        mask: Read u32,
+        out: ReadWrite Payload,
+        flags: ReadWrite u32,
+        requests: ReadWrite u32,
+    ]
+);
