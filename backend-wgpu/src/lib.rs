@@ -33,13 +33,9 @@ use vrrt_core::plan::{
 };
 use wgpu::util::DeviceExt as _;
 
-/// The embedded SPIR-V module (`shaders/vrrt.spv`), empty when it was missing at build time.
-#[cfg(not(vrrt_spv_missing))]
+/// The embedded SPIR-V module (`shaders/vrrt.spv`, checked in; see `shaders-builder`).
 pub static SPIRV: &[u8] =
     include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/vrrt.spv"));
-/// The embedded SPIR-V module (`shaders/vrrt.spv`), empty when it was missing at build time.
-#[cfg(vrrt_spv_missing)]
-pub static SPIRV: &[u8] = &[];
 
 /// Immediate (push-constant) bytes a headless device is created with, at least.
 pub const MIN_IMMEDIATE_SIZE: u32 = 128;
@@ -64,8 +60,6 @@ pub enum WgpuError {
     MissingFeatures(wgpu::Features),
     /// A device limit is too low for a kernel or for the executor.
     Limit(String),
-    /// `shaders/vrrt.spv` was missing when this crate was built.
-    ShaderMissing,
     /// The embedded module is not SPIR-V.
     InvalidSpirv(String),
     /// wgpu reported an error (validation, out of memory, internal) for an operation of the
@@ -108,10 +102,6 @@ impl fmt::Display for WgpuError {
                 write!(f, "the wgpu device lacks required features: {missing:?}")
             }
             WgpuError::Limit(why) => write!(f, "device limit too low: {why}"),
-            WgpuError::ShaderMissing => write!(
-                f,
-                "shaders/vrrt.spv was missing when vrrt-wgpu was built (run shaders-builder/build.sh, then rebuild)"
-            ),
             WgpuError::InvalidSpirv(why) => write!(f, "invalid SPIR-V module: {why}"),
             WgpuError::Wgpu(e) => write!(f, "wgpu error: {e}"),
             WgpuError::Device(e) => write!(f, "device error: {e}"),
@@ -790,9 +780,6 @@ impl WgpuExecutor {
 /// SPIR-V bytes as words, in native byte order.
 fn spirv_words(bytes: &[u8]) -> Result<Vec<u32>, WgpuError> {
     const MAGIC: u32 = 0x0723_0203;
-    if bytes.is_empty() {
-        return Err(WgpuError::ShaderMissing);
-    }
     if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
         return Err(WgpuError::InvalidSpirv(format!("{} bytes", bytes.len())));
     }
