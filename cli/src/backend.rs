@@ -1,0 +1,239 @@
+//! Backend choice: one executor type over the CPU, wgpu and ash backends, and the `auto` rule.
+//!
+//! `auto` takes the first hardware GPU (discrete, then integrated) that wgpu finds, then one that
+//! ash finds, and otherwise the CPU backend: a software Vulkan device (lavapipe) is slower than the
+//! native CPU backend, so it is only used when asked for by name.
+
+use std::fmt;
+use vrrt_ash::{AdapterType, AshExecutor, AshOptions};
+use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+use vrrt_cpu::CpuExecutor;
+use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
+
+/// Which backend to run on.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum BackendKind {
+    /// Best available: a hardware GPU through wgpu or ash, else the CPU.
+    Auto,
+    /// Native kernels on the CPU.
+    Cpu,
+    /// wgpu on Vulkan.
+    Wgpu,
+    /// Raw Vulkan through ash.
+    Ash,
+}
+
+impl std::str::FromStr for BackendKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(BackendKind::Auto),
+            "cpu" => Ok(BackendKind::Cpu),
+            "wgpu" => Ok(BackendKind::Wgpu),
+            "ash" => Ok(BackendKind::Ash),
+            other => Err(format!(
+                "unknown backend `{other}` (expected auto, cpu, wgpu or ash)"
+            )),
+        }
+    }
+}
+
+/// A backend failure, with the backend's own message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BackendError(pub String);
+
+impl fmt::Display for BackendError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BackendError {}
+
+/// An open backend.
+pub enum Backend {
+    /// CPU backend.
+    Cpu(CpuExecutor),
+    /// wgpu backend.
+    Wgpu(Box<WgpuExecutor>),
+    /// ash backend.
+    Ash(Box<AshExecutor>),
+}
+
+fn err(e: impl fmt::Display) -> BackendError {
+    BackendError(e.to_string())
+}
+
+impl Backend {
+    /// Opens `kind`. Returns the backend and why it was chosen (for `auto`).
+    pub fn open(kind: BackendKind, validation: bool) -> Result<(Backend, String), BackendError> {
+        match kind {
+            BackendKind::Cpu => Ok((Backend::Cpu(CpuExecutor::new()), "asked for".into())),
+            BackendKind::Wgpu => {
+                let exec = WgpuExecutor::new_headless(WgpuOptions {
+                    validation,
+                    ..Default::default()
+                })
+                .map_err(err)?;
+                Ok((Backend::Wgpu(Box::new(exec)), "asked for".into()))
+            }
+            BackendKind::Ash => {
+                let exec = AshExecutor::new_headless(AshOptions {
+                    validation,
+                    ..Default::default()
+                })
+                .map_err(err)?;
+                Ok((Backend::Ash(Box::new(exec)), "asked for".into()))
+            }
+            BackendKind::Auto => Ok(Self::auto(validation)),
+        }
+    }
+
+    fn auto(validation: bool) -> (Backend, String) {
+        let mut notes = Vec::new();
+        match WgpuExecutor::new_headless(WgpuOptions {
+            validation,
+            ..Default::default()
+        }) {
+            Ok(exec) => {
+                let info = exec.adapter_info();
+                if matches!(
+                    info.device_type,
+                    wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu
+                ) {
+                    let why = format!(
+                        "wgpu found a hardware GPU: {} ({:?})",
+                        info.name, info.device_type
+                    );
+                    return (Backend::Wgpu(Box::new(exec)), why);
+                }
+                notes.push(format!("wgpu: only {} ({:?})", info.name, info.device_type));
+            }
+            Err(e) => notes.push(format!("wgpu: {e}")),
+        }
+        match AshExecutor::new_headless(AshOptions {
+            validation,
+            ..Default::default()
+        }) {
+            Ok(exec) => {
+                let info = exec.adapter_info();
+                if matches!(
+                    info.adapter_type,
+                    AdapterType::DiscreteGpu | AdapterType::IntegratedGpu
+                ) {
+                    let why = format!(
+                        "ash found a hardware GPU: {} ({:?})",
+                        info.name, info.adapter_type
+                    );
+                    return (Backend::Ash(Box::new(exec)), why);
+                }
+                notes.push(format!("ash: only {} ({:?})", info.name, info.adapter_type));
+            }
+            Err(e) => notes.push(format!("ash: {e}")),
+        }
+        (
+            Backend::Cpu(CpuExecutor::new()),
+            format!(
+                "no hardware GPU ({}); the native CPU backend beats a software Vulkan device",
+                notes.join("; ")
+            ),
+        )
+    }
+
+    /// The device it runs on, in words.
+    pub fn device(&self) -> String {
+        match self {
+            Backend::Cpu(_) => format!(
+                "native CPU, {} threads",
+                std::thread::available_parallelism().map_or(1, |n| n.get())
+            ),
+            Backend::Wgpu(e) => format!(
+                "{} ({:?})",
+                e.adapter_info().name,
+                e.adapter_info().device_type
+            ),
+            Backend::Ash(e) => format!(
+                "{} ({:?})",
+                e.adapter_info().name,
+                e.adapter_info().adapter_type
+            ),
+        }
+    }
+
+    /// True for the CPU backend and for software Vulkan devices (lavapipe), where every kernel
+    /// is expected to match the CPU backend bit for bit.
+    pub fn is_software(&self) -> bool {
+        match self {
+            Backend::Cpu(_) => true,
+            Backend::Wgpu(e) => e.adapter_info().device_type == wgpu::DeviceType::Cpu,
+            Backend::Ash(e) => e.adapter_info().adapter_type == AdapterType::Cpu,
+        }
+    }
+
+    /// Validation-layer and API errors seen so far (0 for the CPU backend).
+    pub fn validation_errors(&self) -> u32 {
+        match self {
+            Backend::Cpu(_) => 0,
+            Backend::Wgpu(e) => e.validation_errors(),
+            Backend::Ash(e) => e.validation_errors(),
+        }
+    }
+}
+
+macro_rules! delegate {
+    ($self:ident, $e:ident => $call:expr) => {
+        match $self {
+            Backend::Cpu($e) => $call.map_err(err),
+            Backend::Wgpu($e) => $call.map_err(err),
+            Backend::Ash($e) => $call.map_err(err),
+        }
+    };
+}
+
+impl Executor for Backend {
+    type Error = BackendError;
+
+    fn name(&self) -> &'static str {
+        match self {
+            Backend::Cpu(e) => e.name(),
+            Backend::Wgpu(e) => e.name(),
+            Backend::Ash(e) => e.name(),
+        }
+    }
+
+    fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, BackendError> {
+        delegate!(self, e => e.create_buffer(size_bytes))
+    }
+
+    fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), BackendError> {
+        delegate!(self, e => e.write_buffer(buffer, data))
+    }
+
+    fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), BackendError> {
+        delegate!(self, e => e.dispatch(pass))
+    }
+
+    fn read_buffer(&mut self, buffer: BufferId, out: &mut [u8]) -> Result<(), BackendError> {
+        delegate!(self, e => e.read_buffer(buffer, out))
+    }
+
+    fn finish(&mut self) -> Result<(), BackendError> {
+        delegate!(self, e => e.finish())
+    }
+
+    fn timings(&self) -> &[PassTiming] {
+        match self {
+            Backend::Cpu(e) => e.timings(),
+            Backend::Wgpu(e) => e.timings(),
+            Backend::Ash(e) => e.timings(),
+        }
+    }
+
+    fn clear_timings(&mut self) {
+        match self {
+            Backend::Cpu(e) => e.clear_timings(),
+            Backend::Wgpu(e) => e.clear_timings(),
+            Backend::Ash(e) => e.clear_timings(),
+        }
+    }
+}

@@ -1,0 +1,2 @@
+//! The `vrrt` command.
+fn main() {}
