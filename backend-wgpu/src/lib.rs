@@ -107,8 +107,15 @@ impl fmt::Display for WgpuError {
             WgpuError::Device(e) => write!(f, "device error: {e}"),
             WgpuError::Plan(e) => write!(f, "{e}"),
             WgpuError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
-            WgpuError::OutOfRange { buffer, bytes, size } => {
-                write!(f, "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes")
+            WgpuError::OutOfRange {
+                buffer,
+                bytes,
+                size,
+            } => {
+                write!(
+                    f,
+                    "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes"
+                )
             }
             WgpuError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
             WgpuError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
