@@ -203,8 +203,8 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     }
     // π/2 split into three parts: 1.5703125 (8 significant bits), then the remainders.
     const P1: f32 = 1.570_312_5;
-    const P2: f32 = 4.837_512_969_970_703e-4;
-    const P3: f32 = 7.549_790_1e-8;
+    const P2: f32 = 4.837_513e-4;
+    const P3: f32 = 7.549_79e-8;
     let k = round(x * core::f32::consts::FRAC_2_PI);
     let r = ((x - k * P1) - k * P2) - k * P3;
     let (s, c) = sin_cos_quarter(r);

@@ -326,9 +326,7 @@ fn prepare(ray: &Ray) -> Prepared {
     let mut ky = if kx == 2 { 0 } else { kx + 1 };
     let dz = component(d, kz);
     if dz < 0.0 {
-        let k = kx;
-        kx = ky;
-        ky = k;
+        (kx, ky) = (ky, kx);
     }
     let sx = component(d, kx) / dz;
     let sy = component(d, ky) / dz;

@@ -4,6 +4,18 @@
 //! and loaded meshes), the BVH builder that flattens them into `vrrt_core::trace`'s layout,
 //! animation, ground-truth references, error metrics and image IO.
 
+pub mod animation;
+pub mod builtin;
+pub mod bvh;
+pub mod error;
 pub mod image;
+pub mod load;
+pub mod mesh;
 pub mod metrics;
 pub mod reference_cache;
+pub mod scene;
+pub mod shapes;
+
+pub use error::SceneError;
+pub use mesh::Mesh;
+pub use scene::{FrameGeometry, Scene};

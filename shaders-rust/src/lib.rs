@@ -3,6 +3,8 @@
 //! workgroup sizes against the built module). Built by `shaders-builder` into `shaders/vrrt.spv`.
 #![cfg_attr(target_arch = "spirv", no_std)]
 #![allow(missing_docs)]
+// Entry points take one argument per binding: long lists are inherent.
+#![allow(clippy::too_many_arguments)]
 
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
@@ -78,7 +80,6 @@ pub fn raygen_ao(
     raygen::raygen_ao(id, p, surfaces, rng_index, nodes, tris, out);
 }
 
-#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(8, 8, 1)))]
 pub fn raygen_shadow(
     #[spirv(global_invocation_id)] id: UVec3,

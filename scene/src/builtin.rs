@@ -1,0 +1,301 @@
+//! Built-in procedural scenes (embedded, no files), designed to break denoisers, and a registry
+//! to list and pick them by name.
+//!
+//! Y is up, units are metres, 30 fps.
+
+use crate::animation::{CameraKey, CameraPath, Light, Motion, RigidKey};
+use crate::error::SceneError;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::shapes::{cuboid, cylinder, quad, uv_sphere};
+use vrrt_core::glam::{Affine3A, Quat, Vec3};
+use vrrt_core::kernels::raygen::AreaLight;
+
+/// A built-in scene's registry entry.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct BuiltinInfo {
+    /// Name to pass to [`builtin`].
+    pub name: &'static str,
+    /// One-line description (for `--list`).
+    pub description: &'static str,
+}
+
+/// Every built-in scene.
+pub const BUILTINS: &[BuiltinInfo] = &[
+    BuiltinInfo {
+        name: "room",
+        description: "open-top room, 120 frames: box sliding along a wall (contact-shadow ghosting), \
+                      sphere crossing in front of the camera (disocclusion), thin railing and poles, \
+                      moving area light, camera cut at frame 60",
+    },
+    BuiltinInfo {
+        name: "room_static",
+        description: "the room at frame 0 with nothing moving (camera, objects, light): convergence tests",
+    },
+];
+
+/// The built-in scene called `name`.
+pub fn builtin(name: &str) -> Result<Scene, SceneError> {
+    match name {
+        "room" => Ok(room(true)),
+        "room_static" => Ok(room(false)),
+        _ => Err(SceneError::UnknownScene {
+            name: name.to_string(),
+            known: BUILTINS
+                .iter()
+                .map(|b| b.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        }),
+    }
+}
+
+/// Frame of the camera cut in `room`.
+pub const ROOM_CUT_FRAME: u32 = 60;
+
+/// Instance ids of the room's moving objects (stable, for tests and overlays).
+pub mod room_ids {
+    /// The box sliding along the back wall.
+    pub const SLIDING_BOX: u32 = 0;
+    /// The sphere crossing in front of the camera.
+    pub const CROSSING_SPHERE: u32 = 1;
+}
+
+fn room(animated: bool) -> Scene {
+    let (name, info) = if animated {
+        ("room", &BUILTINS[0])
+    } else {
+        ("room_static", &BUILTINS[1])
+    };
+    let mut s = Scene::new(name, info.description);
+    s.fps = 30.0;
+    s.frame_count = if animated { 120 } else { 64 };
+    let freeze = |m: Motion| {
+        if animated {
+            m
+        } else {
+            Motion::Static(m.at(0.0))
+        }
+    };
+
+    // Moving objects first, so their ids are fixed (see `room_ids`).
+    let box_size = 0.8;
+    let sliding = Motion::Oscillate {
+        base: Affine3A::from_translation(Vec3::new(0.0, 0.0, -5.0 + 0.12 + box_size * 0.5)),
+        amplitude: Vec3::new(2.2, 0.0, 0.0),
+        period: 4.0,
+        phase: 0.0,
+    };
+    let half = Vec3::new(box_size * 0.5, 0.0, box_size * 0.5);
+    s.add_object(
+        "sliding box",
+        cuboid(-half, half + Vec3::Y * box_size),
+        freeze(sliding),
+        0.4,
+    );
+    let crossing = Motion::Keyframes(vec![
+        RigidKey {
+            time: 0.3,
+            translation: Vec3::new(-6.5, 1.3, 2.6),
+            rotation: Quat::IDENTITY,
+        },
+        RigidKey {
+            time: 1.9,
+            translation: Vec3::new(6.5, 1.3, 2.6),
+            rotation: Quat::IDENTITY,
+        },
+        RigidKey {
+            time: 2.4,
+            translation: Vec3::new(4.0, 1.0, 1.0),
+            rotation: Quat::IDENTITY,
+        },
+        RigidKey {
+            time: 3.8,
+            translation: Vec3::new(-5.0, 1.0, 1.0),
+            rotation: Quat::IDENTITY,
+        },
+    ]);
+    s.add_object(
+        "crossing sphere",
+        uv_sphere(Vec3::ZERO, 0.6, 24, 48),
+        freeze(crossing),
+        0.2,
+    );
+
+    // Static room: floor, three walls (open front and top: sky shows above the walls).
+    let fixed = Motion::Static(Affine3A::IDENTITY);
+    s.add_object(
+        "floor",
+        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::X * 12.0, Vec3::Z * -11.0),
+        fixed.clone(),
+        0.3,
+    );
+    s.add_object(
+        "back wall",
+        quad(Vec3::new(-6.0, 0.0, -5.0), Vec3::X * 12.0, Vec3::Y * 3.5),
+        fixed.clone(),
+        1.0,
+    );
+    s.add_object(
+        "left wall",
+        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::Z * -11.0, Vec3::Y * 3.5),
+        fixed.clone(),
+        1.0,
+    );
+    s.add_object(
+        "right wall",
+        quad(Vec3::new(6.0, 0.0, -5.0), Vec3::Z * 11.0, Vec3::Y * 3.5),
+        fixed.clone(),
+        1.0,
+    );
+    let mut pillars = Mesh::default();
+    for (x, z) in [(-3.5, -3.0), (3.5, -3.0), (-3.5, 1.0), (3.5, 1.0)] {
+        pillars.append(&cuboid(
+            Vec3::new(x - 0.25, 0.0, z - 0.25),
+            Vec3::new(x + 0.25, 3.2, z + 0.25),
+        ));
+    }
+    s.add_object("pillars", pillars, fixed.clone(), 1.0);
+    // Thin geometry: a railing (bar + poles a few pixels wide or less).
+    let mut railing = cylinder(
+        Vec3::new(-4.5, 1.0, -0.5),
+        Vec3::new(4.5, 1.0, -0.5),
+        0.025,
+        10,
+    );
+    for i in 0..=18 {
+        let x = -4.5 + i as f32 * 0.5;
+        railing.append(&cylinder(
+            Vec3::new(x, 0.0, -0.5),
+            Vec3::new(x, 1.0, -0.5),
+            0.015,
+            8,
+        ));
+    }
+    s.add_object("railing", railing, fixed.clone(), 1.0);
+    s.add_object(
+        "resting sphere",
+        uv_sphere(Vec3::new(-1.8, 0.5, -2.5), 0.5, 24, 48),
+        fixed,
+        1.0,
+    );
+
+    // A 1.2 m square light near the top, facing down, sweeping over the room.
+    let light = AreaLight::new(Vec3::new(-0.6, 3.8, -1.8), Vec3::Z * 1.2, Vec3::X * 1.2);
+    let sweep = Motion::Oscillate {
+        base: Affine3A::IDENTITY,
+        amplitude: Vec3::new(2.5, 0.0, 0.0),
+        period: 6.0,
+        phase: 0.0,
+    };
+    s.add_light(Light {
+        base: light,
+        motion: freeze(sweep),
+    });
+
+    let key = |time: f32, position: Vec3, target: Vec3, cut: bool| CameraKey {
+        time,
+        position,
+        target,
+        fov_y: 1.0,
+        cut,
+    };
+    let cut_time = ROOM_CUT_FRAME as f32 / s.fps;
+    s.camera = if animated {
+        CameraPath {
+            keys: vec![
+                key(
+                    0.0,
+                    Vec3::new(0.0, 2.2, 7.5),
+                    Vec3::new(0.0, 1.0, -3.0),
+                    false,
+                ),
+                key(
+                    cut_time - 1e-3,
+                    Vec3::new(0.8, 2.0, 6.0),
+                    Vec3::new(0.2, 1.0, -3.0),
+                    false,
+                ),
+                key(
+                    cut_time,
+                    Vec3::new(5.0, 1.6, 3.5),
+                    Vec3::new(-2.0, 0.6, -4.0),
+                    true,
+                ),
+                key(
+                    4.0,
+                    Vec3::new(4.2, 1.9, 4.2),
+                    Vec3::new(-2.5, 0.6, -3.5),
+                    false,
+                ),
+            ],
+        }
+    } else {
+        CameraPath::fixed(Vec3::new(0.0, 2.2, 7.5), Vec3::new(0.0, 1.0, -3.0), 1.0)
+    };
+    s
+}
+
+/// A static scene showing `mesh` (scaled to about 2 m, resting on a floor, in front of a wall)
+/// under one area light, with a camera framing it: for loaded meshes.
+pub fn showcase(name: &str, mesh: &Mesh) -> Scene {
+    let mut s = Scene::new(name, "a loaded mesh on a floor in front of a wall");
+    s.frame_count = 64;
+    let (lo, hi) = mesh.bounds();
+    let size = (hi - lo).max_element().max(1e-12);
+    let scale = 2.0 / size;
+    let centre = (lo + hi) * 0.5;
+    let place = Affine3A::from_translation(Vec3::new(0.0, (hi.y - lo.y) * 0.5 * scale, 0.0))
+        * Affine3A::from_scale(Vec3::splat(scale))
+        * Affine3A::from_translation(-centre);
+    s.add_object(name, mesh.clone(), Motion::Static(place), 1.0);
+    let fixed = Motion::Static(Affine3A::IDENTITY);
+    s.add_object(
+        "floor",
+        quad(Vec3::new(-5.0, 0.0, 5.0), Vec3::X * 10.0, Vec3::Z * -7.0),
+        fixed.clone(),
+        0.3,
+    );
+    s.add_object(
+        "wall",
+        quad(Vec3::new(-5.0, 0.0, -2.0), Vec3::X * 10.0, Vec3::Y * 4.0),
+        fixed,
+        1.0,
+    );
+    s.add_light(Light {
+        base: AreaLight::new(Vec3::new(0.5, 3.5, -0.5), Vec3::Z * 1.0, Vec3::X * 1.0),
+        motion: Motion::Static(Affine3A::IDENTITY),
+    });
+    s.camera = CameraPath::fixed(Vec3::new(0.8, 1.6, 4.0), Vec3::new(0.0, 0.9, 0.0), 0.9);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn registry_builds_every_scene() {
+        for b in BUILTINS {
+            let s = builtin(b.name).unwrap();
+            assert_eq!(s.name, b.name);
+            let f = s.frame(0);
+            assert!(f.geometry.triangles.len() > 1000);
+            assert_eq!(f.lights.len(), 1);
+        }
+        let e = builtin("nope").unwrap_err().to_string();
+        assert!(e.contains("room, room_static"), "{e}");
+    }
+
+    #[test]
+    fn room_has_a_cut_and_moving_parts() {
+        let s = builtin("room").unwrap();
+        assert!(!s.geometry_is_static());
+        assert!(s.frame(ROOM_CUT_FRAME).camera_cut);
+        assert!(!s.frame(ROOM_CUT_FRAME - 1).camera_cut && !s.frame(ROOM_CUT_FRAME + 1).camera_cut);
+        assert_ne!(s.frame(10).lights[0], s.frame(11).lights[0]);
+        let st = builtin("room_static").unwrap();
+        assert!(st.geometry_is_static() && st.camera.is_static());
+        assert_eq!(st.frame(3).lights[0], st.frame(40).lights[0]);
+    }
+}

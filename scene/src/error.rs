@@ -1,0 +1,123 @@
+//! The one error type of scene loading: every variant names the file (or scene) and the problem,
+//! so a user can fix the input without a debugger.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Why a mesh or scene could not be loaded.
+#[derive(Debug)]
+pub enum SceneError {
+    /// The file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file is not valid in its format (malformed or truncated).
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line for text formats, when known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file parsed, but its geometry is unusable (NaN vertex, index out of range, …).
+    InvalidGeometry {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file holds no triangles.
+    NoTriangles {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file extension is not a supported mesh format.
+    UnsupportedFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// No built-in scene has this name.
+    UnknownScene {
+        /// The name asked for.
+        name: String,
+        /// The names that exist, comma-separated.
+        known: String,
+    },
+}
+
+impl SceneError {
+    /// A parse error without a line number.
+    pub fn parse(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        SceneError::Parse {
+            path: path.into(),
+            line: None,
+            message: message.into(),
+        }
+    }
+
+    /// A parse error at a 1-based line.
+    pub fn parse_at(path: impl Into<PathBuf>, line: usize, message: impl Into<String>) -> Self {
+        SceneError::Parse {
+            path: path.into(),
+            line: Some(line),
+            message: message.into(),
+        }
+    }
+
+    /// An invalid-geometry error.
+    pub fn geometry(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        SceneError::InvalidGeometry {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::Io { path, source } => {
+                write!(f, "{}: cannot read: {source}", path.display())
+            }
+            SceneError::Parse {
+                path,
+                line: Some(line),
+                message,
+            } => {
+                write!(f, "{}:{line}: {message}", path.display())
+            }
+            SceneError::Parse {
+                path,
+                line: None,
+                message,
+            } => write!(f, "{}: {message}", path.display()),
+            SceneError::InvalidGeometry { path, message } => {
+                write!(f, "{}: invalid geometry: {message}", path.display())
+            }
+            SceneError::NoTriangles { path } => {
+                write!(f, "{}: the file holds no triangles", path.display())
+            }
+            SceneError::UnsupportedFormat { path } => write!(
+                f,
+                "{}: unsupported mesh format (expected .obj, .ply, .glb or .gltf, optionally .gz)",
+                path.display()
+            ),
+            SceneError::UnknownScene { name, known } => {
+                write!(f, "no built-in scene named `{name}` (known: {known})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for SceneError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            SceneError::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,276 @@
+//! A scene: meshes, animated instances, a camera path and area lights; and [`Scene::frame`], which
+//! evaluates everything the GPU needs for one frame.
+//!
+//! Per frame the instances are transformed to world space, merged into one triangle set and a BVH
+//! is built over it (scenes whose instances never move build it once and share it). Motion vectors
+//! come from a per-instance current→previous transform ([`InstanceData`]) and the previous frame's
+//! camera.
+
+use crate::animation::{CameraPath, Light, Motion};
+use crate::bvh::{self, Bvh};
+use crate::mesh::{normal_matrix, Mesh};
+use std::sync::{Arc, OnceLock};
+use vrrt_core::camera::Camera;
+use vrrt_core::glam::{Affine3A, Vec3};
+use vrrt_core::kernels::gbuffer::{GbufferParams, InstanceData};
+use vrrt_core::kernels::raygen::AreaLight;
+use vrrt_core::trace::{Triangle, TriangleNormals};
+
+/// Most lights a scene may have: one signal plane each, and kernels stack at most 4 planes.
+pub const MAX_LIGHTS: usize = 4;
+
+/// A placed, possibly moving, copy of a mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Name, for debugging and overlays.
+    pub name: String,
+    /// Index into [`Scene::meshes`].
+    pub mesh: usize,
+    /// Object-to-world transform over time.
+    pub motion: Motion,
+    /// GGX alpha of the surface (1 = diffuse).
+    pub roughness: f32,
+}
+
+/// World-space triangles and their BVH, as the kernels bind them.
+pub type Geometry = Bvh;
+
+/// Everything one frame needs on the GPU side.
+#[derive(Clone, Debug)]
+pub struct FrameGeometry {
+    /// Frame number.
+    pub index: u32,
+    /// Time in seconds (`index / fps`).
+    pub time: f32,
+    /// Triangles, normals and BVH (shared between frames when the geometry is static).
+    pub geometry: Arc<Geometry>,
+    /// Per-instance data, indexed by [`Triangle::instance`].
+    pub instances: Vec<InstanceData>,
+    /// This frame's camera.
+    pub camera: Camera,
+    /// Last frame's camera (this frame's on frame 0).
+    pub prev_camera: Camera,
+    /// Area lights at this frame, one per shadow signal plane.
+    pub lights: Vec<AreaLight>,
+    /// A camera cut happened since the previous frame: history should be dropped.
+    pub camera_cut: bool,
+}
+
+impl FrameGeometry {
+    /// Push constants of the G-buffer pass at a resolution.
+    pub fn gbuffer_params(&self, width: u32, height: u32) -> GbufferParams {
+        GbufferParams {
+            width,
+            height,
+            camera: self.camera,
+            prev_camera: self.prev_camera,
+        }
+    }
+}
+
+/// A scene description.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Short name (the registry key of built-ins).
+    pub name: String,
+    /// What the scene is for.
+    pub description: String,
+    /// Object-space meshes.
+    pub meshes: Vec<Mesh>,
+    /// Placed meshes.
+    pub instances: Vec<Instance>,
+    /// The camera.
+    pub camera: CameraPath,
+    /// Area lights (at most [`MAX_LIGHTS`]).
+    pub lights: Vec<Light>,
+    /// Frames per second of the animation.
+    pub fps: f32,
+    /// Length of the sequence in frames.
+    pub frame_count: u32,
+    static_geometry: OnceLock<Arc<Geometry>>,
+}
+
+impl Scene {
+    /// An empty scene with a fixed camera at `(0, 1, 5)` looking at the origin, 30 fps, 1 frame.
+    pub fn new(name: &str, description: &str) -> Scene {
+        Scene {
+            name: name.to_string(),
+            description: description.to_string(),
+            meshes: Vec::new(),
+            instances: Vec::new(),
+            camera: CameraPath::fixed(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 1.0),
+            lights: Vec::new(),
+            fps: 30.0,
+            frame_count: 1,
+            static_geometry: OnceLock::new(),
+        }
+    }
+
+    /// Adds a mesh and returns its index.
+    pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
+        self.meshes.push(mesh);
+        self.static_geometry = OnceLock::new();
+        self.meshes.len() - 1
+    }
+
+    /// Adds an instance of mesh `mesh` and returns its id.
+    pub fn add_instance(&mut self, name: &str, mesh: usize, motion: Motion, roughness: f32) -> u32 {
+        assert!(
+            mesh < self.meshes.len(),
+            "instance of a mesh that does not exist"
+        );
+        self.instances.push(Instance {
+            name: name.to_string(),
+            mesh,
+            motion,
+            roughness,
+        });
+        self.static_geometry = OnceLock::new();
+        (self.instances.len() - 1) as u32
+    }
+
+    /// Adds a mesh and one instance of it.
+    pub fn add_object(&mut self, name: &str, mesh: Mesh, motion: Motion, roughness: f32) -> u32 {
+        let m = self.add_mesh(mesh);
+        self.add_instance(name, m, motion, roughness)
+    }
+
+    /// Adds an area light.
+    pub fn add_light(&mut self, light: Light) {
+        assert!(
+            self.lights.len() < MAX_LIGHTS,
+            "at most {MAX_LIGHTS} lights"
+        );
+        self.lights.push(light);
+    }
+
+    /// True when no instance moves (the BVH is built once).
+    pub fn geometry_is_static(&self) -> bool {
+        self.instances.iter().all(|i| i.motion.is_static())
+    }
+
+    /// Total triangles over all instances.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh].triangle_count())
+            .sum()
+    }
+
+    /// Time of frame `i` in seconds.
+    pub fn time(&self, i: u32) -> f32 {
+        i as f32 / self.fps
+    }
+
+    /// World-space triangles and BVH at time `t`.
+    pub fn geometry_at(&self, t: f32) -> Geometry {
+        let n = self.triangle_count();
+        let mut tris = Vec::with_capacity(n);
+        let mut normals = Vec::with_capacity(n);
+        for (id, inst) in self.instances.iter().enumerate() {
+            let mesh = &self.meshes[inst.mesh];
+            let m = inst.motion.at(t);
+            let nm = normal_matrix(&m);
+            let p: Vec<Vec3> = mesh
+                .positions
+                .iter()
+                .map(|&p| m.transform_point3(p))
+                .collect();
+            let nrm: Vec<Vec3> = mesh
+                .normals
+                .iter()
+                .map(|&v| (nm * v).normalize_or(Vec3::Y))
+                .collect();
+            for t in &mesh.indices {
+                let [a, b, c] = t.map(|i| i as usize);
+                tris.push(Triangle::new(p[a], p[b], p[c], id as u32));
+                normals.push(TriangleNormals::new(nrm[a], nrm[b], nrm[c]));
+            }
+        }
+        bvh::build(&tris, &normals)
+    }
+
+    /// Everything the GPU needs for frame `i`.
+    pub fn frame(&self, i: u32) -> FrameGeometry {
+        let t = self.time(i);
+        let prev_t = if i == 0 { t } else { self.time(i - 1) };
+        let geometry = if self.geometry_is_static() {
+            self.static_geometry
+                .get_or_init(|| Arc::new(self.geometry_at(0.0)))
+                .clone()
+        } else {
+            Arc::new(self.geometry_at(t))
+        };
+        let instances = self
+            .instances
+            .iter()
+            .map(|inst| {
+                let m = if inst.motion.is_static() || prev_t == t {
+                    Affine3A::IDENTITY
+                } else {
+                    inst.motion.at(prev_t) * inst.motion.at(t).inverse()
+                };
+                instance_data(&m, inst.roughness)
+            })
+            .collect();
+        FrameGeometry {
+            index: i,
+            time: t,
+            geometry,
+            instances,
+            camera: self.camera.at(t),
+            prev_camera: self.camera.at(prev_t),
+            lights: self.lights.iter().map(|l| l.at(t)).collect(),
+            camera_cut: i > 0 && self.camera.cut_between(prev_t, t),
+        }
+    }
+}
+
+/// The G-buffer's per-instance record from a current→previous map.
+pub fn instance_data(m: &Affine3A, roughness: f32) -> InstanceData {
+    let (x, y, z, t) = (
+        m.matrix3.x_axis,
+        m.matrix3.y_axis,
+        m.matrix3.z_axis,
+        m.translation,
+    );
+    InstanceData::from_rows(
+        [x.x, y.x, z.x, t.x],
+        [x.y, y.y, z.y, t.y],
+        [x.z, y.z, z.z, t.z],
+        roughness,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+
+    #[test]
+    fn instance_data_maps_points_like_the_affine() {
+        let m = Affine3A::from_rotation_translation(
+            vrrt_core::glam::Quat::from_rotation_y(0.3),
+            Vec3::new(1.0, 2.0, 3.0),
+        );
+        let d = instance_data(&m, 0.5);
+        let p = Vec3::new(-0.5, 0.25, 4.0);
+        assert!((d.previous_position(p) - m.transform_point3(p)).length() < 1e-6);
+    }
+
+    #[test]
+    fn static_geometry_is_built_once() {
+        let mut s = Scene::new("t", "test");
+        s.add_object(
+            "box",
+            shapes::cuboid(Vec3::ZERO, Vec3::ONE),
+            Motion::fixed(Vec3::X),
+            1.0,
+        );
+        let a = s.frame(0);
+        let b = s.frame(5);
+        assert!(Arc::ptr_eq(&a.geometry, &b.geometry));
+        assert_eq!(a.geometry.triangles.len(), 12);
+        assert_eq!(b.instances[0], InstanceData::default());
+    }
+}
