@@ -24,6 +24,9 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("balance", balance_case),
     ("apply", apply_case),
     ("fill", fill_case),
+    ("gbuffer", crate::trace_cases::gbuffer_case),
+    ("raygen_ao", crate::trace_cases::raygen_ao_case),
+    ("raygen_shadow", crate::trace_cases::raygen_shadow_case),
 ];
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.

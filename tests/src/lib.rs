@@ -11,6 +11,7 @@
 
 pub mod cases;
 pub mod spirv;
+pub mod trace_cases;
 
 use vrrt_core::plan::{Executor, Groups, KernelDesc, Pass};
 

@@ -1,0 +1,164 @@
+//! Equivalence cases of the ray-tracing kernels (G-buffer, AO and shadow raygen) on real geometry:
+//! a random frame of the built-in animated `room` (moving objects, thin railing, sky), so rays hit
+//! edges, thin poles and nothing at all.
+
+use crate::{BufferSpec, Case, Word};
+use rand::Rng;
+use rand_pcg::Pcg32;
+use vrrt_core::gbuffer::Surface;
+use vrrt_core::glam::Vec3;
+use vrrt_core::kernels::gbuffer::{self, surface_at};
+use vrrt_core::kernels::raygen::{self, AreaLight};
+use vrrt_core::payload::Sample;
+use vrrt_scene::FrameGeometry;
+
+const F: Word = Word::F32;
+const U: Word = Word::U32;
+/// `BvhNode`: bounds are floats, `first` and `count` integers.
+const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
+/// `Triangle`: nine coordinates, then the instance id.
+const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
+const FLOATS: &[Word] = &[F];
+const INTS: &[Word] = &[U];
+const SAMPLE: &[Word] = &[F, F, U, U];
+/// `Surface`: all floats but `instance` (word 7).
+#[rustfmt::skip]
+const SURFACE: &[Word] = &[
+    F, F, F, F, F, F, F, U, F, F, F, F, F, F, F, F, F, F, F, F,
+];
+
+/// A random frame of the animated room.
+pub fn room_frame(rng: &mut Pcg32) -> FrameGeometry {
+    let scene = vrrt_scene::builtin::builtin("room").expect("built-in scene");
+    scene.frame(rng.random_range(0..scene.frame_count))
+}
+
+/// The G-buffer of `frame` at `w × h`, computed natively (the input of the raygen cases).
+pub fn surfaces(frame: &FrameGeometry, w: u32, h: u32) -> Vec<Surface> {
+    let p = frame.gbuffer_params(w, h);
+    let g = &frame.geometry;
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            surface_at(
+                x,
+                y,
+                &p,
+                &g.nodes,
+                &g.triangles,
+                &g.normals,
+                &frame.instances,
+            )
+        })
+        .collect()
+}
+
+fn groups(kernel: &vrrt_core::plan::KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
+    let [x, y, z] = kernel.workgroup_size;
+    [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
+}
+
+/// Geometry buffers shared by all three kernels: nodes, then triangles.
+fn geometry_buffers(frame: &FrameGeometry) -> [BufferSpec; 2] {
+    [
+        BufferSpec::from_pod(&frame.geometry.nodes, NODE),
+        BufferSpec::from_pod(&frame.geometry.triangles, TRIANGLE),
+    ]
+}
+
+/// `gbuffer`: primary rays of a random room frame.
+pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let frame = room_frame(rng);
+    let [nodes, tris] = geometry_buffers(&frame);
+    Case {
+        name: format!("gbuffer {w}x{h} frame {}", frame.index),
+        kernel: &gbuffer::KERNEL,
+        buffers: vec![
+            nodes,
+            tris,
+            BufferSpec::from_pod(&frame.geometry.normals, FLOATS),
+            BufferSpec::from_pod(&frame.instances, FLOATS),
+            BufferSpec::from_pod(&vec![Surface::default(); (w * h) as usize], SURFACE),
+        ],
+        params: bytemuck::bytes_of(&frame.gbuffer_params(w, h)).to_vec(),
+        groups: groups(&gbuffer::KERNEL, w, h, 1),
+    }
+}
+
+fn rng_indices(rng: &mut Pcg32, n: usize) -> Vec<u32> {
+    (0..n)
+        .map(|_| match rng.random_range(0..4) {
+            0 => 0,
+            1 => u32::MAX - rng.random_range(0..4),
+            _ => rng.random(),
+        })
+        .collect()
+}
+
+/// `raygen_ao`: AO rays from the room's G-buffer, two planes.
+pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let frame = room_frame(rng);
+    let planes = crate::cases::PLANES;
+    let n = (w * h * planes) as usize;
+    let [nodes, tris] = geometry_buffers(&frame);
+    let params = raygen::AoParams {
+        width: w,
+        height: h,
+        rays: rng.random_range(1..5),
+        max_distance: rng.random_range(0.2..4.0),
+    };
+    Case {
+        name: format!(
+            "raygen_ao {w}x{h}x{planes} frame {} rays {}",
+            frame.index, params.rays
+        ),
+        kernel: &raygen::AO_KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
+            BufferSpec::from_pod(&rng_indices(rng, n), INTS),
+            nodes,
+            tris,
+            BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&raygen::AO_KERNEL, w, h, planes),
+    }
+}
+
+/// `raygen_shadow`: the room's moving light on plane 0, a small fixed light by the wall on 1.
+pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let frame = room_frame(rng);
+    let planes = crate::cases::PLANES;
+    let n = (w * h * planes) as usize;
+    let mut lights = frame.lights.clone();
+    lights.push(AreaLight::new(
+        Vec3::new(-5.5, 2.0, -4.5),
+        Vec3::Z * 0.5,
+        Vec3::Y * 0.5,
+    ));
+    lights.truncate(planes as usize);
+    let [nodes, tris] = geometry_buffers(&frame);
+    let params = raygen::ShadowParams {
+        width: w,
+        height: h,
+        rays: rng.random_range(1..5),
+        _pad: 0,
+    };
+    Case {
+        name: format!(
+            "raygen_shadow {w}x{h}x{planes} frame {} rays {}",
+            frame.index, params.rays
+        ),
+        kernel: &raygen::SHADOW_KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
+            BufferSpec::from_pod(&rng_indices(rng, n), INTS),
+            nodes,
+            tris,
+            BufferSpec::from_pod(&lights, FLOATS),
+            BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&raygen::SHADOW_KERNEL, w, h, planes),
+    }
+}
