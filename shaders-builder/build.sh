@@ -8,6 +8,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 export VRRT_SHADER_CACHE=${VRRT_SHADER_CACHE:-$HOME/.cache/vrrt-shaders}
 export CARGO_TARGET_DIR=$VRRT_SHADER_CACHE/builder
+export VRRT_ROOT=$(cd "$here/.." && pwd)
 cd "$here"
 cargo +nightly-2026-08-15 run --release --quiet -- "$@"
 spirv-val --target-env vulkan1.2 ../shaders/vrrt.spv

@@ -114,7 +114,7 @@ impl Executor for CpuExecutor {
     }
 
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, CpuError> {
-        if size_bytes % 4 != 0 {
+        if !size_bytes.is_multiple_of(4) {
             return Err(CpuError::UnalignedSize(size_bytes));
         }
         self.buffers.push(vec![0u32; (size_bytes / 4) as usize]);

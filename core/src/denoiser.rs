@@ -574,14 +574,10 @@ impl Denoiser {
         ))?;
 
         let bal = balance::BalanceParams {
-            budget: if s.load_balance {
-                s.rays_per_pixel * (w as f32 * h as f32)
-            } else {
-                f32::MAX
-            },
+            rays_per_pixel: s.rays_per_pixel,
             ring_count: buckets::ring_count(w, h),
-            raise: (s.load_balance && s.spend_saved_rays) as u32,
-            _pad: 0,
+            raise: s.spend_saved_rays as u32,
+            enabled: s.load_balance as u32,
         };
         let buffers = [self.counts, self.decision, self.args];
         exec.dispatch(&Pass {

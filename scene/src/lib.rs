@@ -13,6 +13,7 @@ pub mod load;
 pub mod mesh;
 pub mod metrics;
 pub mod reference_cache;
+pub mod render;
 pub mod scene;
 pub mod shapes;
 

@@ -54,7 +54,11 @@ fn forbid_contraction(module: &[u8]) -> Vec<u8> {
 
 fn main() -> ExitCode {
     let check = std::env::args().any(|a| a == "--check");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    // The repository root comes from build.sh at run time: the cached builder binary may have
+    // been compiled from another checkout.
+    let root = std::env::var_os("VRRT_ROOT")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf());
     let artifact = root.join("shaders/vrrt.spv");
     let cache = std::env::var_os("VRRT_SHADER_CACHE")
         .map(PathBuf::from)

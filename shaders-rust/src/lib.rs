@@ -67,31 +67,39 @@ pub fn gbuffer(
     gbuffer::gbuffer(id, p, nodes, tris, normals, instances, out);
 }
 
-#[spirv(compute(threads(8, 8, 1)))]
+#[spirv(compute(threads(64, 1, 1)))]
 pub fn raygen_ao(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(push_constant)] p: &raygen::AoParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] rng_index: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] tris: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] out: &mut [Sample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] work: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] args: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] rays: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] history: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] out: &mut [Sample],
 ) {
-    raygen::raygen_ao(id, p, surfaces, rng_index, nodes, tris, out);
+    raygen::raygen_ao(id, p, work, args, rays, surfaces, history, nodes, tris, out);
 }
 
-#[spirv(compute(threads(8, 8, 1)))]
+#[spirv(compute(threads(64, 1, 1)))]
 pub fn raygen_shadow(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(push_constant)] p: &raygen::ShadowParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] rng_index: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] tris: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lights: &[raygen::AreaLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] out: &mut [Sample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] work: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] args: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] rays: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] history: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lights: &[raygen::AreaLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] out: &mut [Sample],
 ) {
-    raygen::raygen_shadow(id, p, surfaces, rng_index, nodes, tris, lights, out);
+    raygen::raygen_shadow(
+        id, p, work, args, rays, surfaces, history, nodes, tris, lights, out,
+    );
 }
 
 #[spirv(compute(threads(8, 8, 1)))]

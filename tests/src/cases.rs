@@ -341,10 +341,10 @@ const BALANCE: &[Word] = &[
 
 fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
     balance::BalanceParams {
-        budget: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)] * (w * h) as f32,
+        rays_per_pixel: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)],
         ring_count: buckets::ring_count(w, h),
         raise: rng.random_range(0..2),
-        _pad: 0,
+        enabled: rng.random_range(0..8).min(1),
     }
 }
 
@@ -352,7 +352,7 @@ fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (_, counts) = histogram(rng, w, h);
     let params = balance_params(rng, w, h);
     Case {
-        name: format!("balance {w}x{h} budget {}", params.budget),
+        name: format!("balance {w}x{h} rpp {}", params.rays_per_pixel),
         kernel: &balance::KERNEL,
         buffers: vec![
             BufferSpec::from_pod(&counts, INTS),

@@ -38,7 +38,7 @@ fn literal_string(words: &[u32]) -> (String, usize) {
 
 /// Parses the compute entry points of a SPIR-V module.
 pub fn entry_points(module: &[u8]) -> Result<Vec<EntryPoint>, String> {
-    if module.len() % 4 != 0 || module.len() < 20 {
+    if !module.len().is_multiple_of(4) || module.len() < 20 {
         return Err("not a SPIR-V module: bad length".into());
     }
     let words: Vec<u32> = module

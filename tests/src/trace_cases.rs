@@ -9,7 +9,7 @@ use vrrt_core::gbuffer::Surface;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::{self, surface_at};
 use vrrt_core::kernels::raygen::{self, AreaLight};
-use vrrt_core::payload::Sample;
+use vrrt_core::payload::{Payload, Sample};
 use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;
@@ -85,43 +85,96 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-fn rng_indices(rng: &mut Pcg32, n: usize) -> Vec<u32> {
-    (0..n)
-        .map(|_| match rng.random_range(0..4) {
-            0 => 0,
-            1 => u32::MAX - rng.random_range(0..4),
-            _ => rng.random(),
-        })
-        .collect()
+/// A work list over a random subset of pixels in random order, the rays each traces (0..=4) and
+/// the reprojected history holding each pixel's rng index (including indices about to wrap).
+struct WorkList {
+    work: Vec<u32>,
+    args: [u32; 4],
+    rays: Vec<u32>,
+    history: Vec<Payload>,
+    groups: [u32; 3],
 }
 
-/// `raygen_ao`: AO rays from the room's G-buffer, two planes.
+fn work_list(rng: &mut Pcg32, w: u32, h: u32, planes: u32) -> WorkList {
+    let pixels = w * h;
+    let mut work: Vec<u32> = (0..pixels)
+        .filter(|_| rng.random_range(0..4) != 0)
+        .collect();
+    for i in (1..work.len()).rev() {
+        work.swap(i, rng.random_range(0..=i));
+    }
+    let count = work.len() as u32;
+    work.resize(pixels as usize, 0);
+    let rays = (0..pixels).map(|_| rng.random_range(0..5)).collect();
+    let history = (0..pixels * planes)
+        .map(|_| Payload {
+            rng_index: match rng.random_range(0..4) {
+                0 => 0,
+                1 => u32::MAX - rng.random_range(0..4),
+                _ => rng.random(),
+            },
+            ..Payload::default()
+        })
+        .collect();
+    // One group more than the list needs: invocations past the count must do nothing.
+    let groups = [
+        count.div_ceil(raygen::AO_KERNEL.workgroup_size[0]) + 1,
+        1,
+        1,
+    ];
+    WorkList {
+        work,
+        args: [count, groups[0] - 1, 1, 1],
+        rays,
+        history,
+        groups,
+    }
+}
+
+impl WorkList {
+    fn buffers(&self) -> [BufferSpec; 3] {
+        [
+            BufferSpec::from_pod(&self.work, INTS),
+            BufferSpec::from_pod(&self.args, INTS),
+            BufferSpec::from_pod(&self.rays, INTS),
+        ]
+    }
+}
+
+const PAYLOAD: &[Word] = &[F, F, F, U];
+
+/// `raygen_ao`: AO rays from the room's G-buffer over a work list, two planes.
 pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let frame = room_frame(rng);
     let planes = crate::cases::PLANES;
     let n = (w * h * planes) as usize;
     let [nodes, tris] = geometry_buffers(&frame);
+    let list = work_list(rng, w, h, planes);
     let params = raygen::AoParams {
         width: w,
         height: h,
-        rays: rng.random_range(1..5),
+        planes,
         max_distance: rng.random_range(0.2..4.0),
     };
+    let [work, args, rays] = list.buffers();
     Case {
         name: format!(
-            "raygen_ao {w}x{h}x{planes} frame {} rays {}",
-            frame.index, params.rays
+            "raygen_ao {w}x{h}x{planes} frame {} list {}",
+            frame.index, list.args[0]
         ),
         kernel: &raygen::AO_KERNEL,
         buffers: vec![
+            work,
+            args,
+            rays,
             BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
-            BufferSpec::from_pod(&rng_indices(rng, n), INTS),
+            BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,
             BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&raygen::AO_KERNEL, w, h, planes),
+        groups: list.groups,
     }
 }
 
@@ -138,27 +191,32 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     ));
     lights.truncate(planes as usize);
     let [nodes, tris] = geometry_buffers(&frame);
+    let list = work_list(rng, w, h, planes);
     let params = raygen::ShadowParams {
         width: w,
         height: h,
-        rays: rng.random_range(1..5),
+        planes,
         _pad: 0,
     };
+    let [work, args, rays] = list.buffers();
     Case {
         name: format!(
-            "raygen_shadow {w}x{h}x{planes} frame {} rays {}",
-            frame.index, params.rays
+            "raygen_shadow {w}x{h}x{planes} frame {} list {}",
+            frame.index, list.args[0]
         ),
         kernel: &raygen::SHADOW_KERNEL,
         buffers: vec![
+            work,
+            args,
+            rays,
             BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
-            BufferSpec::from_pod(&rng_indices(rng, n), INTS),
+            BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,
             BufferSpec::from_pod(&lights, FLOATS),
             BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&raygen::SHADOW_KERNEL, w, h, planes),
+        groups: list.groups,
     }
 }

@@ -29,14 +29,15 @@ pub const MODE_UNDER: u32 = 2;
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BalanceParams {
-    /// Ray budget of the frame: target rays per pixel × pixels.
-    pub budget: f32,
+    /// Target average rays per pixel. The frame's budget `R` is this times the pixels that asked
+    /// for rays (sky and VRS-masked pixels neither cost nor earn budget).
+    pub rays_per_pixel: f32,
     /// Rings of the image (`buckets::ring_count`).
     pub ring_count: u32,
     /// Nonzero: spend unused budget by raising low requests; zero ("save" mode): leave it unspent.
     pub raise: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Zero: no balancing, every request is granted as asked ([`MODE_KEEP`]).
+    pub enabled: u32,
 }
 
 /// The balancer's decision (what [`super::apply`] reads) and its bookkeeping.
@@ -115,16 +116,23 @@ fn ring_pixels_moved(counts: &[u32], r: u32, t: u32, down: bool) -> f32 {
 /// per ring).
 pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
     let requested = rays_at(counts, 0, false);
+    let mut active = 0u32;
+    let mut b = 0;
+    while b < BUCKET_COUNT {
+        active += counts[b as usize];
+        b += 1;
+    }
+    let budget = p.rays_per_pixel * active as f32;
     let keep = Balance {
         mode: MODE_KEEP,
         ring_threshold: p.ring_count,
         requested,
         granted: requested,
-        budget: p.budget,
+        budget,
         ..Balance::default()
     };
-    let down = requested > p.budget;
-    if requested == p.budget || (!down && p.raise == 0) {
+    let down = requested > budget;
+    if p.enabled == 0 || requested == budget || (!down && p.raise == 0) {
         return keep;
     }
     // Largest t whose total fits (both sums are non-decreasing in t).
@@ -133,7 +141,7 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
     let mut cand = 1;
     while cand < BUCKET_COUNT {
         let r = rays_at(counts, cand, down);
-        if r <= p.budget {
+        if r <= budget {
             t = cand;
             base = r;
         }
@@ -142,12 +150,12 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
     // Rings from the centre outward get t + 1 while it fits.
     let mut k = p.ring_count;
     let mut granted = base;
-    if base <= p.budget && t + 1 < BUCKET_COUNT {
+    if base <= budget && t + 1 < BUCKET_COUNT {
         let step = bucket_to_rate(t + 1) - bucket_to_rate(t);
         let mut extra = 0.0f32;
         while k > 0 {
             let add = step * ring_pixels_moved(counts, k - 1, t, down);
-            if base + extra + add > p.budget {
+            if base + extra + add > budget {
                 break;
             }
             extra += add;
@@ -161,7 +169,7 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
         ring_threshold: k,
         requested,
         granted,
-        budget: p.budget,
+        budget,
         ..Balance::default()
     }
 }
@@ -198,6 +206,15 @@ mod tests {
     use super::*;
     use crate::kernels::buckets::{COUNTS_LEN, MAX_RINGS};
 
+    fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
+        BalanceParams {
+            rays_per_pixel,
+            ring_count,
+            raise,
+            enabled: 1,
+        }
+    }
+
     /// A histogram with `n` pixels per (bucket, ring) entry given.
     fn histogram(entries: &[(u32, u32, u32)]) -> [u32; COUNTS_LEN as usize] {
         let mut c = [0u32; COUNTS_LEN as usize];
@@ -224,29 +241,13 @@ mod tests {
     fn converged_image_at_one_and_a_half_rays_gives_the_centre_two() {
         // 4 rings of 100 pixels, all asking for 1 ray; budget 1.5 rays per pixel.
         let c = histogram(&[(64, 0, 100), (64, 1, 100), (64, 2, 100), (64, 3, 100)]);
-        let d = solve(
-            &c,
-            &BalanceParams {
-                budget: 600.0,
-                ring_count: 4,
-                raise: 1,
-                _pad: 0,
-            },
-        );
+        let d = solve(&c, &params(1.5, 4, 1));
         assert_eq!(d.mode, MODE_UNDER);
         assert_eq!(d.bucket_threshold, 64);
         assert_eq!(d.ring_threshold, 2, "inner half of the rings get 2 rays");
         assert_eq!(granted(&c, 4, &d), 600.0);
         // Save mode leaves the budget unspent.
-        let d = solve(
-            &c,
-            &BalanceParams {
-                budget: 600.0,
-                ring_count: 4,
-                raise: 0,
-                _pad: 0,
-            },
-        );
+        let d = solve(&c, &params(1.5, 4, 0));
         assert_eq!(d.mode, MODE_KEEP);
     }
 
@@ -254,15 +255,7 @@ mod tests {
     fn over_budget_drops_the_highest_requests_first() {
         // 10 disoccluded pixels want 16 rays, 90 converged want 1; budget 1 ray per pixel.
         let c = histogram(&[(79, 0, 10), (64, 0, 90)]);
-        let d = solve(
-            &c,
-            &BalanceParams {
-                budget: 100.0,
-                ring_count: 1,
-                raise: 1,
-                _pad: 0,
-            },
-        );
+        let d = solve(&c, &params(1.0, 1, 1));
         assert_eq!(d.mode, MODE_OVER);
         assert!(granted(&c, 1, &d) <= 100.0);
         assert_eq!(
@@ -276,15 +269,7 @@ mod tests {
     #[test]
     fn infeasible_budget_clamps_to_the_lowest_rate() {
         let c = histogram(&[(64, 0, 1000)]);
-        let d = solve(
-            &c,
-            &BalanceParams {
-                budget: 1.0,
-                ring_count: 1,
-                raise: 1,
-                _pad: 0,
-            },
-        );
+        let d = solve(&c, &params(0.001, 1, 1));
         assert_eq!(d.bucket_threshold, 0);
         assert!(d.granted > d.budget);
     }
@@ -313,21 +298,17 @@ mod tests {
             let c = histogram(&entries);
             let pixels: u32 = c[..BUCKET_COUNT as usize].iter().sum();
             let rpp = [0.25f32, 0.5, 1.0, 1.5, 2.0, 4.0][case % 6];
-            let p = BalanceParams {
-                budget: rpp * pixels as f32,
-                ring_count: rings,
-                raise: 1,
-                _pad: 0,
-            };
+            let p = params(rpp, rings, 1);
             let d = solve(&c, &p);
             let got = granted(&c, rings, &d);
-            let feasible = (pixels as f64 / 64.0) <= p.budget as f64;
+            let budget = rpp as f64 * pixels as f64;
+            let feasible = (pixels as f64 / 64.0) <= budget;
             if feasible {
                 // f32 accumulation in the solver vs f64 here: allow relative rounding only.
                 assert!(
-                    got <= p.budget as f64 * (1.0 + 1e-5),
+                    got <= budget * (1.0 + 1e-5),
                     "case {case}: {got} > {}",
-                    p.budget
+                    budget
                 );
                 approx::assert_relative_eq!(got as f32, d.granted, max_relative = 1e-4);
             }
@@ -344,9 +325,9 @@ mod tests {
                     .fold(0.0, f64::max);
                 if feasible && d.mode == MODE_UNDER {
                     assert!(
-                        p.budget as f64 - got <= step * max_ring + 1e-3 * p.budget as f64 + 1.0,
+                        budget - got <= step * max_ring + 1e-3 * budget + 1.0,
                         "case {case}: left {} unspent",
-                        p.budget as f64 - got
+                        budget - got
                     );
                 }
             }

@@ -3,9 +3,12 @@
 //! Each pixel traces `rays` rays whose random numbers come from its own sequence: seed
 //! [`pixel_seed`]`(x, y, z)` (`z` = signal plane), index `rng_index[pixel, z] + i` for the `i`-th
 //! ray. A ray is a pure function of `(seed, index, Surface)` — [`ao_ray`] / [`shadow_ray`] — so
-//! the temporal-gradient pass can re-trace last frame's ray exactly. The per-pixel functions take
-//! the ray count as an argument; today the kernels read it from the push constants, the VRRT apply
-//! pass will drive it per pixel.
+//! the temporal-gradient pass can re-trace last frame's ray exactly.
+//!
+//! The kernels run over the VRRT apply pass's compacted work list (dispatched indirectly from its
+//! argument buffer): each entry is a pixel, which traces exactly `rays[pixel]` rays per signal
+//! plane, starting at the rng index its reprojected history carries — so accumulation, which
+//! advances that index by the rays traced, never repeats a ray.
 //!
 //! Output per pixel and plane: [`Sample`] `{ m1 = mean(v), m2 = mean(v²), rays }` over the ray
 //! values `v ∈ {0, 1}`. Sky pixels ([`NO_INSTANCE`]) trace nothing and write `rays = 0`.
@@ -32,10 +35,9 @@
 //! of the light's area visible from the point (from above its geometric surface). Light geometry
 //! is never in the BVH.
 
-use super::plane_index;
 use crate::gbuffer::{Surface, NO_INSTANCE};
 use crate::math;
-use crate::payload::Sample;
+use crate::payload::{Payload, Sample};
 use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
@@ -120,8 +122,8 @@ pub struct AoParams {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Rays per pixel this frame.
-    pub rays: u32,
+    /// Signal planes traced per pixel (each with its own rng sequence).
+    pub planes: u32,
     /// AO radius: occluders farther than this do not count.
     pub max_distance: f32,
 }
@@ -134,8 +136,8 @@ pub struct ShadowParams {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Rays per pixel this frame.
-    pub rays: u32,
+    /// Signal planes: plane `z` is the shadow of `lights[z]`.
+    pub planes: u32,
     /// Reserved.
     pub _pad: u32,
 }
@@ -282,58 +284,102 @@ pub fn shadow_pixel(
     finish(sum, sum_sq, rays)
 }
 
-/// One invocation per pixel and plane: AO samples. Bindings: surfaces (per pixel), rng index
-/// (per pixel and plane), nodes, triangles, out (per pixel and plane).
+/// The work-list entry of invocation `id`, if any: `(pixel index, rays)`.
+#[inline]
+fn work_item(id: UVec3, work: &[u32], args: &[u32], rays: &[u32]) -> Option<(usize, u32)> {
+    if id.x >= args[0] {
+        return None;
+    }
+    let pix = work[id.x as usize] as usize;
+    Some((pix, rays[pix]))
+}
+
+/// One invocation per work-list entry: AO samples of every plane of that pixel.
+#[allow(clippy::too_many_arguments)]
 pub fn raygen_ao(
     id: UVec3,
     p: &AoParams,
+    work: &[u32],
+    args: &[u32],
+    rays: &[u32],
     surfaces: &[Surface],
-    rng_index: &[u32],
+    history: &[Payload],
     nodes: &[BvhNode],
     tris: &[Triangle],
     out: &mut [Sample],
 ) {
-    if id.x >= p.width || id.y >= p.height {
+    let Some((pix, n)) = work_item(id, work, args, rays) else {
         return;
+    };
+    let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
+    let s = surfaces[pix];
+    let mut z = 0;
+    while z < p.planes {
+        let i = (z * p.width * p.height) as usize + pix;
+        let seed = pixel_seed(x, y, z);
+        out[i] = ao_pixel(
+            &s,
+            seed,
+            history[i].rng_index,
+            n,
+            p.max_distance,
+            nodes,
+            tris,
+        );
+        z += 1;
     }
-    let i = plane_index(id, p.width, p.height);
-    let s = surfaces[super::pixel_index(id.x, id.y, p.width)];
-    let seed = pixel_seed(id.x, id.y, id.z);
-    out[i] = ao_pixel(&s, seed, rng_index[i], p.rays, p.max_distance, nodes, tris);
 }
 
+/// One invocation per work-list entry: shadow samples of every light (plane) of that pixel.
 #[allow(clippy::too_many_arguments)]
-/// One invocation per pixel and plane: shadow samples of light `lights[z]`. Bindings: surfaces,
-/// rng index, nodes, triangles, lights, out.
 pub fn raygen_shadow(
     id: UVec3,
     p: &ShadowParams,
+    work: &[u32],
+    args: &[u32],
+    rays: &[u32],
     surfaces: &[Surface],
-    rng_index: &[u32],
+    history: &[Payload],
     nodes: &[BvhNode],
     tris: &[Triangle],
     lights: &[AreaLight],
     out: &mut [Sample],
 ) {
-    if id.x >= p.width || id.y >= p.height || id.z as usize >= lights.len() {
+    let Some((pix, n)) = work_item(id, work, args, rays) else {
         return;
+    };
+    let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
+    let s = surfaces[pix];
+    let mut z = 0;
+    while z < p.planes && (z as usize) < lights.len() {
+        let i = (z * p.width * p.height) as usize + pix;
+        let seed = pixel_seed(x, y, z);
+        out[i] = shadow_pixel(
+            &s,
+            &lights[z as usize],
+            seed,
+            history[i].rng_index,
+            n,
+            nodes,
+            tris,
+        );
+        z += 1;
     }
-    let i = plane_index(id, p.width, p.height);
-    let s = surfaces[super::pixel_index(id.x, id.y, p.width)];
-    let seed = pixel_seed(id.x, id.y, id.z);
-    let light = lights[id.z as usize];
-    out[i] = shadow_pixel(&s, &light, seed, rng_index[i], p.rays, nodes, tris);
 }
 
 #[cfg(not(target_arch = "spirv"))]
 crate::per_invocation_kernel!(
-    /// Kernel description of [`raygen_ao`]: bindings `surfaces`, `rng_index`, `nodes`,
-    /// `triangles`, `out`.
-    AO_KERNEL = "raygen_ao", raygen_ao, threads(8, 8, 1),
+    /// Kernel description of [`raygen_ao`]: bindings `work`, `args`, `rays`, `surfaces`,
+    /// `history` (reprojected), `nodes`, `triangles`, `out`; dispatch indirectly from `args` at
+    /// byte offset 4.
+    AO_KERNEL = "raygen_ao", raygen_ao, threads(64, 1, 1),
     params: AoParams,
     bindings: [
+        work: Read u32,
+        args: Read u32,
+        rays: Read u32,
         surfaces: Read Surface,
-        rng_index: Read u32,
+        history: Read Payload,
         nodes: Read BvhNode,
         tris: Read Triangle,
         out: ReadWrite Sample,
@@ -342,13 +388,16 @@ crate::per_invocation_kernel!(
 
 #[cfg(not(target_arch = "spirv"))]
 crate::per_invocation_kernel!(
-    /// Kernel description of [`raygen_shadow`]: bindings `surfaces`, `rng_index`, `nodes`,
-    /// `triangles`, `lights`, `out`.
-    SHADOW_KERNEL = "raygen_shadow", raygen_shadow, threads(8, 8, 1),
+    /// Kernel description of [`raygen_shadow`]: bindings as [`AO_KERNEL`] plus `lights` before
+    /// `out`.
+    SHADOW_KERNEL = "raygen_shadow", raygen_shadow, threads(64, 1, 1),
     params: ShadowParams,
     bindings: [
+        work: Read u32,
+        args: Read u32,
+        rays: Read u32,
         surfaces: Read Surface,
-        rng_index: Read u32,
+        history: Read Payload,
         nodes: Read BvhNode,
         tris: Read Triangle,
         lights: Read AreaLight,

@@ -1,0 +1,430 @@
+//! Renders a scene's frames through any executor: the G-buffer pass, the denoiser's plan, and
+//! raygen of the chosen signal; and converged references traced with the very same estimator.
+
+use crate::scene::FrameGeometry;
+use std::sync::Arc;
+use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo, Settings};
+use vrrt_core::gbuffer::Surface;
+use vrrt_core::kernels::apply::LIST_GROUP;
+use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::kernels::balance::Balance;
+use vrrt_core::kernels::{gbuffer, raygen};
+use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
+
+/// The ray-traced signal being denoised.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Signal {
+    /// Ambient occlusion with a maximum distance (one plane).
+    Ao {
+        /// Occluders beyond this distance do not count.
+        max_distance: f32,
+    },
+    /// Area-light shadows: one plane per light of the scene (up to 4).
+    Shadows,
+}
+
+impl Signal {
+    /// Signal planes for a frame with `lights` lights.
+    pub fn planes(&self, lights: usize) -> u32 {
+        match self {
+            Signal::Ao { .. } => 1,
+            Signal::Shadows => lights.clamp(1, 4) as u32,
+        }
+    }
+
+    /// Short name, used in file names and cache keys.
+    pub fn name(&self) -> String {
+        match self {
+            Signal::Ao { max_distance } => format!("ao{max_distance}"),
+            Signal::Shadows => "shadows".into(),
+        }
+    }
+}
+
+fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
+    bytemuck::cast_slice(v)
+}
+
+/// Reads `len` elements of `T` from a buffer.
+pub fn read<T: bytemuck::Pod + Default, E: Executor>(
+    exec: &mut E,
+    id: BufferId,
+    len: usize,
+) -> Result<Vec<T>, E::Error> {
+    let mut out = vec![T::default(); len];
+    exec.read_buffer(id, bytemuck::cast_slice_mut(&mut out))?;
+    Ok(out)
+}
+
+/// A growable buffer: recreated only when a larger size is needed.
+#[derive(Copy, Clone, Debug)]
+struct Slot {
+    id: BufferId,
+    bytes: u64,
+}
+
+fn ensure<E: Executor>(
+    exec: &mut E,
+    slot: &mut Option<Slot>,
+    data: &[u8],
+) -> Result<BufferId, E::Error> {
+    let need = (data.len() as u64).max(4).next_multiple_of(4);
+    let s = match *slot {
+        Some(s) if s.bytes >= need => s,
+        _ => {
+            let s = Slot {
+                id: exec.create_buffer(need)?,
+                bytes: need,
+            };
+            *slot = Some(s);
+            s
+        }
+    };
+    if !data.is_empty() {
+        exec.write_buffer(s.id, data)?;
+    }
+    Ok(s.id)
+}
+
+/// A frame's geometry on the executor; static geometry is uploaded once.
+#[derive(Default)]
+pub struct GpuScene {
+    nodes: Option<Slot>,
+    tris: Option<Slot>,
+    normals: Option<Slot>,
+    instances: Option<Slot>,
+    lights: Option<Slot>,
+    uploaded: Option<Arc<crate::scene::Geometry>>,
+}
+
+impl GpuScene {
+    /// Uploads what changed since the last frame.
+    pub fn upload<E: Executor>(&mut self, exec: &mut E, f: &FrameGeometry) -> Result<(), E::Error> {
+        if !self
+            .uploaded
+            .as_ref()
+            .is_some_and(|g| Arc::ptr_eq(g, &f.geometry))
+        {
+            ensure(exec, &mut self.nodes, bytes(&f.geometry.nodes))?;
+            ensure(exec, &mut self.tris, bytes(&f.geometry.triangles))?;
+            ensure(exec, &mut self.normals, bytes(&f.geometry.normals))?;
+            self.uploaded = Some(f.geometry.clone());
+        }
+        ensure(exec, &mut self.instances, bytes(&f.instances))?;
+        ensure(exec, &mut self.lights, bytes(&f.lights))?;
+        Ok(())
+    }
+
+    fn ids(&self) -> [BufferId; 5] {
+        let id = |s: &Option<Slot>| s.expect("GpuScene::upload first").id;
+        [
+            id(&self.nodes),
+            id(&self.tris),
+            id(&self.normals),
+            id(&self.instances),
+            id(&self.lights),
+        ]
+    }
+
+    /// Records the G-buffer pass into `surfaces`.
+    pub fn gbuffer<E: Executor>(
+        &self,
+        exec: &mut E,
+        f: &FrameGeometry,
+        width: u32,
+        height: u32,
+        surfaces: BufferId,
+    ) -> Result<(), E::Error> {
+        let [nodes, tris, normals, instances, _] = self.ids();
+        let p = f.gbuffer_params(width, height);
+        let buffers = [nodes, tris, normals, instances, surfaces];
+        exec.dispatch(&Pass::over_grid(
+            &gbuffer::KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&p),
+            width,
+            height,
+            1,
+        ))
+    }
+
+    /// Records raygen of `signal` over a work list (dispatched indirectly from `args`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn raygen<E: Executor>(
+        &self,
+        exec: &mut E,
+        signal: Signal,
+        size: (u32, u32, u32),
+        list: [BufferId; 3],
+        surfaces: BufferId,
+        history: BufferId,
+        out: BufferId,
+    ) -> Result<(), E::Error> {
+        let [nodes, tris, _, _, lights] = self.ids();
+        let (width, height, planes) = size;
+        let [work, args, rays] = list;
+        let groups = Groups::Indirect {
+            buffer: args,
+            offset: 4,
+        };
+        match signal {
+            Signal::Ao { max_distance } => {
+                let p = raygen::AoParams {
+                    width,
+                    height,
+                    planes,
+                    max_distance,
+                };
+                let buffers = [work, args, rays, surfaces, history, nodes, tris, out];
+                exec.dispatch(&Pass {
+                    kernel: &raygen::AO_KERNEL,
+                    buffers: &buffers,
+                    params: bytemuck::bytes_of(&p),
+                    groups,
+                })
+            }
+            Signal::Shadows => {
+                let p = raygen::ShadowParams {
+                    width,
+                    height,
+                    planes,
+                    _pad: 0,
+                };
+                let buffers = [
+                    work, args, rays, surfaces, history, nodes, tris, lights, out,
+                ];
+                exec.dispatch(&Pass {
+                    kernel: &raygen::SHADOW_KERNEL,
+                    buffers: &buffers,
+                    params: bytemuck::bytes_of(&p),
+                    groups,
+                })
+            }
+        }
+    }
+}
+
+/// What to read back after a frame (each costs a copy from the device).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Readback {
+    /// Requests, granted rays and history lengths (the debug overlays).
+    pub overlays: bool,
+}
+
+/// One rendered frame, all planes stacked (`plane * width * height + pixel`).
+#[derive(Clone, Debug, Default)]
+pub struct FrameOutput {
+    /// Denoised signal.
+    pub denoised: Vec<f32>,
+    /// This frame's raw samples (mean of the rays traced; 0 where none).
+    pub raw: Vec<f32>,
+    /// Rays traced per pixel (all planes trace the same count).
+    pub rays: Vec<u32>,
+    /// Rays traced in the frame, per plane.
+    pub rays_traced: u64,
+    /// The load balancer's decision.
+    pub decision: Balance,
+    /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
+    pub flags: Vec<u32>,
+    /// Overlays, when asked for: requested bucket per pixel.
+    pub requests: Vec<u32>,
+    /// Overlays: history length (plane 0) after reprojection.
+    pub history_reprojected: Vec<f32>,
+    /// Overlays: history length (plane 0) after accumulation.
+    pub history_accumulated: Vec<f32>,
+}
+
+/// Runs a scene frame by frame through the denoiser.
+pub struct Renderer {
+    width: u32,
+    height: u32,
+    signal: Signal,
+    planes: u32,
+    denoiser: Denoiser,
+    gpu: GpuScene,
+    frames: u32,
+}
+
+impl Renderer {
+    /// A renderer for `width × height` with denoiser `settings` (its `planes` are set from the
+    /// signal and the number of lights).
+    pub fn new<E: Executor>(
+        exec: &mut E,
+        width: u32,
+        height: u32,
+        signal: Signal,
+        lights: usize,
+        mut settings: Settings,
+    ) -> Result<Self, DenoiserError<E::Error>> {
+        settings.planes = signal.planes(lights);
+        let denoiser = Denoiser::new(exec, width, height, settings)?;
+        Ok(Renderer {
+            width,
+            height,
+            signal,
+            planes: settings.planes,
+            denoiser,
+            gpu: GpuScene::default(),
+            frames: 0,
+        })
+    }
+
+    /// The denoiser (buffers, settings).
+    pub fn denoiser(&self) -> &Denoiser {
+        &self.denoiser
+    }
+
+    /// Renders one frame and reads back its outputs.
+    pub fn render<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        f: &FrameGeometry,
+        readback: Readback,
+    ) -> Result<FrameOutput, E::Error> {
+        let (w, h, planes) = (self.width, self.height, self.planes);
+        let d = &mut self.denoiser;
+        d.begin_frame(FrameInfo {
+            index: self.frames,
+            reset: self.frames == 0 || f.camera_cut,
+            pixel_angle: 2.0 * f.camera.tan_half_fov_y / h as f32,
+            use_mask: false,
+        });
+        self.frames += 1;
+        self.gpu.upload(exec, f)?;
+        self.gpu.gbuffer(exec, f, w, h, d.surfaces())?;
+        d.plan_rays(exec)?;
+        self.gpu.raygen(
+            exec,
+            self.signal,
+            (w, h, planes),
+            [d.work(), d.args(), d.rays()],
+            d.surfaces(),
+            d.reprojected(),
+            d.samples(),
+        )?;
+        let overlays_before = if readback.overlays {
+            Some((
+                read::<u32, E>(exec, d.requests(), (w * h) as usize)?,
+                read::<Payload, E>(exec, d.reprojected(), (w * h) as usize)?,
+            ))
+        } else {
+            None
+        };
+        d.resolve(exec)?;
+        let n = (w * h * planes) as usize;
+        let denoised: Vec<Filtered> = read(exec, d.output(), n)?;
+        let samples: Vec<Sample> = read(exec, d.samples(), n)?;
+        let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
+        let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
+        let flags: Vec<u32> = read(exec, d.flags(), (w * h) as usize)?;
+        let mut out = FrameOutput {
+            denoised: denoised.iter().map(|f| f.value).collect(),
+            raw: samples
+                .iter()
+                .map(|s| if s.rays > 0 { s.m1 } else { 0.0 })
+                .collect(),
+            rays_traced: rays.iter().map(|&r| r as u64).sum(),
+            rays,
+            decision: decision[0],
+            flags,
+            ..FrameOutput::default()
+        };
+        if let Some((requests, reprojected)) = overlays_before {
+            let history: Vec<Payload> = read(exec, d.history(), (w * h) as usize)?;
+            out.requests = requests;
+            out.history_reprojected = reprojected.iter().map(|p| p.count).collect();
+            out.history_accumulated = history.iter().map(|p| p.count).collect();
+        }
+        Ok(out)
+    }
+}
+
+/// A converged reference and its own Monte Carlo error.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    /// Mean per pixel and plane.
+    pub mean: Vec<f32>,
+    /// Standard error of the mean per pixel and plane.
+    pub stderr: Vec<f32>,
+    /// Samples per pixel.
+    pub spp: u32,
+}
+
+/// rng indices of reference rays start here, far from any index a denoised frame uses, so the
+/// reference is independent of the frames it judges.
+pub const REFERENCE_RNG_BASE: u32 = 1 << 30;
+
+/// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
+/// denoiser sees) in passes of up to 64 rays, calling `progress(done, spp)` after each.
+pub fn reference<E: Executor>(
+    exec: &mut E,
+    f: &FrameGeometry,
+    width: u32,
+    height: u32,
+    signal: Signal,
+    spp: u32,
+    mut progress: impl FnMut(u32, u32),
+) -> Result<Reference, E::Error> {
+    let pixels = (width * height) as usize;
+    let planes = signal.planes(f.lights.len());
+    let n = pixels * planes as usize;
+    let mut gpu = GpuScene::default();
+    gpu.upload(exec, f)?;
+    let surfaces = exec.create_buffer((pixels * std::mem::size_of::<Surface>()) as u64)?;
+    gpu.gbuffer(exec, f, width, height, surfaces)?;
+    let work_ids: Vec<u32> = (0..pixels as u32).collect();
+    let work = exec.create_buffer(pixels as u64 * 4)?;
+    exec.write_buffer(work, bytes(&work_ids))?;
+    let args = exec.create_buffer(16)?;
+    exec.write_buffer(
+        args,
+        bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
+    )?;
+    let rays = exec.create_buffer(pixels as u64 * 4)?;
+    let history = exec.create_buffer((n * std::mem::size_of::<Payload>()) as u64)?;
+    let out = exec.create_buffer((n * std::mem::size_of::<Sample>()) as u64)?;
+    let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
+    let mut done = 0u32;
+    while done < spp {
+        let batch = (spp - done).min(64);
+        exec.write_buffer(rays, bytes(&vec![batch; pixels]))?;
+        let start = REFERENCE_RNG_BASE + done;
+        let hist: Vec<Payload> = vec![
+            Payload {
+                rng_index: start,
+                ..Payload::default()
+            };
+            n
+        ];
+        exec.write_buffer(history, bytes(&hist))?;
+        gpu.raygen(
+            exec,
+            signal,
+            (width, height, planes),
+            [work, args, rays],
+            surfaces,
+            history,
+            out,
+        )?;
+        let samples: Vec<Sample> = read(exec, out, n)?;
+        for (i, s) in samples.iter().enumerate() {
+            sum[i] += s.m1 as f64 * s.rays as f64;
+            sum_sq[i] += s.m2 as f64 * s.rays as f64;
+        }
+        done += batch;
+        progress(done, spp);
+    }
+    let k = spp.max(1) as f64;
+    let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
+    let stderr = sum
+        .iter()
+        .zip(&sum_sq)
+        .map(|(s, q)| {
+            let m = s / k;
+            let var = (q / k - m * m).max(0.0);
+            (var / (k - 1.0).max(1.0)).sqrt() as f32
+        })
+        .collect();
+    Ok(Reference { mean, stderr, spp })
+}
