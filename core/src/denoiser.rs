@@ -42,6 +42,10 @@ pub struct Settings {
     pub spend_saved_rays: bool,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
+    /// History length (rays) from which a pixel counts as converged and may undersample
+    /// (1..=max_history; default 32). The seed waits for full history (`max_history`); a shorter
+    /// wait frees rays sooner for disocclusions, at some risk on slowly changing signals.
+    pub undersample_after: f32,
     /// Undersampling variance thresholds, increasing (default `[1e-4, 1e-3, 1e-2, 0]`).
     pub variance_threshold: [f32; 4],
     /// Undersampling rates of those thresholds, in `[1/64, 16]` (default `[1/8, 1/4, 1/2, 1]`).
@@ -52,11 +56,12 @@ pub struct Settings {
     pub max_history: f32,
     /// À-trous iterations, strides 1, 2, 4, … (0..=5; default 5).
     pub atrous_iterations: u32,
-    /// Luminance edge-stopping σ_l (> 0; default 4).
+    /// Luminance edge-stopping σ_l (> 0; default 2: with the variance of the estimate, not of a
+    /// single ray, SVGF's 4 over-blurs contact shadows).
     pub sigma_luminance: f32,
     /// Normal edge-stopping exponent (>= 0; default 128).
     pub normal_power: f32,
-    /// Plane-distance tolerance in pixel footprints (> 0; default 8).
+    /// Plane-distance tolerance in pixel footprints (> 0; default 2).
     pub plane_tolerance: f32,
     /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
     pub spatial_until: f32,
@@ -85,14 +90,15 @@ impl Default for Settings {
             load_balance: true,
             spend_saved_rays: true,
             undersample: true,
+            undersample_after: 32.0,
             variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
             variance_rate: [0.125, 0.25, 0.5, 1.0],
             planes: 1,
             max_history: 64.0,
             atrous_iterations: 5,
-            sigma_luminance: 4.0,
+            sigma_luminance: 2.0,
             normal_power: 128.0,
-            plane_tolerance: 8.0,
+            plane_tolerance: 2.0,
             spatial_until: 4.0,
             spatial_radius: 3,
             clamp_radius: 0,
@@ -187,6 +193,14 @@ impl Settings {
             "supersample_target",
             self.supersample_target,
             "0 or 1..=max_history",
+        )?;
+        check(
+            finite(self.undersample_after)
+                && self.undersample_after >= 1.0
+                && self.undersample_after <= self.max_history,
+            "undersample_after",
+            self.undersample_after,
+            "1..=max_history",
         )?;
         for i in 0..4 {
             let t = self.variance_threshold[i];
@@ -519,7 +533,7 @@ impl Denoiser {
             plane_threshold: s.plane_threshold,
             frame_index: self.frame.index,
             supersample_target: s.supersample_target,
-            full_history: s.max_history,
+            full_history: s.undersample_after,
             base_rate: if vrrt { 1.0 } else { s.rays_per_pixel },
             use_mask: self.frame.use_mask as u32,
             variance_threshold: if s.undersample {

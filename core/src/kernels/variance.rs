@@ -7,7 +7,11 @@
 //! the moments is used as is. While the history is shorter than `spatial_until` rays, a bilateral
 //! (normal + plane) estimate over a `(2r+1)²` window is blended in:
 //! `t = count / spatial_until`, `value = lerp(spatial_mean, m1, t)`,
-//! `variance = lerp(spatial_variance, temporal_variance, t)`. A pixel with no history at all
+//! `variance = lerp(spatial_variance, temporal_variance, t)`. Both are variances of single rays;
+//! the output is the variance of the pixel's *estimate*, divided by the rays it holds
+//! (`max(count, 1)`), so the luminance edge-stopping of the à-trous filter tightens as history
+//! converges — SVGF's "stops applying blur after temporal stability is achieved" — instead of
+//! blurring a converged pixel as hard as a 1-ray one. A pixel with no history at all
 //! (`count = 0`) therefore takes the spatial estimate entirely — this is also how undersampled
 //! pixels get a value without feeding it back into history.
 
@@ -70,9 +74,10 @@ pub fn variance(
     }
     let i = plane_index(id, p.width, p.height);
     let h = payload[i];
+    let per_estimate = 1.0 / math::max(h.count, 1.0);
     let temporal = Filtered {
         value: h.m1,
-        variance: h.variance(),
+        variance: h.variance() * per_estimate,
     };
     let c = surfaces[pixel_index(id.x, id.y, p.width)];
     if h.count >= p.spatial_until || !c.is_valid() {
@@ -114,7 +119,7 @@ pub fn variance(
     let t = math::saturate(h.count / p.spatial_until);
     out[i] = Filtered {
         value: math::lerp(m1s, h.m1, t),
-        variance: math::lerp(spatial_var, temporal.variance, t),
+        variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
     };
 }
 
