@@ -56,8 +56,8 @@ pub struct Settings {
     pub max_history: f32,
     /// À-trous iterations, strides 1, 2, 4, … (0..=5; default 5).
     pub atrous_iterations: u32,
-    /// Luminance edge-stopping σ_l (> 0; default 2: with the variance of the estimate, not of a
-    /// single ray, SVGF's 4 over-blurs contact shadows).
+    /// Luminance edge-stopping σ_l (> 0; default 1: with the variance of the estimate, not of a
+    /// single ray, SVGF's 4 over-blurs contact shadows and disocclusions).
     pub sigma_luminance: f32,
     /// Normal edge-stopping exponent (>= 0; default 128).
     pub normal_power: f32,
@@ -96,7 +96,7 @@ impl Default for Settings {
             planes: 1,
             max_history: 64.0,
             atrous_iterations: 5,
-            sigma_luminance: 2.0,
+            sigma_luminance: 1.0,
             normal_power: 128.0,
             plane_tolerance: 2.0,
             spatial_until: 4.0,
