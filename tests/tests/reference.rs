@@ -1,0 +1,39 @@
+//! Ground truth converges: the Monte Carlo standard error of a reference shrinks as 1/sqrt(spp),
+//! and the mean stays within a few standard errors of a much longer run.
+
+use vrrt_cpu::CpuExecutor;
+use vrrt_scene::render::{reference, Signal};
+
+#[test]
+fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let frame = scene.frame(10);
+    let mut exec = CpuExecutor::new();
+    let (w, h) = (64, 36);
+    for signal in [Signal::Ao { max_distance: 1.0 }, Signal::Shadows] {
+        let mut previous: Option<f64> = None;
+        let long = reference(&mut exec, &frame, w, h, signal, 4096, |_, _| {}).unwrap();
+        for spp in [16u32, 64, 256, 1024] {
+            let r = reference(&mut exec, &frame, w, h, signal, spp, |_, _| {}).unwrap();
+            let mean_se = r.stderr.iter().map(|&s| s as f64).sum::<f64>() / r.stderr.len() as f64;
+            // Pixels further from the long run than 5 standard errors of an spp-sample estimate
+            // (estimated from the long run, which is well resolved: a 16-spp pixel can show zero
+            // variance of its own).
+            let scale = (4096.0 / spp as f32).sqrt();
+            let outliers = r
+                .mean
+                .iter()
+                .zip(&long.mean)
+                .zip(&long.stderr)
+                .filter(|((&a, &b), &sb)| (a - b).abs() > 5.0 * sb * (scale + 1.0) + 1e-6)
+                .count();
+            println!("{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}", signal.name());
+            if let Some(prev) = previous {
+                let ratio = prev / mean_se;
+                assert!((1.7..2.3).contains(&ratio), "{spp} spp: 4x the samples cut the error {ratio:.2}x, not ~2x");
+            }
+            assert!(outliers <= r.mean.len() / 1000 + 1, "{outliers} pixels disagree with the 4096-spp run");
+            previous = Some(mean_se);
+        }
+    }
+}
