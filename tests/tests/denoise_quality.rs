@@ -32,7 +32,15 @@ struct Run {
 fn run(settings: Settings, references: &[(u32, Vec<f32>)]) -> Run {
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
     let mut exec = CpuExecutor::new();
-    let mut r = Renderer::new(&mut exec, SIZE.0, SIZE.1, SIGNAL, scene.lights.len(), settings).unwrap();
+    let mut r = Renderer::new(
+        &mut exec,
+        SIZE.0,
+        SIZE.1,
+        SIGNAL,
+        scene.lights.len(),
+        settings,
+    )
+    .unwrap();
     let (mut denoised, mut raw) = (0.0, 0.0);
     let (mut max_overshoot, mut max_allowed) = (0.0f64, 0.0f64);
     let mut ring_pixels = vec![0u32; ring_count(SIZE.0, SIZE.1) as usize];
@@ -43,10 +51,17 @@ fn run(settings: Settings, references: &[(u32, Vec<f32>)]) -> Run {
     }
     let largest_ring = *ring_pixels.iter().max().unwrap() as f64;
     for i in 0..FRAMES {
-        let out = r.render(&mut exec, &scene.frame(i), Readback::default()).unwrap();
+        let out = r
+            .render(&mut exec, &scene.frame(i), Readback::default())
+            .unwrap();
         let d = out.decision;
         if d.mode != MODE_KEEP {
-            assert!(d.granted as f64 <= d.budget as f64 * (1.0 + 1e-5), "frame {i}: granted {} > budget {}", d.granted, d.budget);
+            assert!(
+                d.granted as f64 <= d.budget as f64 * (1.0 + 1e-5),
+                "frame {i}: granted {} > budget {}",
+                d.granted,
+                d.budget
+            );
             // The invariant: traced rays exceed the budget by at most one bucket step of one ring
             // (here bounded by the largest ring), fractional rates' noise included.
             let t = d.bucket_threshold.min(BUCKET_COUNT - 2);
@@ -60,7 +75,12 @@ fn run(settings: Settings, references: &[(u32, Vec<f32>)]) -> Run {
         }
     }
     let n = references.len() as f64;
-    Run { denoised: denoised / n, raw: raw / n, max_overshoot, max_allowed }
+    Run {
+        denoised: denoised / n,
+        raw: raw / n,
+        max_overshoot,
+        max_allowed,
+    }
 }
 
 #[test]
@@ -69,12 +89,31 @@ fn svgf_converges_and_vrrt_beats_it_at_the_same_budget() {
     let mut exec = CpuExecutor::new();
     let references: Vec<(u32, Vec<f32>)> = (FRAMES / 2..FRAMES)
         .filter(|i| i % 2 == 1)
-        .map(|i| (i, reference(&mut exec, &scene.frame(i), SIZE.0, SIZE.1, SIGNAL, 256, |_, _| {}).unwrap().mean))
+        .map(|i| {
+            (
+                i,
+                reference(
+                    &mut exec,
+                    &scene.frame(i),
+                    SIZE.0,
+                    SIZE.1,
+                    SIGNAL,
+                    256,
+                    |_, _| {},
+                )
+                .unwrap()
+                .mean,
+            )
+        })
         .collect();
     let svgf = run(Settings::svgf(1.0), &references);
     let vrrt = run(Settings::default(), &references);
     println!("raw 1 rpp relMSE {:.5}", svgf.raw);
-    println!("SVGF 1 rpp relMSE {:.5} ({:.1}x lower than raw)", svgf.denoised, svgf.raw / svgf.denoised);
+    println!(
+        "SVGF 1 rpp relMSE {:.5} ({:.1}x lower than raw)",
+        svgf.denoised,
+        svgf.raw / svgf.denoised
+    );
     println!(
         "VRRT 1 rpp relMSE {:.5} ({:.2}x lower than SVGF); max overshoot of traced over budget {:.0} rays (bound {:.0})",
         vrrt.denoised,
@@ -82,7 +121,13 @@ fn svgf_converges_and_vrrt_beats_it_at_the_same_budget() {
         vrrt.max_overshoot,
         vrrt.max_allowed
     );
-    assert!(svgf.denoised * 10.0 <= svgf.raw, "SVGF is not 10x below raw");
-    assert!(vrrt.denoised < svgf.denoised, "VRRT is not better than SVGF");
+    assert!(
+        svgf.denoised * 10.0 <= svgf.raw,
+        "SVGF is not 10x below raw"
+    );
+    assert!(
+        vrrt.denoised < svgf.denoised,
+        "VRRT is not better than SVGF"
+    );
     assert!(vrrt.max_overshoot <= vrrt.max_allowed, "budget broken");
 }

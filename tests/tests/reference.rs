@@ -27,12 +27,21 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
                 .zip(&long.stderr)
                 .filter(|((&a, &b), &sb)| (a - b).abs() > 5.0 * sb * (scale + 1.0) + 1e-6)
                 .count();
-            println!("{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}", signal.name());
+            println!(
+                "{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}",
+                signal.name()
+            );
             if let Some(prev) = previous {
                 let ratio = prev / mean_se;
-                assert!((1.7..2.3).contains(&ratio), "{spp} spp: 4x the samples cut the error {ratio:.2}x, not ~2x");
+                assert!(
+                    (1.7..2.3).contains(&ratio),
+                    "{spp} spp: 4x the samples cut the error {ratio:.2}x, not ~2x"
+                );
             }
-            assert!(outliers <= r.mean.len() / 1000 + 1, "{outliers} pixels disagree with the 4096-spp run");
+            assert!(
+                outliers <= r.mean.len() / 1000 + 1,
+                "{outliers} pixels disagree with the 4096-spp run"
+            );
             previous = Some(mean_se);
         }
     }
