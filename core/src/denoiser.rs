@@ -21,7 +21,9 @@
 
 use crate::blue_noise;
 use crate::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
+use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups, Pass};
+pub use crate::quantize::StoragePrecision;
 use core::fmt;
 
 /// Every tunable of the denoiser, with documented defaults and ranges (like NRD's settings).
@@ -78,8 +80,17 @@ pub struct Settings {
     pub normal_threshold: f32,
     /// Reprojection: maximum plane distance as a fraction of view depth (default 0.02).
     pub plane_threshold: f32,
-    /// Width of the stored rng index (wraps there; 0 = 32 bits, default).
+    /// Width of the stored rng index (wraps there; 0 = the width that goes with `storage`: 32
+    /// bits for f32, 16 for f16, 8 for unorm8; default 0).
     pub rng_wrap: u32,
+    /// Storage precision of the history moments (default f32, the reference). f16 and unorm8
+    /// round every stored moment to that format's precision, with the seed's stuck correction, to
+    /// measure what a low-precision history does; buffers keep their f32 layout (packed formats
+    /// are not implemented). Unorm8 is for signals in `[0, 1]` (shadows, AO) only.
+    pub storage: StoragePrecision,
+    /// The seed's stuck correction when storing low-precision history (default on). Off only to
+    /// demonstrate the pixel that never converges without it; no effect with f32 storage.
+    pub stuck_correction: bool,
 }
 
 impl Default for Settings {
@@ -107,6 +118,8 @@ impl Default for Settings {
             normal_threshold: 0.9,
             plane_threshold: 0.02,
             rng_wrap: 0,
+            storage: StoragePrecision::F32,
+            stuck_correction: true,
         }
     }
 }
@@ -333,8 +346,9 @@ impl<E> From<E> for DenoiserError<E> {
     }
 }
 
-/// Per-frame inputs that are not images.
-#[derive(Copy, Clone, Debug, PartialEq)]
+/// Per-frame inputs that are not images. `Default` is frame 0 with every flag off and a zero
+/// `pixel_angle`, so callers name the fields they set and stay valid when fields are added.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct FrameInfo {
     /// Frame number; seeds the rng index of pixels whose history was lost.
     pub index: u32,
@@ -366,6 +380,7 @@ pub struct Denoiser {
     rays: BufferId,
     work: BufferId,
     args: BufferId,
+    counters: BufferId,
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -396,6 +411,8 @@ impl Denoiser {
         let planes = pixels * settings.planes as u64;
         let noise = exec.create_buffer(blue_noise::LEN as u64 * 4)?;
         exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
+        let counters = exec.create_buffer(COUNTERS_LEN as u64 * 4)?;
+        exec.write_buffer(counters, &[0; COUNTERS_LEN as usize * 4])?;
         Ok(Denoiser {
             settings,
             width,
@@ -423,6 +440,7 @@ impl Denoiser {
             rays: exec.create_buffer(pixels * 4)?,
             work: exec.create_buffer(pixels * 4)?,
             args: exec.create_buffer(apply::ARGS_LEN as u64 * 4)?,
+            counters,
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -510,6 +528,23 @@ impl Denoiser {
     /// The denoised signal after [`Self::resolve`] (`Filtered` per pixel and plane).
     pub fn output(&self) -> BufferId {
         self.filtered[self.out]
+    }
+
+    /// Input clean-up counters (`u32`, [`COUNTERS_LEN`] words, indexed by
+    /// `payload::COUNTER_*`): samples dropped as non-finite and samples clamped into range, totals
+    /// since this denoiser was created (wrapping at 2^32). A healthy raygen leaves them at 0; read
+    /// them to find out that it is not.
+    pub fn counters(&self) -> BufferId {
+        self.counters
+    }
+
+    /// The rng wrap accumulation uses: [`Settings::rng_wrap`], or the storage format's width.
+    pub fn rng_wrap(&self) -> u32 {
+        if self.settings.rng_wrap != 0 {
+            self.settings.rng_wrap
+        } else {
+            self.settings.storage.rng_wrap()
+        }
     }
 
     /// Starts a frame: swaps the ping-pong G-buffer and history so last frame's become `prev`.
@@ -634,13 +669,23 @@ impl Denoiser {
             width: w,
             height: h,
             max_history: s.max_history,
-            rng_wrap: s.rng_wrap,
+            rng_wrap: self.rng_wrap(),
             clamp_radius: s.clamp_radius,
             clamp_gamma: s.clamp_gamma,
             firefly_max: s.firefly_max,
-            _pad: 0,
+            storage: s.storage.code()
+                | if s.stuck_correction {
+                    0
+                } else {
+                    crate::quantize::STORAGE_NO_CORRECTION
+                },
         };
-        let buffers = [self.reprojected, self.samples, self.history[self.cur]];
+        let buffers = [
+            self.reprojected,
+            self.samples,
+            self.history[self.cur],
+            self.counters,
+        ];
         exec.dispatch(&Pass::over_grid(
             &accumulate::KERNEL,
             &buffers,

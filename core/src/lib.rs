@@ -29,6 +29,7 @@ pub mod gbuffer;
 pub mod kernels;
 pub mod math;
 pub mod payload;
+pub mod quantize;
 #[cfg(not(target_arch = "spirv"))]
 pub mod plan;
 pub mod sampling;

@@ -2,9 +2,27 @@
 //! many rays they hold, and where this pixel's random sequence continues.
 //!
 //! Seed: vrrt-call-of-duty-2026, "Denoising basics" (moments), "How to handle rng?" (reprojected
-//! rng index) and "Undersampling" (`TemporalAccumulation`, clamp after accumulation).
+//! rng index), "Undersampling" (`TemporalAccumulation`, clamp after accumulation) and "Numerical
+//! precision issues when undersampling" (stuck correction, see [`quantize`]).
+//!
+//! # Input clean-up policy
+//!
+//! Raygen output is untrusted: one NaN in history would spread through the spatial filter and stay
+//! for the whole history length. Before merging, each traced sample goes through [`clean`]:
+//! - a sample whose `m1` or `m2` is NaN or ±Inf is **dropped** (treated as an untraced pixel, the
+//!   history is carried) and counted in [`COUNTER_NON_FINITE`];
+//! - the signals are non-negative (visibility, occlusion, radiance), so negative moments are
+//!   **clamped** to 0, and moments above the storage format's largest value
+//!   ([`quantize::max_value`]: 65504 for f16, 1 for unorm8, 2^50 for f32 so the merged second
+//!   moment cannot overflow) are clamped to it; both count in [`COUNTER_CLAMPED`];
+//! - `m2` is raised to `m1²` (within the format's range) if it is below: a mean of squares is
+//!   never below the square of the mean, and raygen's rounding may break that. Not counted.
+//!
+//! Untraced samples (`rays == 0`) are not inspected: their moments are not read. The accumulated
+//! moments are then stored at the storage precision ([`store`]).
 
 use crate::math;
+use crate::quantize;
 use bytemuck::{Pod, Zeroable};
 
 /// History of one signal at one pixel.
@@ -69,6 +87,62 @@ pub fn accumulate(prev: Payload, curr: Sample, max_history: f32, rng_wrap: u32) 
         m2,
         count: math::min(count, max_history),
         rng_index: if rng_wrap == 0 { next } else { next % rng_wrap },
+    }
+}
+
+/// Slot of the counters buffer: samples dropped because a moment was NaN or ±Inf.
+pub const COUNTER_NON_FINITE: usize = 0;
+/// Slot of the counters buffer: samples with a moment clamped into `[0, max]`.
+pub const COUNTER_CLAMPED: usize = 1;
+/// Words in the counters buffer.
+pub const COUNTERS_LEN: u32 = 2;
+
+/// [`clean`] kept the sample as it was (or the pixel traced nothing).
+pub const CLEAN_KEPT: u32 = 0;
+/// [`clean`] clamped a moment of the sample into range.
+pub const CLEAN_CLAMPED: u32 = 1;
+/// [`clean`] dropped the sample (non-finite moment).
+pub const CLEAN_DROPPED: u32 = 2;
+
+/// Applies the input clean-up policy (module docs) to one sample whose signal may not exceed
+/// `max`; returns the sample to merge and what was done (`CLEAN_*`). A dropped sample comes back
+/// with `rays == 0`, so [`accumulate`] carries the history.
+#[inline]
+pub fn clean(s: Sample, max: f32) -> (Sample, u32) {
+    if s.rays == 0 {
+        return (s, CLEAN_KEPT);
+    }
+    if !math::is_finite(s.m1) || !math::is_finite(s.m2) {
+        return (Sample { rays: 0, ..s }, CLEAN_DROPPED);
+    }
+    let m1 = math::clamp(s.m1, 0.0, max);
+    let m2 = math::clamp(s.m2, 0.0, max);
+    let what = if m1 != s.m1 || m2 != s.m2 {
+        CLEAN_CLAMPED
+    } else {
+        CLEAN_KEPT
+    };
+    let m2 = math::max(m2, math::min(m1 * m1, max));
+    (Sample { m1, m2, ..s }, what)
+}
+
+/// Stores `merged` (the f32 result of [`accumulate`] of sample `curr` into `prev`) at storage
+/// precision `storage` (`quantize::STORAGE_*`): each moment is rounded to the format with the
+/// stuck correction against its value in `prev`, never stepping past the sample's value, and
+/// `m2` is kept at or above `m1²` (within the format's range: above √65504 ≈ 256 the f16 second
+/// moment saturates and the variance reads 0) so the variance stays non-negative after rounding.
+/// The history length and rng index are not moments and are kept as they are (the rng index
+/// already wraps at the format's width).
+#[inline]
+pub fn store(prev: Payload, curr: Sample, merged: Payload, storage: u32) -> Payload {
+    let max = quantize::max_value(storage);
+    let m1 = quantize::store_with_correction(storage, merged.m1, prev.m1, curr.m1);
+    let m2 = quantize::store_with_correction(storage, merged.m2, prev.m2, curr.m2);
+    let floor = quantize::quantize_up(storage, math::min(m1 * m1, max));
+    Payload {
+        m1,
+        m2: math::max(m2, floor),
+        ..merged
     }
 }
 
@@ -166,6 +240,54 @@ mod tests {
                 ),
                 prev
             );
+        }
+    }
+
+    #[test]
+    fn clean_up_policy() {
+        let s = |m1, m2| Sample {
+            m1,
+            m2,
+            rays: 1,
+            ..Sample::default()
+        };
+        assert_eq!(clean(s(f32::NAN, 0.0), 1.0).1, CLEAN_DROPPED);
+        assert_eq!(clean(s(0.0, f32::INFINITY), 1.0).0.rays, 0);
+        let (c, w) = clean(s(-0.5, 0.25), 65504.0);
+        assert_eq!((c.m1, c.m2, w), (0.0, 0.25, CLEAN_CLAMPED));
+        let (c, w) = clean(s(1e30, 1e30), 65504.0);
+        assert_eq!((c.m1, c.m2, w), (65504.0, 65504.0, CLEAN_CLAMPED));
+        // m2 below m1² is raised, not counted.
+        let (c, w) = clean(s(0.5, 0.2), 1.0);
+        assert_eq!((c.m1, c.m2, w), (0.5, 0.25, CLEAN_KEPT));
+        // Untraced samples are not inspected.
+        let untraced = Sample {
+            rays: 0,
+            ..s(f32::NAN, -1.0)
+        };
+        assert_eq!(clean(untraced, 1.0).1, CLEAN_KEPT);
+    }
+
+    #[test]
+    fn store_keeps_m2_above_m1_squared() {
+        let prev = Payload {
+            m1: 0.3,
+            m2: 0.0,
+            count: 3.0,
+            rng_index: 0,
+        };
+        for storage in [
+            quantize::STORAGE_F32,
+            quantize::STORAGE_F16,
+            quantize::STORAGE_UNORM8,
+        ] {
+            let merged = Payload {
+                m1: 0.3337,
+                m2: 0.1,
+                ..prev
+            };
+            let p = store(prev, Sample::default(), merged, storage);
+            assert!(p.m2 >= p.m1 * p.m1, "{storage}: {p:?}");
         }
     }
 

@@ -22,8 +22,9 @@ pub fn accumulate(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] history: &[Payload],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] samples: &[Sample],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] out: &mut [Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] counters: &mut [u32],
 ) {
-    accumulate::accumulate(id, p, history, samples, out);
+    accumulate::accumulate(id, p, history, samples, out, counters);
 }
 
 #[spirv(compute(threads(8, 8, 1)))]

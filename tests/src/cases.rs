@@ -8,8 +8,9 @@ use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
+use vrrt_core::quantize;
 
 /// A case generator: `(rng, width, height) -> Case`.
 pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
@@ -130,14 +131,26 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             rng_index: rng.random(),
         })
         .collect();
+    // Some samples are non-finite: the clean-up policy drops and counts them.
+    let hostile = |rng: &mut Pcg32| match rng.random_range(0..40) {
+        0 => f32::NAN,
+        1 => f32::INFINITY,
+        2 => f32::NEG_INFINITY,
+        _ => value(rng),
+    };
     let samples: Vec<Sample> = (0..n)
         .map(|_| Sample {
-            m1: value(rng),
-            m2: value(rng),
+            m1: hostile(rng),
+            m2: hostile(rng),
             rays: rng.random_range(0..17),
             _pad: 0,
         })
         .collect();
+    let storage = [
+        quantize::STORAGE_F32,
+        quantize::STORAGE_F16,
+        quantize::STORAGE_UNORM8,
+    ][rng.random_range(0..3)];
     let params = accumulate::AccumulateParams {
         width: w,
         height: h,
@@ -150,15 +163,19 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         },
         clamp_gamma: 1.0,
         firefly_max: if rng.random_bool(0.5) { 10.0 } else { 0.0 },
-        _pad: 0,
+        storage,
     };
     Case {
-        name: format!("accumulate {w}x{h}x{PLANES} clamp {}", params.clamp_radius),
+        name: format!(
+            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage}",
+            params.clamp_radius
+        ),
         kernel: &accumulate::KERNEL,
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
             BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
+            BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&accumulate::KERNEL, w, h, PLANES),

@@ -4,10 +4,14 @@
 //! ("temporal accumulation is a good place to do firefly clamping, and variance-based clamp, if you
 //! still want to use it"). The variance clamp is the SVGF baseline's history rectification; VRRT
 //! runs without it and relies on temporal gradients instead.
+//!
+//! Order per pixel and plane: input clean-up ([`payload::clean`], counted in the counters buffer),
+//! firefly clamp, optional variance clamp of the history, f32 merge, then storage at the history's
+//! precision with the stuck correction ([`payload::store`]).
 
 use super::plane_index;
-use crate::math;
 use crate::payload::{self, Payload, Sample};
+use crate::{atomic, math, quantize};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -30,8 +34,9 @@ pub struct AccumulateParams {
     pub clamp_gamma: f32,
     /// This frame's per-pixel mean is clamped to this (fireflies); 0 or less turns it off.
     pub firefly_max: f32,
-    /// Padding.
-    pub _pad: u32,
+    /// Storage precision of the history moments (`quantize::STORAGE_*`, optionally with
+    /// `quantize::STORAGE_NO_CORRECTION`); also sets the ceiling samples are clamped to.
+    pub storage: u32,
 }
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
@@ -81,12 +86,18 @@ pub fn accumulate(
     history: &[Payload],
     samples: &[Sample],
     out: &mut [Payload],
+    counters: &mut [u32],
 ) {
     if id.x >= p.width || id.y >= p.height {
         return;
     }
     let i = plane_index(id, p.width, p.height);
-    let mut curr = samples[i];
+    let (mut curr, what) = payload::clean(samples[i], quantize::max_value(p.storage));
+    if what == payload::CLEAN_DROPPED {
+        atomic::add(&mut counters[payload::COUNTER_NON_FINITE], 1);
+    } else if what == payload::CLEAN_CLAMPED {
+        atomic::add(&mut counters[payload::COUNTER_CLAMPED], 1);
+    }
     if p.firefly_max > 0.0 {
         curr.m1 = math::min(curr.m1, p.firefly_max);
         curr.m2 = math::min(curr.m2, p.firefly_max * p.firefly_max);
@@ -96,13 +107,15 @@ pub fn accumulate(
     } else {
         history[i]
     };
-    out[i] = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
+    let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
+    out[i] = payload::store(prev, curr, merged, p.storage);
 }
 
 #[cfg(not(target_arch = "spirv"))]
 crate::per_invocation_kernel!(
-    /// Kernel description of [`accumulate`]: bindings `history`, `samples`, `out`.
+    /// Kernel description of [`accumulate`]: bindings `history`, `samples`, `out`, `counters`
+    /// (`payload::COUNTERS_LEN` words, incremented atomically).
     KERNEL = "accumulate", accumulate, threads(8, 8, 1),
     params: AccumulateParams,
-    bindings: [history: Read Payload, samples: Read Sample, out: ReadWrite Payload]
+    bindings: [history: Read Payload, samples: Read Sample, out: ReadWrite Payload, counters: ReadWrite u32]
 );

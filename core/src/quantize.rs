@@ -1,0 +1,359 @@
+//! Storage precision of the history: rounds a moment to what a narrower format can hold, with the
+//! seed's "stuck" correction.
+//!
+//! Seed: vrrt-call-of-duty-2026, "Numerical precision issues when undersampling"
+//! (`Fp16QuantizationCorrection`). With a long history each new ray moves the mean by
+//! `(x - mean) / count`; once that step is below half a unit of the storage format, rounding
+//! throws it away every frame and the pixel never converges (an r8 shadow stuck near 0.8 instead
+//! of 1.0). The correction: if the f32 value changed but its quantized value did not, step the
+//! quantized value one unit toward the f32 value.
+//!
+//! This module models the *precision* of a storage format only: history buffers keep their f32
+//! layout, but every stored moment holds exactly a value of the chosen format. Packed memory
+//! layouts (half the bandwidth) are not implemented; what is measured is the numerical behaviour.
+//!
+//! Conversions use integer operations only (plus exact float scalings), so they give the same bits
+//! on the CPU and on every GPU, independent of the target's `f32tof16` rounding mode. Stored
+//! signals are non-negative: every format's range starts at 0.
+
+use crate::math;
+
+/// Precision of the stored history moments ([`Settings::storage`](crate::denoiser::Settings)).
+/// Only the precision is modelled: buffers keep their f32 layout (see the module docs).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum StoragePrecision {
+    /// f32: the reference, nothing is rounded beyond the f32 merge.
+    #[default]
+    F32,
+    /// IEEE binary16 precision, `[0, 65504]`; the rng index wraps at 2^16.
+    F16,
+    /// 8-bit unsigned normalized precision, `[0, 1]`, for shadow-only signals; the rng index
+    /// wraps at 2^8.
+    Unorm8,
+}
+
+impl StoragePrecision {
+    /// The code passed to kernels (`STORAGE_*`).
+    pub fn code(self) -> u32 {
+        match self {
+            StoragePrecision::F32 => STORAGE_F32,
+            StoragePrecision::F16 => STORAGE_F16,
+            StoragePrecision::Unorm8 => STORAGE_UNORM8,
+        }
+    }
+
+    /// Where the rng index wraps when stored alongside the moments in this format (0 = 32 bits).
+    pub fn rng_wrap(self) -> u32 {
+        match self {
+            StoragePrecision::F32 => 0,
+            StoragePrecision::F16 => 1 << 16,
+            StoragePrecision::Unorm8 => 1 << 8,
+        }
+    }
+
+    /// Largest storable value; samples above it are clamped.
+    pub fn max_value(self) -> f32 {
+        max_value(self.code())
+    }
+}
+
+/// f32, the reference precision (the stored value is the merged value).
+pub const STORAGE_F32: u32 = 0;
+/// IEEE binary16 (half), range `[0, 65504]`.
+pub const STORAGE_F16: u32 = 1;
+/// 8-bit unsigned normalized, range `[0, 1]` (shadow visibility and other signals in `[0, 1]`).
+pub const STORAGE_UNORM8: u32 = 2;
+
+/// Flag or-ed into a storage code to turn the stuck correction off (plain round-to-nearest), only
+/// to demonstrate the stuck pixel it prevents.
+pub const STORAGE_NO_CORRECTION: u32 = 0x100;
+
+/// Largest finite binary16 value.
+pub const F16_MAX: f32 = 65504.0;
+/// Largest binary16 code below infinity (`0x7BFF` = 65504).
+pub const F16_MAX_CODE: u32 = 0x7bff;
+/// Samples are clamped to this in f32 storage: `MAX²` times any history length (≤ 65520 rays)
+/// stays finite, so merging the second moment cannot overflow (2^50 ≈ 1.1e15).
+pub const F32_SIGNAL_MAX: f32 = 1_125_899_906_842_624.0;
+
+/// binary16 code of `x`, rounded to nearest, ties to even (as IEEE conversion does). Overflow
+/// gives infinity (`0x7C00`), NaN a quiet NaN; [`quantize`] never lets either through.
+pub fn f32_to_f16(x: f32) -> u32 {
+    let b = x.to_bits();
+    let sign = (b >> 16) & 0x8000;
+    let a = b & 0x7fff_ffff;
+    if a >= 0x7f80_0000 {
+        return sign | 0x7c00 | if a > 0x7f80_0000 { 0x200 } else { 0 };
+    }
+    // Exponent rebiased from 127 to 15.
+    let e = (a >> 23) as i32 - 112;
+    if e >= 31 {
+        return sign | 0x7c00;
+    }
+    let (h, rem, half) = if e <= 0 {
+        // Subnormal half (or zero): the unit is 2^-24, i.e. the f32 mantissa with its implicit
+        // bit shifted right by 14 - e.
+        if e < -10 {
+            // Below 2^-25: rounds to zero.
+            return sign;
+        }
+        let m = (a & 0x7f_ffff) | 0x80_0000;
+        let shift = (14 - e) as u32;
+        (m >> shift, m & ((1 << shift) - 1), 1u32 << (shift - 1))
+    } else {
+        (((e as u32) << 10) | ((a >> 13) & 0x3ff), a & 0x1fff, 0x1000)
+    };
+    // A carry out of the mantissa correctly bumps the exponent (up to infinity).
+    let h = if rem > half || (rem == half && (h & 1) == 1) {
+        h + 1
+    } else {
+        h
+    };
+    sign | h
+}
+
+/// Value of a binary16 code (exact). Infinity and NaN codes decode as infinity/NaN bit patterns;
+/// [`quantize`] never produces them.
+pub fn f16_to_f32(h: u32) -> f32 {
+    let sign = (h & 0x8000) << 16;
+    let e = (h >> 10) & 0x1f;
+    let m = h & 0x3ff;
+    if e == 0 {
+        // Zero or subnormal: m · 2^-24, exact in f32.
+        let v = m as f32 * (1.0 / 16_777_216.0);
+        return f32::from_bits(v.to_bits() | sign);
+    }
+    let e = if e == 31 { 255 } else { e + 112 };
+    f32::from_bits(sign | (e << 23) | (m << 13))
+}
+
+/// Unorm8 code of `x` in `[0, 1]` (clamped; NaN gives 0), rounded to nearest, ties to even.
+pub fn f32_to_unorm8(x: f32) -> u32 {
+    let t = math::saturate(x) * 255.0;
+    let i = t as u32;
+    // Exact: `t` and `i` are within one unit of each other in [0, 255].
+    let frac = t - i as f32;
+    if frac > 0.5 || (frac == 0.5 && (i & 1) == 1) {
+        i + 1
+    } else {
+        i
+    }
+}
+
+/// Value of a unorm8 code: `q · fl(1/255)`, and exactly 1 for 255. A multiply, not `q / 255`:
+/// GPU compilers may turn division by a constant into a multiply by its reciprocal (llvmpipe
+/// does), which is 1 ulp off correctly rounded division for some codes; a multiply gives the same
+/// bits everywhere. The stored values are monotonic in `q` and round-trip through
+/// [`f32_to_unorm8`].
+pub fn unorm8_to_f32(q: u32) -> f32 {
+    if q >= 255 {
+        1.0
+    } else {
+        q as f32 * (1.0 / 255.0)
+    }
+}
+
+/// Largest value format `storage` holds (and the ceiling samples are clamped to).
+pub fn max_value(storage: u32) -> f32 {
+    match storage & 0xff {
+        STORAGE_F16 => F16_MAX,
+        STORAGE_UNORM8 => 1.0,
+        _ => F32_SIGNAL_MAX,
+    }
+}
+
+/// Code of `x` in format `storage` (not meaningful for f32), clamped to `[0, max_value]`.
+fn encode(storage: u32, x: f32) -> u32 {
+    if storage & 0xff == STORAGE_UNORM8 {
+        f32_to_unorm8(x)
+    } else {
+        f32_to_f16(math::clamp(x, 0.0, F16_MAX))
+    }
+}
+
+fn decode(storage: u32, q: u32) -> f32 {
+    if storage & 0xff == STORAGE_UNORM8 {
+        unorm8_to_f32(q)
+    } else {
+        f16_to_f32(q)
+    }
+}
+
+fn max_code(storage: u32) -> u32 {
+    if storage & 0xff == STORAGE_UNORM8 {
+        255
+    } else {
+        F16_MAX_CODE
+    }
+}
+
+/// `x` rounded to format `storage` (to nearest, clamped to its range). f32 storage clamps to
+/// `[0, F32_SIGNAL_MAX]` and keeps the value otherwise.
+pub fn quantize(storage: u32, x: f32) -> f32 {
+    if storage & 0xff == STORAGE_F32 {
+        return math::clamp(x, 0.0, F32_SIGNAL_MAX);
+    }
+    decode(storage, encode(storage, x))
+}
+
+/// The smallest value of format `storage` that is `>= x` (clamped to the format's range): used to
+/// keep the stored second moment at or above the square of the stored mean.
+pub fn quantize_up(storage: u32, x: f32) -> f32 {
+    if storage & 0xff == STORAGE_F32 {
+        return math::clamp(x, 0.0, F32_SIGNAL_MAX);
+    }
+    let q = encode(storage, x);
+    let q = if decode(storage, q) < x && q < max_code(storage) {
+        q + 1
+    } else {
+        q
+    };
+    decode(storage, q)
+}
+
+/// Stores `accum` (this frame's merged f32 value) in format `storage`, given the value `prev` it
+/// was merged from and the value `target` of this frame's samples it moved toward: rounds to
+/// nearest, but if rounding would undo a change (`accum != prev` while both quantize to the same
+/// code) steps one unit toward `accum`, clamped to the format's range. Without the step a long
+/// history never converges in low precision (the seed's stuck pixel).
+///
+/// One guard beyond the seed: the step never goes past `target`. When the true value lies
+/// between two codes, the unguarded rule steps over it every other frame and the stored value
+/// dithers one unit around it (e.g. 1e-6 in f16 alternates between 16 and 17 units of 2^-24);
+/// with the guard it stays on the nearest code, and a value far from its target still moves one
+/// unit a frame. With [`STORAGE_NO_CORRECTION`] set this is plain [`quantize`].
+pub fn store_with_correction(storage: u32, accum: f32, prev: f32, target: f32) -> f32 {
+    if storage & 0xff == STORAGE_F32 {
+        return quantize(storage, accum);
+    }
+    let qa = encode(storage, accum);
+    let qp = encode(storage, prev);
+    let correct = storage & STORAGE_NO_CORRECTION == 0;
+    if !(correct && accum != prev && qa == qp) {
+        return decode(storage, qa);
+    }
+    let step = if accum > prev {
+        math_min_u32(qa + 1, max_code(storage))
+    } else if qa > 0 {
+        qa - 1
+    } else {
+        0
+    };
+    let stepped = decode(storage, step);
+    let overshoots = if accum > prev {
+        stepped > target
+    } else {
+        stepped < target
+    };
+    decode(storage, if overshoots { qa } else { step })
+}
+
+#[inline]
+fn math_min_u32(a: u32, b: u32) -> u32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every finite half round-trips, and f32 values around every midpoint between consecutive
+    /// halves round to the nearer one (ties to the even code): the conversion is exhaustively
+    /// IEEE round-to-nearest-even over the non-negative range.
+    #[test]
+    fn f16_round_trip_and_midpoints_exhaustive() {
+        for h in 0..=F16_MAX_CODE {
+            let v = f16_to_f32(h);
+            assert_eq!(f32_to_f16(v), h, "{h:#x}");
+            assert_eq!(f32_to_f16(-v), h | 0x8000, "-{h:#x}");
+            if h < F16_MAX_CODE {
+                let next = f16_to_f32(h + 1);
+                let mid = ((v as f64 + next as f64) / 2.0) as f32;
+                assert_eq!(mid as f64, (v as f64 + next as f64) / 2.0, "mid exact");
+                let even = if h & 1 == 0 { h } else { h + 1 };
+                assert_eq!(f32_to_f16(mid), even, "tie at {h:#x}");
+                assert_eq!(f32_to_f16(f32::from_bits(mid.to_bits() - 1)), h);
+                assert_eq!(f32_to_f16(f32::from_bits(mid.to_bits() + 1)), h + 1);
+            }
+        }
+        // Overflow: 65520 (midpoint to 2^16) ties to even = infinity; just below stays max.
+        assert_eq!(f32_to_f16(65520.0), 0x7c00);
+        assert_eq!(f32_to_f16(65519.996), F16_MAX_CODE);
+        assert_eq!(f32_to_f16(f32::INFINITY), 0x7c00);
+        assert_eq!(f32_to_f16(1e-30), 0);
+        assert_eq!(f16_to_f32(1), 5.960_464_5e-8);
+    }
+
+    #[test]
+    fn unorm8_round_trip_and_ties() {
+        for q in 0..=255 {
+            assert_eq!(f32_to_unorm8(unorm8_to_f32(q)), q);
+        }
+        assert_eq!(f32_to_unorm8(0.5 / 255.0), 0);
+        assert_eq!(f32_to_unorm8(1.5 / 255.0), 2);
+        assert_eq!(f32_to_unorm8(-1.0), 0);
+        assert_eq!(f32_to_unorm8(7.0), 255);
+        assert_eq!(f32_to_unorm8(f32::NAN), 0);
+    }
+
+    #[test]
+    fn stuck_correction_steps_one_unit_toward_the_change() {
+        // r8 at 230/255 ≈ 0.9 with 64 rays of history: a ray of 1.0 moves the mean by
+        // 0.098 / 65 ≈ 0.0015, under half a unit (0.5 / 255 ≈ 0.002).
+        let prev = unorm8_to_f32(230);
+        let accum = prev + (1.0 - prev) / 65.0;
+        assert_eq!(
+            quantize(STORAGE_UNORM8, accum),
+            prev,
+            "plain rounding is stuck"
+        );
+        assert_eq!(
+            store_with_correction(STORAGE_UNORM8, accum, prev, 1.0),
+            unorm8_to_f32(231)
+        );
+        let down = prev - prev / 300.0;
+        assert_eq!(
+            store_with_correction(STORAGE_UNORM8, down, prev, 0.0),
+            unorm8_to_f32(229)
+        );
+        // Clamped at the ends of the range.
+        assert_eq!(
+            store_with_correction(STORAGE_UNORM8, 1.0, 0.999_9, 1.0),
+            1.0
+        );
+        assert_eq!(store_with_correction(STORAGE_F16, 0.0, 1e-9, 0.0), 0.0);
+        assert_eq!(
+            store_with_correction(STORAGE_F16, F16_MAX, 65503.0, F16_MAX),
+            F16_MAX
+        );
+        // Without the correction rounding is stuck.
+        assert_eq!(
+            store_with_correction(STORAGE_UNORM8 | STORAGE_NO_CORRECTION, accum, prev, 1.0),
+            prev
+        );
+        // Unchanged values stay put.
+        assert_eq!(
+            store_with_correction(STORAGE_F16, 0.3, 0.3, 0.3),
+            quantize(STORAGE_F16, 0.3)
+        );
+        // The guard: 1e-6 lies between f16 codes 16 and 17 (nearest 17). History on 17 moving
+        // toward 1e-6 would be stepped to 16 by the unguarded rule; it stays on 17.
+        let (q17, target) = (f16_to_f32(17), 1e-6);
+        let accum = (q17 + target) / 2.0;
+        assert_eq!(store_with_correction(STORAGE_F16, accum, q17, target), q17);
+    }
+
+    #[test]
+    fn quantize_up_is_the_ceiling() {
+        for x in [0.0f32, 1e-7, 0.1, 0.333, 1.0, 1000.1, 65500.0] {
+            let u = quantize_up(STORAGE_F16, x);
+            assert!(u >= x && f32_to_f16(u) <= f32_to_f16(x) + 1, "{x} -> {u}");
+        }
+        assert_eq!(quantize_up(STORAGE_UNORM8, 0.5), unorm8_to_f32(128));
+        assert_eq!(quantize_up(STORAGE_F16, 1e9), F16_MAX);
+    }
+}
