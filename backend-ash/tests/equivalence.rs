@@ -15,7 +15,7 @@ use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::kernels::accumulate::{self, AccumulateParams};
 use vrrt_core::kernels::atrous::{self, AtrousParams, Filtered};
 use vrrt_core::kernels::buckets::{self, BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_cpu::CpuExecutor;
 
@@ -187,10 +187,12 @@ fn accumulate_matches_cpu() {
         ..Default::default()
     };
     let out = vec![0u8; n * 16];
-    let inputs: [&[u8]; 3] = [
+    let counters = [0u8; payload::COUNTERS_LEN as usize * 4];
+    let inputs: [&[u8]; 4] = [
         bytemuck::cast_slice(&history),
         bytemuck::cast_slice(&samples),
         &out,
+        &counters,
     ];
     let p = bytemuck::bytes_of(&params);
     let (gpu, cpu) = run_both::<Payload>(

@@ -7,7 +7,7 @@
 
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::kernels::{accumulate, atrous, buckets};
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_cpu::CpuExecutor;
 use vrrt_wgpu::{WgpuError, WgpuExecutor, WgpuOptions};
@@ -215,8 +215,9 @@ fn accumulate_matches_cpu() {
     let history = b.buffer(bytemuck::cast_slice(&payloads(&mut rng, n)));
     let samples = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
     let out = b.buffer(&vec![0u8; n as usize * 16]);
+    let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
-    let buffers = [history, samples, out];
+    let buffers = [history, samples, out, counters];
     b.dispatch(&Pass::over_grid(
         &accumulate::KERNEL,
         &buffers,
