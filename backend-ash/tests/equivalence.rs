@@ -175,7 +175,7 @@ fn accumulate_matches_cpu() {
                 m1,
                 m2: m1 * m1 * (1.0 + rng.unit()),
                 rays: rng.next() % 5,
-                _pad: 0,
+                first: 0.0,
             }
         })
         .collect();

@@ -191,7 +191,7 @@ fn samples(rng: &mut Rng, n: u32) -> Vec<Sample> {
                 m1,
                 m2: m1 * m1,
                 rays: rng.below(4),
-                _pad: 0,
+                first: 0.0,
             }
         })
         .collect()

@@ -15,11 +15,19 @@
 //! fixed-rate SVGF baseline is the same plan with requests off (every pixel asks for
 //! `rays_per_pixel`) and no balancing.
 //!
+//! Temporal gradients (A-SVGF, optional: [`Settings::gradient_stratum`]) run as a prepass between
+//! the G-buffer and reprojection ([`Denoiser::temporal_gradients`]): project last frame's samples
+//! forward, re-trace them against this frame's scene, blur the change at stratum resolution;
+//! reprojection then shortens or drops history where the signal changed, and VRRT supersamples
+//! there. It is skipped when nothing moved (the host says so in [`FrameInfo::moved`]).
+//!
 //! History is ping-ponged explicitly: `history[prev]` is read by reprojection and
 //! `history[cur]` written by accumulation; the spatial filter's output never feeds back into
 //! history (seed: "spatial output is NOT being fed to temporal").
 
 use crate::blue_noise;
+use crate::camera::Camera;
+use crate::kernels::gradient::{self, GradientSample};
 use crate::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups, Pass};
@@ -91,6 +99,15 @@ pub struct Settings {
     /// The seed's stuck correction when storing low-precision history (default on). Off only to
     /// demonstrate the pixel that never converges without it; no effect with f32 storage.
     pub stuck_correction: bool,
+    /// Temporal gradients (A-SVGF): stratum size in pixels, one re-traced sample per stratum and
+    /// frame (0 = off, default; 3..=8). Lets history be dropped where the signal changed instead of
+    /// clamped, so VRRT can supersample there.
+    pub gradient_stratum: u32,
+    /// À-trous iterations of the gradient reconstruction at stratum resolution (0..=5; default 3).
+    pub gradient_iterations: u32,
+    /// Gradient `λ` above which history is dropped like a disocclusion (0..=1; default 0.5);
+    /// below it history is shortened to `count · (1 − λ)`.
+    pub gradient_threshold: f32,
 }
 
 impl Default for Settings {
@@ -120,6 +137,9 @@ impl Default for Settings {
             rng_wrap: 0,
             storage: StoragePrecision::F32,
             stuck_correction: true,
+            gradient_stratum: 0,
+            gradient_iterations: 3,
+            gradient_threshold: 0.5,
         }
     }
 }
@@ -318,6 +338,24 @@ impl Settings {
             self.plane_threshold,
             "> 0",
         )?;
+        check(
+            self.gradient_stratum == 0 || (3..=8).contains(&self.gradient_stratum),
+            "gradient_stratum",
+            self.gradient_stratum as f32,
+            "0 or 3..=8",
+        )?;
+        check(
+            self.gradient_iterations <= 5,
+            "gradient_iterations",
+            self.gradient_iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.gradient_threshold) && (0.0..=1.0).contains(&self.gradient_threshold),
+            "gradient_threshold",
+            self.gradient_threshold,
+            "0..=1",
+        )?;
         Ok(())
     }
 }
@@ -358,6 +396,39 @@ pub struct FrameInfo {
     pub pixel_angle: f32,
     /// Read [`Denoiser::mask`] this frame.
     pub use_mask: bool,
+    /// Something moved since last frame (camera, objects or lights). When false the
+    /// temporal-gradient prepass is skipped: every re-trace would return last frame's value.
+    pub moved: bool,
+}
+
+/// What the temporal-gradient prepass re-traces against: this frame's scene on the executor.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct GradientScene {
+    /// BVH nodes of this frame's geometry.
+    pub nodes: BufferId,
+    /// Triangles of this frame's geometry.
+    pub tris: BufferId,
+    /// Per-instance previous→current maps (`InstanceData`, the inverse of the G-buffer's).
+    pub next: BufferId,
+    /// This frame's camera.
+    pub camera: Camera,
+    /// The signal's rays.
+    pub rays: GradientRays,
+}
+
+/// Which raygen the gradient pass re-creates.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum GradientRays {
+    /// Ambient occlusion with this radius.
+    Ao {
+        /// AO radius.
+        max_distance: f32,
+    },
+    /// Area-light shadows, one light (`AreaLight`) per plane.
+    Shadows {
+        /// This frame's lights.
+        lights: BufferId,
+    },
 }
 
 /// The buffers of one denoiser instance and the passes that run on them.
@@ -381,6 +452,11 @@ pub struct Denoiser {
     work: BufferId,
     args: BufferId,
     counters: BufferId,
+    gradient_keys: BufferId,
+    gradient_raw: BufferId,
+    gradient: [BufferId; 2],
+    gradient_out: usize,
+    gradient_ran: bool,
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -391,6 +467,16 @@ const SURFACE_BYTES: u64 = core::mem::size_of::<crate::gbuffer::Surface>() as u6
 const PAYLOAD_BYTES: u64 = core::mem::size_of::<crate::payload::Payload>() as u64;
 const SAMPLE_BYTES: u64 = core::mem::size_of::<crate::payload::Sample>() as u64;
 const FILTERED_BYTES: u64 = core::mem::size_of::<atrous::Filtered>() as u64;
+const GRADIENT_BYTES: u64 = core::mem::size_of::<GradientSample>() as u64;
+
+/// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
+pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
+    if stratum == 0 {
+        (1, 1)
+    } else {
+        (width.div_ceil(stratum), height.div_ceil(stratum))
+    }
+}
 
 impl Denoiser {
     /// Validates `settings` and allocates every buffer for a `width × height` image.
@@ -410,6 +496,9 @@ impl Denoiser {
         let pixels = width as u64 * height as u64;
         let planes = pixels * settings.planes as u64;
         let noise = exec.create_buffer(blue_noise::LEN as u64 * 4)?;
+        let (gw, gh) = grid_size(width, height, settings.gradient_stratum);
+        let cells = gw as u64 * gh as u64;
+        let gradient_bytes = cells * settings.planes as u64 * GRADIENT_BYTES;
         exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
         let counters = exec.create_buffer(COUNTERS_LEN as u64 * 4)?;
         exec.write_buffer(counters, &[0; COUNTERS_LEN as usize * 4])?;
@@ -441,6 +530,14 @@ impl Denoiser {
             work: exec.create_buffer(pixels * 4)?,
             args: exec.create_buffer(apply::ARGS_LEN as u64 * 4)?,
             counters,
+            gradient_keys: exec.create_buffer(cells * 4)?,
+            gradient_raw: exec.create_buffer(gradient_bytes)?,
+            gradient: [
+                exec.create_buffer(gradient_bytes)?,
+                exec.create_buffer(gradient_bytes)?,
+            ],
+            gradient_out: 0,
+            gradient_ran: false,
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -448,6 +545,7 @@ impl Denoiser {
                 reset: true,
                 pixel_angle: 1.0 / height as f32,
                 use_mask: false,
+                moved: true,
             },
         })
     }
@@ -547,10 +645,168 @@ impl Denoiser {
         }
     }
 
+    /// Gradient cells across and down ([`grid_size`] of the settings).
+    pub fn gradient_size(&self) -> (u32, u32) {
+        grid_size(self.width, self.height, self.settings.gradient_stratum)
+    }
+
+    /// Raw temporal gradient of this frame (`GradientSample` per cell and plane, plane-stacked;
+    /// `λ` = [`GradientSample::lambda`]): the overlay of what the re-traced samples saw. Valid when
+    /// [`Self::gradient_ran`].
+    pub fn gradient_raw(&self) -> BufferId {
+        self.gradient_raw
+    }
+
+    /// Reconstructed (blurred) temporal gradient, the one reprojection reads; same layout as
+    /// [`Self::gradient_raw`].
+    pub fn gradient(&self) -> BufferId {
+        if self.settings.gradient_iterations == 0 {
+            self.gradient_raw
+        } else {
+            self.gradient[self.gradient_out]
+        }
+    }
+
+    /// Winning packed key per gradient cell (`u32`, [`gradient::EMPTY_KEY`] where no sample
+    /// landed): one re-traced ray per plane for every other cell.
+    pub fn gradient_keys(&self) -> BufferId {
+        self.gradient_keys
+    }
+
+    /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera
+    /// cut, or nothing moved).
+    pub fn gradient_ran(&self) -> bool {
+        self.gradient_ran
+    }
+
     /// Starts a frame: swaps the ping-pong G-buffer and history so last frame's become `prev`.
     pub fn begin_frame(&mut self, frame: FrameInfo) {
         self.cur = 1 - self.cur;
         self.frame = frame;
+        self.gradient_ran = false;
+    }
+
+    /// The temporal-gradient prepass (A-SVGF), between the G-buffer and [`Self::plan_rays`]:
+    /// forward projection of one previous-frame sample per stratum, re-trace of its 0th ray
+    /// against `scene`, and the à-trous reconstruction. It reads last frame's rays, samples and
+    /// reprojected history, which [`Self::plan_rays`] overwrites, so it must run first. Returns
+    /// whether it ran: it is skipped when off, on reset frames, and when [`FrameInfo::moved`] is
+    /// false (nothing can have changed, so every `λ` would be 0).
+    pub fn temporal_gradients<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        scene: &GradientScene,
+    ) -> Result<bool, E::Error> {
+        let s = self.settings;
+        self.gradient_ran = false;
+        if s.gradient_stratum == 0 || self.frame.reset || !self.frame.moved {
+            return Ok(false);
+        }
+        let (w, h) = (self.width, self.height);
+        let (gw, gh) = self.gradient_size();
+        let index_mask = gradient::index_mask(w * h);
+        let fill = clear::FillParams {
+            len: gw * gh,
+            value: gradient::EMPTY_KEY,
+        };
+        exec.dispatch(&Pass::over_grid(
+            &clear::KERNEL,
+            &[self.gradient_keys],
+            bytemuck::bytes_of(&fill),
+            fill.len,
+            1,
+            1,
+        ))?;
+        let proj = gradient::ProjectParams {
+            width: w,
+            height: h,
+            stratum: s.gradient_stratum,
+            grid_width: gw,
+            grid_height: gh,
+            frame_index: self.frame.index,
+            index_mask,
+            normal_threshold: s.normal_threshold,
+            plane_threshold: s.plane_threshold,
+            camera: scene.camera,
+        };
+        let buffers = [
+            self.surfaces[1 - self.cur],
+            self.surfaces[self.cur],
+            self.rays,
+            scene.next,
+            self.gradient_keys,
+        ];
+        exec.dispatch(&Pass::over_grid(
+            &gradient::PROJECT_KERNEL,
+            &buffers,
+            bytemuck::bytes_of(&proj),
+            gw,
+            gh,
+            1,
+        ))?;
+        let mut retrace = gradient::RetraceParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            grid_width: gw,
+            grid_height: gh,
+            index_mask,
+            max_distance: 0.0,
+            _pad: 0,
+        };
+        // Last frame's reprojected history still holds the rng index each pixel's raygen started
+        // from, and `samples` last frame's 0th ray values.
+        let mut buffers = [
+            self.gradient_keys,
+            self.surfaces[1 - self.cur],
+            scene.next,
+            self.reprojected,
+            self.samples,
+            scene.nodes,
+            scene.tris,
+            self.gradient_raw,
+            self.gradient_raw,
+        ];
+        let (kernel, bound) = match scene.rays {
+            GradientRays::Ao { max_distance } => {
+                retrace.max_distance = max_distance;
+                (&gradient::AO_KERNEL, 8)
+            }
+            GradientRays::Shadows { lights } => {
+                buffers[7] = lights;
+                (&gradient::SHADOW_KERNEL, 9)
+            }
+        };
+        exec.dispatch(&Pass::over_grid(
+            kernel,
+            &buffers[..bound],
+            bytemuck::bytes_of(&retrace),
+            gw,
+            gh,
+            1,
+        ))?;
+        let mut input = self.gradient_raw;
+        for i in 0..s.gradient_iterations {
+            let p = gradient::AtrousParams {
+                grid_width: gw,
+                grid_height: gh,
+                step: 1 << i,
+                _pad: 0,
+            };
+            let out = self.gradient[(i % 2) as usize];
+            exec.dispatch(&Pass::over_grid(
+                &gradient::ATROUS_KERNEL,
+                &[input, out],
+                bytemuck::bytes_of(&p),
+                gw,
+                gh,
+                s.planes,
+            ))?;
+            input = out;
+            self.gradient_out = (i % 2) as usize;
+        }
+        self.gradient_ran = true;
+        Ok(true)
     }
 
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
@@ -559,6 +815,7 @@ impl Denoiser {
         let s = self.settings;
         let (w, h) = (self.width, self.height);
         let vrrt = s.supersample_target > 0.0;
+        let (gw, gh) = self.gradient_size();
         let params = reproject::ReprojectParams {
             width: w,
             height: h,
@@ -577,6 +834,14 @@ impl Denoiser {
                 [0.0; 4]
             },
             variance_rate: s.variance_rate,
+            gradient_stratum: if self.gradient_ran {
+                s.gradient_stratum
+            } else {
+                0
+            },
+            gradient_width: gw,
+            gradient_height: gh,
+            gradient_threshold: s.gradient_threshold,
             ..Default::default()
         };
         let buffers = [
@@ -584,6 +849,7 @@ impl Denoiser {
             self.surfaces[1 - self.cur],
             self.history[1 - self.cur],
             self.mask,
+            self.gradient(),
             self.reprojected,
             self.flags,
             self.requests,

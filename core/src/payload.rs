@@ -50,8 +50,10 @@ pub struct Sample {
     pub m2: f32,
     /// Rays traced (0 for an undersampled pixel).
     pub rays: u32,
-    /// Padding to 16 bytes.
-    pub _pad: u32,
+    /// Value of the pixel's 0th ray this frame (the one with the rng index the history carried;
+    /// 0 when none was traced). Kept so next frame's temporal-gradient pass can compare a re-trace
+    /// of that very ray against it: the mean alone does not say what one ray returned.
+    pub first: f32,
 }
 
 impl Payload {
@@ -155,7 +157,7 @@ mod tests {
             m1: v,
             m2: v * v,
             rays,
-            _pad: 0,
+            first: 0.0,
         }
     }
 
@@ -219,7 +221,7 @@ mod tests {
                         m1: bad,
                         m2: 1.0,
                         rays: 1,
-                        _pad: 0
+                        first: 0.0
                     },
                     64.0,
                     0
@@ -233,7 +235,7 @@ mod tests {
                         m1: 1.0,
                         m2: bad,
                         rays: 1,
-                        _pad: 0
+                        first: 0.0
                     },
                     64.0,
                     0

@@ -3,11 +3,14 @@
 
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
-use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo, Settings};
+use vrrt_core::denoiser::{
+    Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene, Settings,
+};
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
+use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{gbuffer, raygen};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
@@ -95,6 +98,7 @@ pub struct GpuScene {
     normals: Option<Slot>,
     instances: Option<Slot>,
     lights: Option<Slot>,
+    next: Option<Slot>,
     uploaded: Option<Arc<crate::scene::Geometry>>,
 }
 
@@ -113,6 +117,9 @@ impl GpuScene {
         }
         ensure(exec, &mut self.instances, bytes(&f.instances))?;
         ensure(exec, &mut self.lights, bytes(&f.lights))?;
+        // Previous→current maps for the temporal-gradient prepass (forward projection).
+        let next: Vec<_> = f.instances.iter().map(|i| i.inverse()).collect();
+        ensure(exec, &mut self.next, bytes(&next))?;
         Ok(())
     }
 
@@ -125,6 +132,21 @@ impl GpuScene {
             id(&self.instances),
             id(&self.lights),
         ]
+    }
+
+    /// What the denoiser's temporal-gradient prepass re-traces against for `signal` in frame `f`.
+    pub fn gradient_scene(&self, f: &FrameGeometry, signal: Signal) -> GradientScene {
+        let [nodes, tris, _, _, lights] = self.ids();
+        GradientScene {
+            nodes,
+            tris,
+            next: self.next.expect("GpuScene::upload first").id,
+            camera: f.camera,
+            rays: match signal {
+                Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
+                Signal::Shadows => GradientRays::Shadows { lights },
+            },
+        }
     }
 
     /// Records the G-buffer pass into `surfaces`.
@@ -233,6 +255,17 @@ pub struct FrameOutput {
     pub history_reprojected: Vec<f32>,
     /// Overlays: history length (plane 0) after accumulation.
     pub history_accumulated: Vec<f32>,
+    /// Whether the temporal-gradient prepass ran this frame (false: off, reset, or skipped
+    /// because nothing moved).
+    pub gradient_ran: bool,
+    /// Rays the gradient prepass re-traced (over all planes; 0 when it did not run).
+    pub gradient_rays: u64,
+    /// Gradient cells across and down (stratum resolution).
+    pub gradient_size: (u32, u32),
+    /// Overlays, when the prepass ran: raw `λ` per cell and plane (plane-stacked).
+    pub gradient_raw: Vec<f32>,
+    /// Overlays, when the prepass ran: reconstructed `λ` per cell and plane.
+    pub gradient: Vec<f32>,
 }
 
 /// Runs a scene frame by frame through the denoiser.
@@ -244,6 +277,7 @@ pub struct Renderer {
     denoiser: Denoiser,
     gpu: GpuScene,
     frames: u32,
+    prev_lights: Vec<raygen::AreaLight>,
 }
 
 impl Renderer {
@@ -267,6 +301,7 @@ impl Renderer {
             denoiser,
             gpu: GpuScene::default(),
             frames: 0,
+            prev_lights: Vec::new(),
         })
     }
 
@@ -284,15 +319,46 @@ impl Renderer {
     ) -> Result<FrameOutput, E::Error> {
         let (w, h, planes) = (self.width, self.height, self.planes);
         let d = &mut self.denoiser;
+        // Nothing moved: same camera, every instance map the identity, same lights. Then the
+        // gradient prepass is skipped (every re-trace would repeat last frame's ray exactly).
+        let identity = gbuffer::InstanceData::default();
+        let still = |i: &gbuffer::InstanceData| {
+            *i == gbuffer::InstanceData {
+                roughness: i.roughness,
+                ..identity
+            }
+        };
+        let moved = f.camera != f.prev_camera
+            || !f.instances.iter().all(still)
+            || f.lights != self.prev_lights;
+        self.prev_lights = f.lights.clone();
         d.begin_frame(FrameInfo {
             index: self.frames,
             reset: self.frames == 0 || f.camera_cut,
             pixel_angle: 2.0 * f.camera.tan_half_fov_y / h as f32,
             use_mask: false,
+            moved,
         });
         self.frames += 1;
         self.gpu.upload(exec, f)?;
         self.gpu.gbuffer(exec, f, w, h, d.surfaces())?;
+        let gradient_ran = d.temporal_gradients(exec, &self.gpu.gradient_scene(f, self.signal))?;
+        let mut gradient_rays = 0;
+        let gradient_size = d.gradient_size();
+        let mut gradient_overlays = (Vec::new(), Vec::new());
+        if gradient_ran {
+            let cells = (gradient_size.0 * gradient_size.1) as usize;
+            let keys: Vec<u32> = read(exec, d.gradient_keys(), cells)?;
+            gradient_rays = keys.iter().filter(|&&k| k != EMPTY_KEY).count() as u64 * planes as u64;
+            if readback.overlays {
+                let lambda = |g: Vec<GradientSample>| g.iter().map(|g| g.lambda()).collect();
+                let n = cells * planes as usize;
+                gradient_overlays = (
+                    lambda(read(exec, d.gradient_raw(), n)?),
+                    lambda(read(exec, d.gradient(), n)?),
+                );
+            }
+        }
         d.plan_rays(exec)?;
         self.gpu.raygen(
             exec,
@@ -328,6 +394,11 @@ impl Renderer {
             rays,
             decision: decision[0],
             flags,
+            gradient_ran,
+            gradient_rays,
+            gradient_size,
+            gradient_raw: gradient_overlays.0,
+            gradient: gradient_overlays.1,
             ..FrameOutput::default()
         };
         if let Some((requests, reprojected)) = overlays_before {

@@ -10,7 +10,8 @@ use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::{
-    accumulate, apply, atrous, balance, buckets, clear, gbuffer, raygen, reproject, variance,
+    accumulate, apply, atrous, balance, buckets, clear, gbuffer, gradient, raygen, reproject,
+    variance,
 };
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::trace::{BvhNode, Triangle, TriangleNormals};
@@ -111,9 +112,10 @@ pub fn reproject(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] prev_surfaces: &[Surface],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] history: &[Payload],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] mask: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] out: &mut [Payload],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] flags: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] requests: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] gradient: &[gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] out: &mut [Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] requests: &mut [u32],
 ) {
     reproject::reproject(
         id,
@@ -122,6 +124,7 @@ pub fn reproject(
         prev_surfaces,
         history,
         mask,
+        gradient,
         out,
         flags,
         requests,
@@ -172,4 +175,83 @@ pub fn fill(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] buf: &mut [u32],
 ) {
     clear::fill(id, p, buf);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn gradient_project(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &gradient::ProjectParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] prev_surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] rays: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] next: &[gbuffer::InstanceData],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] keys: &mut [u32],
+) {
+    gradient::project(id, p, prev_surfaces, surfaces, rays, next, keys);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn gradient_ao(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &gradient::RetraceParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] keys: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] prev_surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] next: &[gbuffer::InstanceData],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] prev_payload: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] prev_samples: &[Sample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] out: &mut [gradient::GradientSample],
+) {
+    gradient::retrace_ao(
+        id,
+        p,
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+        nodes,
+        tris,
+        out,
+    );
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn gradient_shadow(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &gradient::RetraceParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] keys: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] prev_surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] next: &[gbuffer::InstanceData],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] prev_payload: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] prev_samples: &[Sample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lights: &[raygen::AreaLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] out: &mut [gradient::GradientSample],
+) {
+    gradient::retrace_shadow(
+        id,
+        p,
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+        nodes,
+        tris,
+        lights,
+        out,
+    );
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn gradient_atrous(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &gradient::AtrousParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] out: &mut [gradient::GradientSample],
+) {
+    gradient::atrous(id, p, input, out);
 }

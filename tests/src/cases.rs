@@ -8,6 +8,7 @@ use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
+use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
@@ -28,6 +29,10 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("gbuffer", crate::trace_cases::gbuffer_case),
     ("raygen_ao", crate::trace_cases::raygen_ao_case),
     ("raygen_shadow", crate::trace_cases::raygen_shadow_case),
+    ("gradient_project", crate::gradient_cases::project_case),
+    ("gradient_ao", crate::gradient_cases::ao_case),
+    ("gradient_shadow", crate::gradient_cases::shadow_case),
+    ("gradient_atrous", crate::gradient_cases::atrous_case),
 ];
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
@@ -143,7 +148,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             m1: hostile(rng),
             m2: hostile(rng),
             rays: rng.random_range(0..17),
-            _pad: 0,
+            first: 0.0,
         })
         .collect();
     let storage = [
@@ -284,9 +289,23 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         frame_index: rng.random(),
         supersample_target: [0.0, 16.0, 64.0][rng.random_range(0..3)],
         use_mask: rng.random_range(0..2),
+        gradient_stratum: [0, 3, 8][rng.random_range(0..3)],
+        gradient_threshold: rng.random_range(0.2..0.9),
         ..Default::default()
     };
     let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();
+    let (gw, gh) = vrrt_core::denoiser::grid_size(w, h, params.gradient_stratum);
+    let params = reproject::ReprojectParams {
+        gradient_width: gw,
+        gradient_height: gh,
+        ..params
+    };
+    let gradient: Vec<GradientSample> = (0..gw * gh * PLANES)
+        .map(|_| GradientSample {
+            delta: rng.random_range(0.0..1.0),
+            luminance: [0.0, 0.5, 1.0][rng.random_range(0..3)],
+        })
+        .collect();
     Case {
         name: format!("reproject {w}x{h}x{PLANES} reset {}", params.reset),
         kernel: &reproject::KERNEL,
@@ -295,6 +314,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&previous, SURFACE),
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
             BufferSpec::from_pod(&mask, INTS),
+            BufferSpec::from_pod(&gradient, FLOATS),
             BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
@@ -390,7 +410,7 @@ fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             m1: value(rng),
             m2: value(rng),
             rays: rng.random_range(0..5),
-            _pad: 0,
+            first: 0.0,
         })
         .collect();
     let params = apply::ApplyParams {

@@ -10,6 +10,7 @@
 //! [`cases::TABLE`] lists one generator per kernel: adding a kernel adds one line there.
 
 pub mod cases;
+pub mod gradient_cases;
 pub mod spirv;
 pub mod trace_cases;
 

@@ -105,6 +105,41 @@ impl InstanceData {
             self.m20 * p.x + self.m21 * p.y + self.m22 * p.z + self.m23,
         )
     }
+
+    /// The linear part applied to a direction `v` (no translation, not renormalized: rigid maps
+    /// keep unit length, and an identity map returns `v` exactly).
+    #[inline]
+    pub fn transform_vector(&self, v: Vec3) -> Vec3 {
+        Vec3::new(
+            self.m00 * v.x + self.m01 * v.y + self.m02 * v.z,
+            self.m10 * v.x + self.m11 * v.y + self.m12 * v.z,
+            self.m20 * v.x + self.m21 * v.y + self.m22 * v.z,
+        )
+    }
+
+    /// The inverse map (previous→current when `self` is current→previous), same roughness: what
+    /// the temporal-gradient pass needs to carry last frame's surfaces forward. The identity
+    /// inverts to the identity exactly.
+    #[cfg(not(target_arch = "spirv"))]
+    pub fn inverse(&self) -> InstanceData {
+        let m = glam::Affine3A::from_cols_array(&[
+            self.m00, self.m10, self.m20, self.m01, self.m11, self.m21, self.m02, self.m12,
+            self.m22, self.m03, self.m13, self.m23,
+        ]);
+        let i = m.inverse();
+        let (x, y, z, t) = (
+            i.matrix3.x_axis,
+            i.matrix3.y_axis,
+            i.matrix3.z_axis,
+            i.translation,
+        );
+        InstanceData::from_rows(
+            [x.x, y.x, z.x, t.x],
+            [x.y, y.y, z.y, t.y],
+            [x.z, y.z, z.z, t.z],
+            self.roughness,
+        )
+    }
 }
 
 /// Push constants of [`gbuffer`] (112 bytes, within Vulkan's guaranteed 128).

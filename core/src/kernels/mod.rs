@@ -8,6 +8,7 @@ pub mod balance;
 pub mod buckets;
 pub mod clear;
 pub mod gbuffer;
+pub mod gradient;
 pub mod raygen;
 pub mod reproject;
 pub mod variance;
@@ -40,4 +41,8 @@ pub static ALL: &[&crate::plan::KernelDesc] = &[
     &balance::KERNEL,
     &apply::KERNEL,
     &clear::KERNEL,
+    &gradient::PROJECT_KERNEL,
+    &gradient::AO_KERNEL,
+    &gradient::SHADOW_KERNEL,
+    &gradient::ATROUS_KERNEL,
 ];

@@ -214,9 +214,10 @@ pub fn shadow_ray(
     }
 }
 
-/// Folds ray values into a [`Sample`]: running sums of `v` and `v²`, divided by the count.
+/// Folds ray values into a [`Sample`]: running sums of `v` and `v²`, divided by the count, and
+/// the 0th ray's value `first`.
 #[inline]
-fn finish(sum: f32, sum_sq: f32, rays: u32) -> Sample {
+fn finish(sum: f32, sum_sq: f32, first: f32, rays: u32) -> Sample {
     if rays == 0 {
         return Sample::default();
     }
@@ -225,7 +226,7 @@ fn finish(sum: f32, sum_sq: f32, rays: u32) -> Sample {
         m1: sum / n,
         m2: sum_sq / n,
         rays,
-        _pad: 0,
+        first,
     }
 }
 
@@ -242,7 +243,7 @@ pub fn ao_pixel(
     if s.instance == NO_INSTANCE {
         return Sample::default();
     }
-    let (mut sum, mut sum_sq) = (0.0f32, 0.0f32);
+    let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut i = 0u32;
     while i < rays {
         let v = ao_ray(
@@ -253,11 +254,14 @@ pub fn ao_pixel(
             nodes,
             tris,
         );
+        if i == 0 {
+            first = v;
+        }
         sum += v;
         sum_sq += v * v;
         i += 1;
     }
-    finish(sum, sum_sq, rays)
+    finish(sum, sum_sq, first, rays)
 }
 
 /// Shadow of one pixel towards `light`: `rays` rays with indices `first_index ..`.
@@ -273,15 +277,18 @@ pub fn shadow_pixel(
     if s.instance == NO_INSTANCE {
         return Sample::default();
     }
-    let (mut sum, mut sum_sq) = (0.0f32, 0.0f32);
+    let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut i = 0u32;
     while i < rays {
         let v = shadow_ray(s, light, seed, first_index.wrapping_add(i), nodes, tris);
+        if i == 0 {
+            first = v;
+        }
         sum += v;
         sum_sq += v * v;
         i += 1;
     }
-    finish(sum, sum_sq, rays)
+    finish(sum, sum_sq, first, rays)
 }
 
 /// The work-list entry of invocation `id`, if any: `(pixel index, rays)`.

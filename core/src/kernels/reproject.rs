@@ -14,9 +14,16 @@
 //! for a fraction of a ray picked from their variance (4 thresholds, seed "Advanced
 //! undersampling"), sky and VRS-masked pixels ask for none. The request is a bucket index
 //! (`buckets::rate_to_bucket`).
+//!
+//! With temporal gradients on (`gradient_stratum > 0`, see `kernels::gradient`), each plane's
+//! reconstructed `λ` at the pixel's cell shortens the reprojected history to `count · (1 − λ)`
+//! (A-SVGF: history `N·(1 − λ)`), and above `gradient_threshold` drops it like a disocclusion, so
+//! VRRT asks for a refill and supersamples where the signal changed — detection instead of
+//! variance clamping.
 
 use super::buckets::rate_to_bucket;
 use super::{pixel_index, plane_index};
+use super::gradient::GradientSample;
 use crate::gbuffer::Surface;
 use crate::math;
 use crate::payload::Payload;
@@ -64,6 +71,14 @@ pub struct ReprojectParams {
     pub variance_threshold: [f32; 4],
     /// Ray rates of the undersampling buckets.
     pub variance_rate: [f32; 4],
+    /// Temporal-gradient stratum size in pixels; 0 = no gradient this frame (`gradient` unread).
+    pub gradient_stratum: u32,
+    /// Gradient cells per row.
+    pub gradient_width: u32,
+    /// Gradient cell rows.
+    pub gradient_height: u32,
+    /// `λ` above which history is dropped like a disocclusion.
+    pub gradient_threshold: f32,
 }
 
 impl Default for ReprojectParams {
@@ -83,6 +98,10 @@ impl Default for ReprojectParams {
             use_mask: 0,
             variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
             variance_rate: [0.125, 0.25, 0.5, 1.0],
+            gradient_stratum: 0,
+            gradient_width: 0,
+            gradient_height: 0,
+            gradient_threshold: 0.5,
         }
     }
 }
@@ -134,6 +153,7 @@ pub fn reproject(
     prev_surfaces: &[Surface],
     history: &[Payload],
     mask: &[u32],
+    gradient: &[GradientSample],
     out: &mut [Payload],
     flags: &mut [u32],
     requests: &mut [u32],
@@ -211,10 +231,30 @@ pub fn reproject(
             k += 1;
         }
         let reprojected = if sum_w > p.disocclusion_threshold {
+            let mut count = acc.count / sum_w;
+            // Plain division after the check: the same instructions on every target.
+            #[allow(clippy::manual_checked_ops)]
+            if p.gradient_stratum > 0 {
+                let lambda = gradient[super::gradient::cell_index(
+                    id.x / p.gradient_stratum,
+                    id.y / p.gradient_stratum,
+                    z,
+                    p.gradient_width,
+                    p.gradient_height,
+                )]
+                .lambda();
+                if lambda > p.gradient_threshold {
+                    // The signal changed under the history: a disocclusion in all but geometry.
+                    lost = true;
+                    count = 0.0;
+                } else {
+                    count *= 1.0 - lambda;
+                }
+            }
             Payload {
                 m1: acc.m1 / sum_w,
                 m2: acc.m2 / sum_w,
-                count: acc.count / sum_w,
+                count,
                 rng_index,
             }
         } else {
@@ -244,8 +284,8 @@ pub fn reproject(
 #[cfg(not(target_arch = "spirv"))]
 crate::per_invocation_kernel!(
     /// Kernel description of [`reproject`]: bindings `surfaces`, `prev_surfaces`, `history`,
-    /// `mask`, `out`, `flags`, `requests`; dispatch over `width × height` (planes are looped
-    /// inside).
+    /// `mask`, `gradient` (reconstructed, cell resolution), `out`, `flags`, `requests`; dispatch
+    /// over `width × height` (planes are looped inside).
     KERNEL = "reproject", reproject, threads(8, 8, 1),
     params: ReprojectParams,
     bindings: [
@@ -253,6 +293,7 @@ crate::per_invocation_kernel!(
         prev_surfaces: Read Surface,
         history: Read Payload,
         mask: Read u32,
+        gradient: Read GradientSample,
         out: ReadWrite Payload,
         flags: ReadWrite u32,
         requests: ReadWrite u32,
