@@ -108,6 +108,10 @@ pub struct Settings {
     /// Gradient `λ` above which history is dropped like a disocclusion (0..=1; default 0.5);
     /// below it history is shortened to `count · (1 − λ)`.
     pub gradient_threshold: f32,
+    /// Gain on the reconstructed `λ` (`min(1, scale · λ)`, >= 0; default 1, A-SVGF as published).
+    /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
+    /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
+    pub gradient_scale: f32,
 }
 
 impl Default for Settings {
@@ -140,6 +144,7 @@ impl Default for Settings {
             gradient_stratum: 0,
             gradient_iterations: 3,
             gradient_threshold: 0.5,
+            gradient_scale: 1.0,
         }
     }
 }
@@ -343,6 +348,12 @@ impl Settings {
             "gradient_stratum",
             self.gradient_stratum as f32,
             "0 or 3..=8",
+        )?;
+        check(
+            finite(self.gradient_scale) && self.gradient_scale >= 0.0,
+            "gradient_scale",
+            self.gradient_scale,
+            ">= 0",
         )?;
         check(
             self.gradient_iterations <= 5,
@@ -842,6 +853,7 @@ impl Denoiser {
             gradient_width: gw,
             gradient_height: gh,
             gradient_threshold: s.gradient_threshold,
+            gradient_scale: s.gradient_scale,
             ..Default::default()
         };
         let buffers = [

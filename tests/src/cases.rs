@@ -7,8 +7,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
-use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
 use vrrt_core::kernels::gradient::GradientSample;
+use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
@@ -291,6 +291,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         use_mask: rng.random_range(0..2),
         gradient_stratum: [0, 3, 8][rng.random_range(0..3)],
         gradient_threshold: rng.random_range(0.2..0.9),
+        gradient_scale: [1.0, 8.0][rng.random_range(0..2)],
         ..Default::default()
     };
     let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();

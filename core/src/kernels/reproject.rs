@@ -22,8 +22,8 @@
 //! variance clamping.
 
 use super::buckets::rate_to_bucket;
-use super::{pixel_index, plane_index};
 use super::gradient::GradientSample;
+use super::{pixel_index, plane_index};
 use crate::gbuffer::Surface;
 use crate::math;
 use crate::payload::Payload;
@@ -79,6 +79,8 @@ pub struct ReprojectParams {
     pub gradient_height: u32,
     /// `λ` above which history is dropped like a disocclusion.
     pub gradient_threshold: f32,
+    /// Gain on the reconstructed `λ` before use (`min(1, scale · λ)`).
+    pub gradient_scale: f32,
 }
 
 impl Default for ReprojectParams {
@@ -102,6 +104,7 @@ impl Default for ReprojectParams {
             gradient_width: 0,
             gradient_height: 0,
             gradient_threshold: 0.5,
+            gradient_scale: 1.0,
         }
     }
 }
@@ -243,6 +246,7 @@ pub fn reproject(
                     p.gradient_height,
                 )]
                 .lambda();
+                let lambda = math::min(1.0, lambda * p.gradient_scale);
                 if lambda > p.gradient_threshold {
                     // The signal changed under the history: a disocclusion in all but geometry.
                     lost = true;
