@@ -1,4 +1,10 @@
 //! Library side of the `vrrt` command: backend selection, shared by the CLI, the bench and the
-//! tests.
+//! tests, and one module per subcommand.
 
 pub mod backend;
+pub mod bench;
+pub mod info;
+pub mod plot;
+pub mod reference;
+pub mod run;
+pub mod session;

@@ -1,2 +1,43 @@
-//! The `vrrt` command.
-fn main() {}
+//! The `vrrt` command: `run`, `reference`, `info` and `bench`. Every error is one line on
+//! stderr and exit code 2.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+use vrrt_cli::{bench, info, reference, run};
+
+/// VRRT-rs: variable rate ray tracing on SVGF.
+#[derive(Parser)]
+#[command(name = "vrrt", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene through a denoiser and measure it against references.
+    Run(run::RunArgs),
+    /// Trace (and cache) the references of a scene's frames.
+    Reference(reference::ReferenceArgs),
+    /// List backends and adapters, and what `auto` would pick.
+    Info,
+    /// Error-versus-cost matrix over denoiser configurations, budgets, scenes and backends.
+    Bench(bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Run(a) => run::run(a),
+        Command::Reference(a) => reference::run(a),
+        Command::Info => info::run(),
+        Command::Bench(a) => bench::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

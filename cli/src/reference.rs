@@ -1,0 +1,68 @@
+//! `vrrt reference`: traces and caches the references of a scene's frames.
+
+use crate::backend::BackendKind;
+use crate::run::{check_common, clamp_frames};
+use crate::session::{load_scene, open_backend, parse_backend, parse_size, References, SignalKind};
+use anyhow::Result;
+
+/// Options of `vrrt reference`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct ReferenceArgs {
+    /// Built-in scene name, or a mesh file (.obj, .ply, .ply.gz, .glb, .gltf).
+    #[arg(long, default_value = "room")]
+    pub scene: String,
+    /// Frames (from frame 0).
+    #[arg(long, default_value_t = 48)]
+    pub frames: u32,
+    /// Image size, WxH.
+    #[arg(long, default_value = "256x144", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    /// Signal.
+    #[arg(long, value_enum, default_value = "ao")]
+    pub signal: SignalKind,
+    /// Ambient occlusion maximum distance.
+    #[arg(long, default_value_t = 1.0)]
+    pub ao_radius: f32,
+    /// Backend that traces them: auto, cpu, wgpu or ash.
+    #[arg(long, default_value = "cpu", value_parser = parse_backend)]
+    pub backend: BackendKind,
+}
+
+/// Runs `vrrt reference`.
+pub fn run(args: &ReferenceArgs) -> Result<()> {
+    check_common(args.frames, args.spp, args.ao_radius)?;
+    let scene = load_scene(&args.scene)?;
+    let frames = clamp_frames(args.frames, scene.scene.frame_count);
+    let (mut exec, _) = open_backend(args.backend, false)?;
+    let refs = References::from_env(true);
+    if let Some(dir) = refs.cache_dir() {
+        println!("cache: {}", dir.display());
+    }
+    let signal = args.signal.signal(args.ao_radius);
+    println!("frame  source  mean_stderr");
+    let mut total = 0.0;
+    for i in 0..frames {
+        let f = scene.scene.frame(i);
+        let r = refs.get(&mut exec, &scene.key, &f, args.size, signal, args.spp)?;
+        total += r.mean_stderr;
+        println!(
+            "{i:>5}  {:<6}  {:.6}",
+            if r.cached { "cache" } else { "traced" },
+            r.mean_stderr
+        );
+    }
+    println!(
+        "{} frames of {} at {}x{}, {} spp, {}: mean standard error {:.6}",
+        frames,
+        scene.key,
+        args.size.0,
+        args.size.1,
+        args.spp,
+        signal.name(),
+        total / frames as f64
+    );
+    Ok(())
+}

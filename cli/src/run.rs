@@ -1,0 +1,346 @@
+//! `vrrt run`: renders a scene through one denoiser configuration, measures every frame against
+//! its reference and writes `frames.csv`, images and (optionally) debug overlays.
+
+use crate::backend::BackendKind;
+use crate::plot;
+use crate::session::{
+    self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, FrameRecord,
+    FrameView, References, SequenceOptions, SignalKind,
+};
+use anyhow::{anyhow, bail, Context, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use vrrt_core::kernels::buckets::{bucket_to_rate, NO_RAYS};
+use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
+
+/// Options of `vrrt run`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct RunArgs {
+    /// Built-in scene name, or a mesh file (.obj, .ply, .ply.gz, .glb, .gltf).
+    #[arg(long, default_value = "room")]
+    pub scene: String,
+    /// Frames to render (from frame 0).
+    #[arg(long, default_value_t = 48)]
+    pub frames: u32,
+    /// Image size, WxH.
+    #[arg(long, default_value = "256x144", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Backend: auto, cpu, wgpu or ash.
+    #[arg(long, default_value = "cpu", value_parser = parse_backend)]
+    pub backend: BackendKind,
+    /// Denoiser configuration (`raw` reports the raw samples, no denoising).
+    #[arg(long, value_enum, default_value = "vrrt")]
+    pub denoiser: Config,
+    /// Ray budget in rays per pixel per frame (0 < rpp <= 16).
+    #[arg(long, default_value = "1.0", value_parser = parse_rpp)]
+    pub rpp: f32,
+    /// Signal to trace and denoise.
+    #[arg(long, value_enum, default_value = "ao")]
+    pub signal: SignalKind,
+    /// Ambient occlusion maximum distance.
+    #[arg(long, default_value_t = 1.0)]
+    pub ao_radius: f32,
+    /// Reference samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    /// Output directory.
+    #[arg(long, default_value = "out/run")]
+    pub out: PathBuf,
+    /// Write PNGs of every n-th frame.
+    #[arg(long, default_value_t = 8)]
+    pub every: u32,
+    /// Write debug overlays every frame: requested and granted rays, history length after
+    /// reprojection and after accumulation (heatmaps), and a budget bar chart.
+    #[arg(long)]
+    pub overlays: bool,
+    /// Enable the Vulkan validation layers (wgpu, ash).
+    #[arg(long)]
+    pub validation: bool,
+}
+
+/// Checks the options that clap's parsers do not.
+pub fn check_common(frames: u32, spp: u32, ao_radius: f32) -> Result<()> {
+    if frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    if spp < 2 {
+        bail!("--spp must be at least 2 (the reference's standard error needs two samples)");
+    }
+    if !(ao_radius.is_finite() && ao_radius > 0.0) {
+        bail!("--ao-radius must be a positive distance, got {ao_radius}");
+    }
+    Ok(())
+}
+
+/// Runs `vrrt run`.
+pub fn run(args: &RunArgs) -> Result<()> {
+    check_common(args.frames, args.spp, args.ao_radius)?;
+    if args.every == 0 {
+        bail!("--every must be at least 1");
+    }
+    let scene = load_scene(&args.scene)?;
+    let frames = clamp_frames(args.frames, scene.scene.frame_count);
+    let (mut exec, why) = open_backend(args.backend, args.validation)?;
+    let device = exec.device();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let refs = References::from_env(true);
+    let opts = SequenceOptions {
+        size: args.size,
+        frames,
+        signal: args.signal.signal(args.ao_radius),
+        spp: args.spp,
+        config: args.denoiser,
+        rpp: args.rpp,
+        overlays: args.overlays,
+        measure: true,
+    };
+    let out = &args.out;
+    let (w, h) = args.size;
+    let mut last_denoised = None;
+    let result = session::run_sequence(&mut exec, &scene, &opts, &refs, |v| {
+        let i = v.record.frame;
+        if i % args.every == 0 || i + 1 == frames {
+            write_png(out.join(format!("frame{i:04}_denoised.png")), v.test.view())?;
+            write_png(out.join(format!("frame{i:04}_raw.png")), v.raw.view())?;
+            if let Some(r) = v.reference {
+                write_png(out.join(format!("frame{i:04}_reference.png")), r.view())?;
+            }
+        }
+        if args.overlays {
+            write_overlays(out, v, (w, h))?;
+        }
+        if i + 1 == frames {
+            last_denoised = Some(v.test.clone());
+        }
+        let line = format!(
+            "frame {}/{frames}: relMSE {}, {} rays, {:.1} ms",
+            i + 1,
+            fmt(v.record.relmse, 5),
+            v.record.rays_traced,
+            v.record.ms_frame
+        );
+        eprint!("\r{line:<72}");
+        Ok(())
+    })?;
+    eprintln!();
+    if let Some(img) = &last_denoised {
+        write_exr(out.join("denoised_last.exr"), img.view())?;
+    }
+    let csv = frames_csv(&result.records, &result.pass_names);
+    std::fs::write(out.join("frames.csv"), csv)
+        .with_context(|| format!("cannot write {}", out.join("frames.csv").display()))?;
+    if exec.validation_errors() > 0 {
+        eprintln!(
+            "warning: {} validation errors were reported",
+            exec.validation_errors()
+        );
+    }
+
+    let rs = &result;
+    let mut t = String::new();
+    let row = |t: &mut String, k: &str, v: String| {
+        let _ = writeln!(t, "  {k:<28} {v}");
+    };
+    row(
+        &mut t,
+        "backend",
+        format!("{} — {device}", exec_name(args.backend, &exec)),
+    );
+    if args.backend == BackendKind::Auto {
+        row(&mut t, "auto chose it because", why);
+    }
+    row(&mut t, "scene", scene.key.clone());
+    row(&mut t, "size", format!("{w}x{h}"));
+    row(&mut t, "frames", frames.to_string());
+    row(
+        &mut t,
+        "denoiser / budget",
+        format!(
+            "{} at {} rpp, signal {}",
+            args.denoiser.name(),
+            args.rpp,
+            opts.signal.name()
+        ),
+    );
+    row(
+        &mut t,
+        "relMSE, 2nd half (output)",
+        fmt(rs.second_half_mean(|r| r.relmse), 6),
+    );
+    row(
+        &mut t,
+        "relMSE, 2nd half (raw input)",
+        fmt(rs.second_half_mean(|r| r.raw_relmse), 6),
+    );
+    let s = rs.metrics.summary();
+    row(
+        &mut t,
+        "whole sequence",
+        format!(
+            "relMSE {}, PSNR {} dB, SSIM {}, FLIP {}, temporal {}, moving relMSE {}",
+            fmt(s.mean_rel_mse, 6),
+            fmt(s.psnr_of_mean_mse, 2),
+            fmt(s.mean_ssim, 4),
+            fmt(rs.mean_of(|r| r.flip), 4),
+            fmt(s.temporal.unwrap_or(f64::NAN), 5),
+            fmt(s.mean_masked_rel_mse.unwrap_or(f64::NAN), 6)
+        ),
+    );
+    let pixels = (w * h) as f64;
+    let rays = rs.mean_of(|r| r.rays_traced as f64);
+    row(
+        &mut t,
+        "rays per frame",
+        format!("{rays:.0} ({:.3} per pixel)", rays / pixels),
+    );
+    let overshoot = rs
+        .records
+        .iter()
+        .map(FrameRecord::overshoot)
+        .fold(f64::NEG_INFINITY, f64::max);
+    row(
+        &mut t,
+        "max budget overshoot (rays)",
+        format!("{overshoot:.0}"),
+    );
+    row(
+        &mut t,
+        "ms per frame (mean)",
+        format!("{:.2}", rs.mean_of(|r| r.ms_frame)),
+    );
+    for (name, ms) in rs.pass_means() {
+        row(&mut t, &format!("  {name}"), format!("{ms:.3} ms"));
+    }
+    row(&mut t, "output", out.display().to_string());
+    println!("{t}");
+    Ok(())
+}
+
+/// Frames beyond the scene's animation are not rendered.
+pub fn clamp_frames(frames: u32, available: u32) -> u32 {
+    if frames > available {
+        eprintln!("note: the scene has {available} frames; rendering {available}");
+        available
+    } else {
+        frames
+    }
+}
+
+fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
+    use vrrt_core::plan::Executor;
+    match kind {
+        BackendKind::Auto => format!("auto → {}", exec.name()),
+        _ => exec.name().to_string(),
+    }
+}
+
+/// `frames.csv`: one row per frame, then per-pass milliseconds.
+pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
+    let mut s = String::from(
+        "frame,rays_traced,budget,requested,granted,overshoot,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,ms_frame",
+    );
+    for p in pass_names {
+        let _ = write!(s, ",ms_{p}");
+    }
+    s.push('\n');
+    for r in records {
+        let _ = write!(
+            s,
+            "{},{},{:.1},{:.1},{:.1},{:.1},{},{},{},{},{},{},{},{:.3}",
+            r.frame,
+            r.rays_traced,
+            r.budget,
+            r.requested,
+            r.granted,
+            r.overshoot(),
+            fmt(r.relmse, 7),
+            fmt(r.rmse, 7),
+            fmt(r.psnr, 3),
+            fmt(r.ssim, 5),
+            fmt(r.flip, 5),
+            fmt(r.temporal, 7),
+            fmt(r.moving_relmse, 7),
+            r.ms_frame
+        );
+        for p in pass_names {
+            let ms = r
+                .passes
+                .iter()
+                .filter(|(n, _)| n == p)
+                .map(|(_, ms)| ms)
+                .sum::<f64>();
+            let _ = write!(s, ",{ms:.4}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+fn heatmap(path: &Path, values: &[f32], (w, h): (u32, u32), max: f32) -> Result<()> {
+    let img = ImageRef::new(values, w as usize, h as usize, 1).map_err(|e| anyhow!("{e}"))?;
+    write_heatmap_png(path, img, max)?;
+    Ok(())
+}
+
+fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()> {
+    let i = v.record.frame;
+    let o = v.output;
+    let requested: Vec<f32> = o
+        .requests
+        .iter()
+        .map(|&b| if b == NO_RAYS { 0.0 } else { bucket_to_rate(b) })
+        .collect();
+    let granted: Vec<f32> = o.rays.iter().map(|&r| r as f32).collect();
+    let max_rays = requested
+        .iter()
+        .chain(&granted)
+        .copied()
+        .fold(1.0f32, f32::max);
+    if !requested.is_empty() {
+        heatmap(
+            &out.join(format!("frame{i:04}_requested.png")),
+            &requested,
+            size,
+            max_rays,
+        )?;
+    }
+    heatmap(
+        &out.join(format!("frame{i:04}_granted.png")),
+        &granted,
+        size,
+        max_rays,
+    )?;
+    let max_history = o
+        .history_reprojected
+        .iter()
+        .chain(&o.history_accumulated)
+        .copied()
+        .fold(1.0f32, f32::max);
+    if !o.history_reprojected.is_empty() {
+        heatmap(
+            &out.join(format!("frame{i:04}_history_reprojected.png")),
+            &o.history_reprojected,
+            size,
+            max_history,
+        )?;
+        heatmap(
+            &out.join(format!("frame{i:04}_history_accumulated.png")),
+            &o.history_accumulated,
+            size,
+            max_history,
+        )?;
+    }
+    let r = v.record;
+    plot::budget_bars(
+        &out.join(format!("frame{i:04}_budget.png")),
+        i,
+        &[
+            ("requested", r.requested),
+            ("granted", r.granted),
+            ("budget", r.budget),
+            ("traced", r.rays_traced as f64),
+        ],
+    )?;
+    Ok(())
+}
