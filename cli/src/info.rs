@@ -1,8 +1,75 @@
-//! `vrrt info`: backends, adapters and the `auto` choice.
+//! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick.
 
+use crate::backend::{Backend, BackendKind};
 use anyhow::Result;
+use vrrt_ash::{AshExecutor, AshOptions};
+use vrrt_core::plan::Executor;
+use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
 /// Runs `vrrt info`.
 pub fn run() -> Result<()> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("cpu:  available — native CPU kernels, {threads} threads (wall-clock pass timings)");
+
+    println!("wgpu (Vulkan):");
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::VULKAN,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+    if adapters.is_empty() {
+        println!("  no Vulkan adapter found");
+    }
+    for a in &adapters {
+        let i = a.get_info();
+        let ts = a.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        println!(
+            "  adapter: {} ({:?}), driver {} {}, timestamps {}",
+            i.name,
+            i.device_type,
+            i.driver,
+            i.driver_info,
+            if ts { "supported" } else { "not supported" }
+        );
+    }
+    match WgpuExecutor::new_headless(WgpuOptions::default()) {
+        Ok(e) => println!(
+            "  opens: {} ({:?}), pass timings from {}",
+            e.adapter_info().name,
+            e.adapter_info().device_type,
+            if e.timestamps_enabled() {
+                "GPU timestamps"
+            } else {
+                "nothing (no timestamp queries)"
+            }
+        ),
+        Err(e) => println!("  unavailable: {e}"),
+    }
+
+    println!("ash (raw Vulkan):");
+    match AshExecutor::new_headless(AshOptions::default()) {
+        Ok(e) => {
+            let i = e.adapter_info();
+            println!(
+                "  opens: {} ({:?}), Vulkan {}.{}.{}, timestamps {}",
+                i.name,
+                i.adapter_type,
+                i.api_version >> 22,
+                (i.api_version >> 12) & 0x3ff,
+                i.api_version & 0xfff,
+                if i.timestamps {
+                    format!("supported (period {} ns)", i.timestamp_period_ns)
+                } else {
+                    "not supported".into()
+                }
+            );
+        }
+        Err(e) => println!("  unavailable: {e}"),
+    }
+
+    match Backend::open(BackendKind::Auto, false) {
+        Ok((b, why)) => println!("auto: {} — {} — because {why}", b.name(), b.device()),
+        Err(e) => println!("auto: cannot open any backend: {e}"),
+    }
     Ok(())
 }
