@@ -1,16 +1,386 @@
-//! `vrrt bench`.
+//! `vrrt bench`: error against cost over a matrix of denoiser configurations × ray budgets ×
+//! scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
 
-use anyhow::Result;
+use crate::backend::BackendKind;
+use crate::plot::{self, Curve};
+use crate::run::{check_common, clamp_frames};
+use crate::session::{
+    self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, References,
+    SequenceOptions, SignalKind,
+};
+use anyhow::{bail, Context, Result};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
 
-/// Options of `vrrt bench`.
+/// Options of `vrrt bench`. Unset options take the quick or full defaults.
 #[derive(Clone, Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Quick matrix.
+    /// Quick matrix: room, 160x90, 24 frames, budgets 0.5 and 1, cpu, 1 repeat.
     #[arg(long)]
     pub quick: bool,
+    /// Scenes, comma separated (default room).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Configurations, comma separated (default all).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub configs: Vec<Config>,
+    /// Ray budgets in rays per pixel, comma separated (full default 0.25,0.5,1,2,4).
+    #[arg(long, value_delimiter = ',', value_parser = parse_rpp)]
+    pub budgets: Vec<f32>,
+    /// Backends, comma separated (full default: cpu, wgpu and ash where available).
+    #[arg(long, value_delimiter = ',', value_parser = parse_backend)]
+    pub backends: Vec<BackendKind>,
+    /// Image size, WxH (default 256x144; quick 160x90).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Frames per sequence (default 48; quick 24).
+    #[arg(long)]
+    pub frames: Option<u32>,
+    /// Timing repeats per cell (default 3; quick 1); ms is their median.
+    #[arg(long)]
+    pub repeats: Option<u32>,
+    /// Reference samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    /// Signal.
+    #[arg(long, value_enum, default_value = "ao")]
+    pub signal: SignalKind,
+    /// Ambient occlusion maximum distance.
+    #[arg(long, default_value_t = 1.0)]
+    pub ao_radius: f32,
+    /// Output directory.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
 }
 
+/// One cell of the matrix.
+#[derive(Clone, Debug)]
+pub struct Cell {
+    /// Scene key.
+    pub scene: String,
+    /// Configuration.
+    pub config: Config,
+    /// Budget, rays per pixel.
+    pub budget: f32,
+    /// Backend name.
+    pub backend: String,
+    /// Size.
+    pub size: (u32, u32),
+    /// Frames.
+    pub frames: u32,
+    /// Mean relMSE over the sequence.
+    pub relmse: f64,
+    /// PSNR of the mean MSE.
+    pub psnr: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+    /// Mean FLIP.
+    pub flip: f64,
+    /// Temporal error.
+    pub temporal: f64,
+    /// Mean relMSE of the moving region.
+    pub moving_relmse: f64,
+    /// Rays traced per frame.
+    pub rays_per_frame: f64,
+    /// Median over repeats of the mean ms per frame.
+    pub ms_per_frame: f64,
+    /// Max − min over repeats of the mean ms per frame.
+    pub ms_spread: f64,
+    /// Mean ms per frame of each pass (first repeat).
+    pub passes: Vec<(&'static str, f64)>,
+}
+
+const HEADER: &str = "scene,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread";
+
 /// Runs `vrrt bench`.
-pub fn run(_args: &BenchArgs) -> Result<()> {
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let q = args.quick;
+    let scenes = if args.scenes.is_empty() {
+        vec!["room".to_string()]
+    } else {
+        args.scenes.clone()
+    };
+    let configs = if args.configs.is_empty() {
+        Config::ALL.to_vec()
+    } else {
+        args.configs.clone()
+    };
+    let budgets = if !args.budgets.is_empty() {
+        args.budgets.clone()
+    } else if q {
+        vec![0.5, 1.0]
+    } else {
+        vec![0.25, 0.5, 1.0, 2.0, 4.0]
+    };
+    let explicit_backends = !args.backends.is_empty();
+    let backends = if explicit_backends {
+        args.backends.clone()
+    } else if q {
+        vec![BackendKind::Cpu]
+    } else {
+        vec![BackendKind::Cpu, BackendKind::Wgpu, BackendKind::Ash]
+    };
+    let size = args.size.unwrap_or(if q { (160, 90) } else { (256, 144) });
+    let frames = args.frames.unwrap_or(if q { 24 } else { 48 });
+    let repeats = args.repeats.unwrap_or(if q { 1 } else { 3 });
+    check_common(frames, args.spp, args.ao_radius)?;
+    if repeats == 0 {
+        bail!("--repeats must be at least 1");
+    }
+    let signal = args.signal.signal(args.ao_radius);
+    let loaded = scenes
+        .iter()
+        .map(|s| load_scene(s))
+        .collect::<Result<Vec<_>>>()?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+
+    match which("oidnDenoise") {
+        Some(p) => println!(
+            "OIDN: found at {} (not yet part of the matrix)",
+            p.display()
+        ),
+        None => println!("OIDN: not installed (pip install pyoidn==2.5.1 provides oidnDenoise)"),
+    }
+
+    let refs = References::from_env(true);
+    let started = Instant::now();
+    let mut cells = Vec::new();
+    for kind in &backends {
+        let (mut exec, _) = match open_backend(*kind, false) {
+            Ok(b) => b,
+            Err(e) if !explicit_backends => {
+                println!("skipping backend {kind:?}: {e}");
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        let backend = {
+            use vrrt_core::plan::Executor;
+            exec.name().to_string()
+        };
+        println!("backend {backend}: {}", exec.device());
+        for scene in &loaded {
+            let frames = clamp_frames(frames, scene.scene.frame_count);
+            for &config in &configs {
+                for &budget in &budgets {
+                    let mut opts = SequenceOptions {
+                        size,
+                        frames,
+                        signal,
+                        spp: args.spp,
+                        config,
+                        rpp: budget,
+                        overlays: false,
+                        measure: true,
+                    };
+                    let mut ms = Vec::new();
+                    let mut first = None;
+                    for _ in 0..repeats {
+                        let r = session::run_sequence(&mut exec, scene, &opts, &refs, |_| Ok(()))?;
+                        ms.push(r.mean_of(|f| f.ms_frame));
+                        first.get_or_insert(r);
+                        opts.measure = false;
+                    }
+                    let r = first.expect("at least one repeat");
+                    ms.sort_by(f64::total_cmp);
+                    let s = r.metrics.summary();
+                    let cell = Cell {
+                        scene: scene.key.clone(),
+                        config,
+                        budget,
+                        backend: backend.clone(),
+                        size,
+                        frames,
+                        relmse: s.mean_rel_mse,
+                        psnr: s.psnr_of_mean_mse,
+                        ssim: s.mean_ssim,
+                        flip: r.mean_of(|f| f.flip),
+                        temporal: s.temporal.unwrap_or(f64::NAN),
+                        moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
+                        rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
+                        ms_per_frame: ms[ms.len() / 2],
+                        ms_spread: ms[ms.len() - 1] - ms[0],
+                        passes: r.pass_means(),
+                    };
+                    eprint!("\r{:<72}", "");
+                    eprintln!(
+                        "\r{} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
+                        cell.scene,
+                        config.name(),
+                        budget,
+                        backend,
+                        fmt(cell.relmse, 6),
+                        cell.ms_per_frame,
+                        started.elapsed().as_secs_f64()
+                    );
+                    cells.push(cell);
+                }
+            }
+        }
+    }
+    if cells.is_empty() {
+        bail!("no backend could be opened");
+    }
+
+    let csv = bench_csv(&cells);
+    let md = bench_md(&cells);
+    std::fs::write(args.out.join("bench.csv"), csv).context("writing bench.csv")?;
+    std::fs::write(args.out.join("bench.md"), &md).context("writing bench.md")?;
+    if let Err(e) = plots(&args.out, &cells) {
+        eprintln!("warning: plots not written: {e:#}");
+    }
+    println!("{md}");
+    println!(
+        "{} cells in {:.1} s; results in {}",
+        cells.len(),
+        started.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn which(program: &str) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join(program))
+        .find(|p| p.is_file())
+}
+
+fn pass_names(cells: &[Cell]) -> Vec<&'static str> {
+    let mut names = Vec::new();
+    for c in cells {
+        for (p, _) in &c.passes {
+            if !names.contains(p) {
+                names.push(*p);
+            }
+        }
+    }
+    names
+}
+
+/// `bench.csv`: the header of the brief, then one `ms_<pass>` column per pass.
+pub fn bench_csv(cells: &[Cell]) -> String {
+    let names = pass_names(cells);
+    let mut s = String::from(HEADER);
+    for p in &names {
+        let _ = write!(s, ",ms_{p}");
+    }
+    s.push('\n');
+    for c in cells {
+        let _ = write!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3}",
+            c.scene,
+            c.config.name(),
+            c.budget,
+            c.backend,
+            c.size.0,
+            c.size.1,
+            c.frames,
+            fmt(c.relmse, 7),
+            fmt(c.psnr, 3),
+            fmt(c.ssim, 5),
+            fmt(c.flip, 5),
+            fmt(c.temporal, 7),
+            fmt(c.moving_relmse, 7),
+            c.rays_per_frame,
+            c.ms_per_frame,
+            c.ms_spread
+        );
+        for p in &names {
+            let ms = c
+                .passes
+                .iter()
+                .find(|(n, _)| n == p)
+                .map_or(0.0, |(_, ms)| *ms);
+            let _ = write!(s, ",{ms:.4}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `bench.md`: a markdown table of the cells.
+pub fn bench_md(cells: &[Cell]) -> String {
+    let mut s = String::from(
+        "| scene | config | rpp | backend | size | relMSE | PSNR | SSIM | FLIP | temporal | moving relMSE | rays/px | ms/frame (spread) |\n\
+         |---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for c in cells {
+        let px = (c.size.0 * c.size.1) as f64;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.1} (±{:.1}) |",
+            c.scene,
+            c.config.name(),
+            c.budget,
+            c.backend,
+            c.size.0,
+            c.size.1,
+            fmt(c.relmse, 5),
+            fmt(c.psnr, 2),
+            fmt(c.ssim, 4),
+            fmt(c.flip, 4),
+            fmt(c.temporal, 5),
+            fmt(c.moving_relmse, 5),
+            c.rays_per_frame / px,
+            c.ms_per_frame,
+            c.ms_spread / 2.0
+        );
+    }
+    s
+}
+
+/// Per scene and backend: relMSE against ms per frame and against rays per pixel, one curve per
+/// configuration (its points are the budgets).
+fn plots(out: &std::path::Path, cells: &[Cell]) -> Result<()> {
+    let mut groups: Vec<(String, String)> = Vec::new();
+    for c in cells {
+        let g = (c.scene.clone(), c.backend.clone());
+        if !groups.contains(&g) {
+            groups.push(g);
+        }
+    }
+    for (scene, backend) in groups {
+        let in_group: Vec<&Cell> = cells
+            .iter()
+            .filter(|c| c.scene == scene && c.backend == backend)
+            .collect();
+        let mut configs: Vec<Config> = Vec::new();
+        for c in &in_group {
+            if !configs.contains(&c.config) {
+                configs.push(c.config);
+            }
+        }
+        let curves = |x: &dyn Fn(&Cell) -> f64| -> Vec<Curve> {
+            configs
+                .iter()
+                .map(|&k| Curve {
+                    name: k.name().to_string(),
+                    points: in_group
+                        .iter()
+                        .filter(|c| c.config == k)
+                        .map(|c| (x(c), c.relmse))
+                        .collect(),
+                })
+                .collect()
+        };
+        plot::curves(
+            &out.join(format!("relmse_vs_ms_{scene}_{backend}.png")),
+            &format!("{scene} on {backend}: error vs time"),
+            "ms per frame",
+            "relMSE",
+            &curves(&|c| c.ms_per_frame),
+        )?;
+        plot::curves(
+            &out.join(format!("relmse_vs_rpp_{scene}_{backend}.png")),
+            &format!("{scene} on {backend}: error vs rays"),
+            "rays per pixel per frame (traced)",
+            "relMSE",
+            &curves(&|c| c.rays_per_frame / (c.size.0 * c.size.1) as f64),
+        )?;
+    }
     Ok(())
 }
