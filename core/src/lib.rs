@@ -29,9 +29,9 @@ pub mod gbuffer;
 pub mod kernels;
 pub mod math;
 pub mod payload;
-pub mod quantize;
 #[cfg(not(target_arch = "spirv"))]
 pub mod plan;
+pub mod quantize;
 pub mod sampling;
 pub mod trace;
 

@@ -112,7 +112,8 @@ pub fn reproject(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] prev_surfaces: &[Surface],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] history: &[Payload],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] mask: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] gradient: &[gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)]
+    gradient: &[gradient::GradientSample],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] out: &mut [Payload],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] requests: &mut [u32],
@@ -201,7 +202,8 @@ pub fn gradient_ao(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] prev_samples: &[Sample],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] out: &mut [gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)]
+    out: &mut [gradient::GradientSample],
 ) {
     gradient::retrace_ao(
         id,
@@ -229,7 +231,8 @@ pub fn gradient_shadow(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lights: &[raygen::AreaLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] out: &mut [gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)]
+    out: &mut [gradient::GradientSample],
 ) {
     gradient::retrace_shadow(
         id,
@@ -251,7 +254,8 @@ pub fn gradient_atrous(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(push_constant)] p: &gradient::AtrousParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[gradient::GradientSample],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] out: &mut [gradient::GradientSample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)]
+    out: &mut [gradient::GradientSample],
 ) {
     gradient::atrous(id, p, input, out);
 }
