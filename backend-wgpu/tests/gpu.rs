@@ -405,9 +405,10 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let samples_buf = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
     let out1 = b.buffer(&vec![0u8; n as usize * 16]);
     let out2 = b.buffer(&vec![0u8; n as usize * 16]);
+    let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
     let params = bytemuck::bytes_of(&params);
-    let first = [history, samples_buf, out1];
+    let first = [history, samples_buf, out1, counters];
     b.dispatch(&Pass::over_grid(
         &accumulate::KERNEL,
         &first,
@@ -425,7 +426,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let mut args = vec![0u32; 4];
     args[1..].copy_from_slice(&groups);
     let args = b.buffer(bytemuck::cast_slice(&args));
-    let second = [out1, samples_buf, out2];
+    let second = [out1, samples_buf, out2, counters];
     b.dispatch(&Pass {
         kernel: &accumulate::KERNEL,
         buffers: &second,
@@ -456,7 +457,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
 fn passes_are_timed() {
     let Some(mut gpu) = gpu() else { return };
     let n = W * H * PLANES;
-    let ids: Vec<BufferId> = [16, 16, 16]
+    let ids: Vec<BufferId> = [16, 16, 16, 4]
         .iter()
         .map(|s| gpu.create_buffer(n as u64 * s).unwrap())
         .collect();
@@ -497,7 +498,7 @@ fn plan_errors_are_reported() {
     let Some(mut gpu) = gpu() else { return };
     let a = gpu.create_buffer(64).unwrap();
     let params = accumulate_params();
-    let aliased = [a, a, a];
+    let aliased = [a, a, a, a];
     let err = gpu
         .dispatch(&Pass::over_grid(
             &accumulate::KERNEL,
@@ -640,11 +641,17 @@ fn embedded_in_an_engine() {
     ids.push(gpu.import_buffer(out_buffer.clone()).unwrap());
     ids.push(cpu.create_buffer(n as u64 * 16).unwrap());
     assert_eq!(gpu.buffer(ids[2]).unwrap(), &out_buffer);
+    let counters = payload::COUNTERS_LEN as u64 * 4;
+    let (counters_g, counters_c) = (
+        gpu.create_buffer(counters).unwrap(),
+        cpu.create_buffer(counters).unwrap(),
+    );
 
     let params = accumulate_params();
+    let gpu_buffers = [ids[0], ids[1], ids[2], counters_g];
     let gpu_pass = Pass::over_grid(
         &accumulate::KERNEL,
-        &ids[..3],
+        &gpu_buffers,
         bytemuck::bytes_of(&params),
         W,
         H,
@@ -654,7 +661,7 @@ fn embedded_in_an_engine() {
     gpu.encode(&mut encoder, &[gpu_pass]).unwrap();
     queue.submit([encoder.finish()]);
     cpu.dispatch(&Pass {
-        buffers: &[ids[0], ids[1], ids[3]],
+        buffers: &[ids[0], ids[1], ids[3], counters_c],
         ..gpu_pass
     })
     .unwrap();
