@@ -16,7 +16,7 @@ use std::time::Instant;
 /// Options of `vrrt bench`. Unset options take the quick or full defaults.
 #[derive(Clone, Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Quick matrix: room, 160x90, 24 frames, budgets 0.5 and 1, cpu, 1 repeat.
+    /// Quick matrix: room, 160x90, 48 frames, budgets 0.5 and 1, cpu, 1 repeat.
     #[arg(long)]
     pub quick: bool,
     /// Scenes, comma separated (default room).
@@ -34,7 +34,7 @@ pub struct BenchArgs {
     /// Image size, WxH (default 256x144; quick 160x90).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Frames per sequence (default 48; quick 24).
+    /// Frames per sequence (default 96: past the room's camera cut at 60; quick 48).
     #[arg(long)]
     pub frames: Option<u32>,
     /// Timing repeats per cell (default 3; quick 1); ms is their median.
@@ -122,7 +122,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         vec![BackendKind::Cpu, BackendKind::Wgpu, BackendKind::Ash]
     };
     let size = args.size.unwrap_or(if q { (160, 90) } else { (256, 144) });
-    let frames = args.frames.unwrap_or(if q { 24 } else { 48 });
+    let frames = args.frames.unwrap_or(if q { 48 } else { 96 });
     let repeats = args.repeats.unwrap_or(if q { 1 } else { 3 });
     check_common(frames, args.spp, args.ao_radius)?;
     if repeats == 0 {

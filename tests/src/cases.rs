@@ -370,7 +370,7 @@ const BALANCE: &[Word] = &[
     Word::U32,
     Word::U32,
     Word::U32,
-    Word::U32,
+    Word::F32,
     Word::F32,
     Word::F32,
     Word::F32,
@@ -382,7 +382,12 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         rays_per_pixel: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)],
         ring_count: buckets::ring_count(w, h),
         raise: rng.random_range(0..2),
-        enabled: rng.random_range(0..8).min(1),
+        policy: [
+            balance::POLICY_KEEP,
+            balance::POLICY_BALANCE,
+            balance::POLICY_BALANCE,
+            balance::POLICY_FIXED,
+        ][rng.random_range(0..4)],
     }
 }
 

@@ -6,11 +6,12 @@
 //! Pixels that trace nothing get an empty [`Sample`] in every plane here, so accumulation sees
 //! "no ray" instead of last frame's sample.
 
-use super::balance::{granted_bucket, Balance};
-use super::buckets::{bucket_to_rate, ring_id, BUCKET_COUNT};
+use super::balance::{granted_rate, Balance};
+use super::buckets::{ring_id, BUCKET_COUNT};
 use super::pixel_index;
 use crate::atomic;
 use crate::blue_noise::blue_noise;
+use crate::math;
 use crate::payload::Sample;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -34,7 +35,8 @@ pub struct ApplyParams {
     pub frame_index: u32,
 }
 
-/// Rays pixel `(x, y)` traces: its granted rate, realised stochastically when fractional.
+/// Rays pixel `(x, y)` traces: its granted rate, whose fractional part is realised by a blue-noise
+/// test (1.5 is one ray, plus a second where the noise is below 1/2).
 #[inline]
 pub fn resolve_rays(
     x: u32,
@@ -47,13 +49,9 @@ pub fn resolve_rays(
     if bucket >= BUCKET_COUNT {
         return 0;
     }
-    let g = granted_bucket(bucket, ring_id(x, y, p.width, p.height), d);
-    let rate = bucket_to_rate(g);
-    if rate >= 1.0 {
-        rate as u32
-    } else {
-        (rate > blue_noise(noise, x, y, p.frame_index)) as u32
-    }
+    let rate = granted_rate(bucket, ring_id(x, y, p.width, p.height), d);
+    let whole = math::floor(rate);
+    whole as u32 + (rate - whole > blue_noise(noise, x, y, p.frame_index)) as u32
 }
 
 /// One invocation per pixel. Writes `rays[pixel]`, appends tracing pixels to `work` and counts
