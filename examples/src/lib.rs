@@ -1,0 +1,316 @@
+//! The application the examples embed VRRT-rs in, and the few helpers an engine writes once.
+//!
+//! The "application" is synthetic so the examples need no scene files: a G-buffer of a box sliding
+//! right over a back wall (every frame uncovers a strip of wall, where VRRT supersamples) and an
+//! ambient-occlusion "ray tracer" whose rays return 0 or 1 with a known probability per pixel.
+//!
+//! A frame with the denoiser is always the same four steps:
+//! 1. [`Denoiser::begin_frame`], then write this frame's G-buffer into [`Denoiser::surfaces`];
+//! 2. [`Denoiser::plan_rays`]: afterwards [`Denoiser::rays`] says how many rays each pixel traces
+//!    *this* frame (more where history was lost, fewer where it converged, within the budget);
+//! 3. trace them and write the noisy [`Sample`]s into [`Denoiser::samples`];
+//! 4. [`Denoiser::resolve`]: the denoised signal is in [`Denoiser::output`].
+
+use vrrt_core::denoiser::{Denoiser, FrameInfo, Settings};
+use vrrt_core::gbuffer::Surface;
+use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::payload::Sample;
+use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
+use vrrt_cpu::CpuExecutor;
+
+/// Image width of the examples.
+pub const WIDTH: u32 = 64;
+/// Image height of the examples.
+pub const HEIGHT: u32 = 48;
+/// Frames each example renders.
+pub const FRAMES: u32 = 24;
+/// Pixels per image.
+pub const PIXELS: usize = (WIDTH * HEIGHT) as usize;
+
+/// The box: left edge at frame 0, width, rows, and how far it moves per frame (pixels).
+const BOX_X: u32 = 12;
+const BOX_W: u32 = 24;
+const BOX_ROWS: std::ops::Range<u32> = 12..36;
+const BOX_SPEED: u32 = 2;
+/// Angle of one pixel for a 60° vertical field of view.
+const PIXEL_ANGLE: f32 = 2.0 * 0.577_350_3 / HEIGHT as f32;
+
+/// Denoiser settings of the examples: the defaults (full VRRT, 1 ray per pixel), one AO plane.
+pub fn settings() -> Settings {
+    Settings {
+        planes: 1,
+        ..Settings::default()
+    }
+}
+
+/// Per-frame inputs of frame `index` (history is discarded on frame 0).
+pub fn frame_info(index: u32) -> FrameInfo {
+    FrameInfo {
+        index,
+        reset: index == 0,
+        pixel_angle: PIXEL_ANGLE,
+        moved: index > 0,
+        ..FrameInfo::default()
+    }
+}
+
+fn in_box(x: u32, y: u32, frame: u32) -> bool {
+    let left = BOX_X + BOX_SPEED * frame;
+    (left..left + BOX_W).contains(&x) && BOX_ROWS.contains(&y)
+}
+
+/// World position of pixel `(x, y)` at view depth `depth` (camera at the origin looking down +z).
+fn world(x: f32, y: f32, depth: f32) -> [f32; 3] {
+    let s = depth * PIXEL_ANGLE;
+    [
+        (x - WIDTH as f32 / 2.0) * s,
+        (y - HEIGHT as f32 / 2.0) * s,
+        depth,
+    ]
+}
+
+/// The G-buffer of frame `frame`: what an engine's G-buffer pass writes, with motion vectors
+/// (`prev_x`, `prev_y`) and previous world positions for the moving box.
+pub fn gbuffer(frame: u32) -> Vec<Surface> {
+    let mut out = Vec::with_capacity(PIXELS);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let (depth, instance, shift) = if in_box(x, y, frame) {
+                (5.0, 1, BOX_SPEED as f32)
+            } else {
+                (10.0, 0, 0.0)
+            };
+            let [px, py, pz] = world(x as f32, y as f32, depth);
+            let [prev_px, prev_py, prev_pz] = world(x as f32 - shift, y as f32, depth);
+            out.push(Surface {
+                px,
+                py,
+                pz,
+                depth,
+                nz: -1.0,
+                instance,
+                gz: -1.0,
+                roughness: 1.0,
+                prev_x: x as f32 - shift,
+                prev_y: y as f32,
+                prev_px,
+                prev_py,
+                prev_pz,
+                ..Surface::default()
+            });
+        }
+    }
+    out
+}
+
+/// The converged AO of frame `frame`: a ramp on the wall, a constant on the box.
+pub fn truth(frame: u32) -> Vec<f32> {
+    (0..PIXELS as u32)
+        .map(|i| {
+            let (x, y) = (i % WIDTH, i / WIDTH);
+            if in_box(x, y, frame) {
+                0.85
+            } else {
+                0.25 + 0.5 * x as f32 / WIDTH as f32
+            }
+        })
+        .collect()
+}
+
+fn hash(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// The application's ray tracer: `rays[i]` AO rays at pixel `i`, each 1 (unoccluded) with the
+/// probability [`truth`] gives, as the moments the denoiser takes.
+pub fn trace(frame: u32, rays: &[u32]) -> Vec<Sample> {
+    let ao = truth(frame);
+    rays.iter()
+        .zip(&ao)
+        .enumerate()
+        .map(|(i, (&n, &p))| {
+            let ray = |r: u32| {
+                let u = hash(i as u32 ^ hash(frame.wrapping_mul(977).wrapping_add(r))) >> 8;
+                f32::from(u8::from((u as f32) < p * (1 << 24) as f32))
+            };
+            let hits: f32 = (0..n).map(ray).sum();
+            let mean = if n > 0 { hits / n as f32 } else { 0.0 };
+            Sample {
+                m1: mean,
+                // Rays return 0 or 1: the mean of squares is the mean.
+                m2: mean,
+                rays: n,
+                first: if n > 0 { ray(0) } else { 0.0 },
+            }
+        })
+        .collect()
+}
+
+/// Reads `len` elements of `T` from buffer `id`.
+pub fn read<T: bytemuck::Pod + Default, E: Executor>(
+    exec: &mut E,
+    id: BufferId,
+    len: usize,
+) -> Result<Vec<T>, E::Error> {
+    let mut out = vec![T::default(); len];
+    exec.read_buffer(id, bytemuck::cast_slice_mut(&mut out))?;
+    Ok(out)
+}
+
+/// What one frame produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameResult {
+    /// Rays each pixel traced.
+    pub rays: Vec<u32>,
+    /// The denoised AO.
+    pub denoised: Vec<f32>,
+}
+
+/// The denoised values of a [`Filtered`] buffer's contents.
+pub fn values(filtered: &[Filtered]) -> Vec<f32> {
+    filtered.iter().map(|f| f.value).collect()
+}
+
+/// The reference the GPU examples compare with: every frame on the CPU backend, the same loop
+/// as `examples/cpu_slices.rs`.
+pub fn cpu_frames() -> Vec<FrameResult> {
+    let cpu = &mut CpuExecutor::new();
+    let mut d = Denoiser::new(cpu, WIDTH, HEIGHT, settings()).expect("valid settings");
+    (0..FRAMES)
+        .map(|frame| {
+            d.begin_frame(frame_info(frame));
+            let run = |cpu: &mut CpuExecutor, d: &mut Denoiser| {
+                cpu.write_buffer(d.surfaces(), bytemuck::cast_slice(&gbuffer(frame)))?;
+                d.plan_rays(cpu)?;
+                let rays = read::<u32, _>(cpu, d.rays(), PIXELS)?;
+                cpu.write_buffer(d.samples(), bytemuck::cast_slice(&trace(frame, &rays)))?;
+                d.resolve(cpu)?;
+                let denoised = values(&read::<Filtered, _>(cpu, d.output(), PIXELS)?);
+                Ok::<_, vrrt_cpu::CpuError>(FrameResult { rays, denoised })
+            };
+            run(cpu, &mut d).expect("CPU backend")
+        })
+        .collect()
+}
+
+/// Largest relative difference `|a - b| / max(|a|, |b|)` (absolute below 1e-6); panics with
+/// `what` if it exceeds `rel` or the lengths differ.
+pub fn assert_close(what: &str, got: &[f32], want: &[f32], rel: f32) -> f32 {
+    assert_eq!(got.len(), want.len(), "{what}: lengths differ");
+    let mut worst = 0.0f32;
+    for (i, (&a, &b)) in got.iter().zip(want).enumerate() {
+        let err = (a - b).abs() / a.abs().max(b.abs()).max(1e-6);
+        assert!(err <= rel, "{what}: pixel {i} is {a}, the CPU gives {b}");
+        worst = worst.max(err);
+    }
+    worst
+}
+
+/// Whether a missing Vulkan adapter is a failure (`VRRT_REQUIRE_VULKAN=1`, as in CI).
+pub fn require_vulkan() -> bool {
+    std::env::var("VRRT_REQUIRE_VULKAN").is_ok_and(|v| v == "1")
+}
+
+/// Whether to run under the Khronos validation layer (`VRRT_VALIDATION=1`, as in CI).
+pub fn validation() -> bool {
+    std::env::var("VRRT_VALIDATION").is_ok_and(|v| v == "1")
+}
+
+/// A pass with its buffers and parameters owned.
+struct OwnedPass {
+    kernel: &'static KernelDesc,
+    buffers: Vec<BufferId>,
+    params: Vec<u8>,
+    groups: Groups,
+}
+
+/// Passes captured by [`capture`], to record into the application's own command encoder
+/// ([`vrrt_wgpu::WgpuExecutor::encode`]) or command buffer
+/// ([`vrrt_ash::AshExecutor::record_into`]).
+#[derive(Default)]
+pub struct Passes(Vec<OwnedPass>);
+
+impl Passes {
+    /// The passes, in dispatch order.
+    pub fn get(&self) -> Vec<Pass<'_>> {
+        self.0
+            .iter()
+            .map(|p| Pass {
+                kernel: p.kernel,
+                buffers: &p.buffers,
+                params: &p.params,
+                groups: p.groups,
+            })
+            .collect()
+    }
+}
+
+/// An executor that keeps the passes dispatched to it instead of running them; everything else
+/// goes to the wrapped executor.
+pub struct Capture<'a, E> {
+    exec: &'a mut E,
+    passes: Passes,
+}
+
+/// Runs `f` (e.g. `|e| denoiser.plan_rays(e)`) with dispatches captured rather than run.
+///
+/// The denoiser's per-frame calls only dispatch. Buffer creation and uploads made inside `f` go
+/// straight to `exec` (so they run *before* the captured passes); reading a buffer inside `f`
+/// panics, since the passes that would write it have not run.
+pub fn capture<E: Executor>(
+    exec: &mut E,
+    f: impl FnOnce(&mut Capture<'_, E>) -> Result<(), E::Error>,
+) -> Result<Passes, E::Error> {
+    let mut c = Capture {
+        exec,
+        passes: Passes::default(),
+    };
+    f(&mut c)?;
+    Ok(c.passes)
+}
+
+impl<E: Executor> Executor for Capture<'_, E> {
+    type Error = E::Error;
+
+    fn name(&self) -> &'static str {
+        self.exec.name()
+    }
+
+    fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, E::Error> {
+        self.exec.create_buffer(size_bytes)
+    }
+
+    fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), E::Error> {
+        self.exec.write_buffer(buffer, data)
+    }
+
+    fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), E::Error> {
+        self.passes.0.push(OwnedPass {
+            kernel: pass.kernel,
+            buffers: pass.buffers.to_vec(),
+            params: pass.params.to_vec(),
+            groups: pass.groups,
+        });
+        Ok(())
+    }
+
+    fn read_buffer(&mut self, _: BufferId, _: &mut [u8]) -> Result<(), E::Error> {
+        panic!("read_buffer while capturing: the captured passes have not run");
+    }
+
+    fn finish(&mut self) -> Result<(), E::Error> {
+        panic!("finish while capturing: record the captured passes first");
+    }
+
+    fn timings(&self) -> &[PassTiming] {
+        self.exec.timings()
+    }
+
+    fn clear_timings(&mut self) {
+        self.exec.clear_timings()
+    }
+}
