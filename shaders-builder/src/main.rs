@@ -2,8 +2,10 @@
 //! and writes it to `shaders/vrrt.spv`, the artifact the host crates embed.
 //!
 //! `cargo run --release -- --check` rebuilds into the cache and fails if the result differs from the
-//! checked-in file (what CI runs). Run through `shaders-builder/build.sh`, which keeps the codegen
-//! backend and shader build outside the clone.
+//! checked-in file (what CI runs). `--crate DIR --out FILE` builds another shader crate instead
+//! (e.g. one of another project that depends on `vrrt-core`) with the same toolchain, cache and
+//! post-pass, so it needs no codegen backend of its own. Run through `shaders-builder/build.sh`,
+//! which keeps the codegen backend and shader build outside the clone.
 
 use spirv_builder::{ModuleResult, SpirvBuilder, SpirvMetadata};
 use std::path::{Path, PathBuf};
@@ -53,18 +55,24 @@ fn forbid_contraction(module: &[u8]) -> Vec<u8> {
 }
 
 fn main() -> ExitCode {
-    let check = std::env::args().any(|a| a == "--check");
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let check = args.iter().any(|a| a == "--check");
+    let path_arg = |flag: &str| {
+        let i = args.iter().position(|a| a == flag)?;
+        args.get(i + 1).map(PathBuf::from)
+    };
     // The repository root comes from build.sh at run time: the cached builder binary may have
     // been compiled from another checkout.
     let root = std::env::var_os("VRRT_ROOT")
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf());
-    let artifact = root.join("shaders/vrrt.spv");
+    let shader_crate = path_arg("--crate").unwrap_or_else(|| root.join("shaders-rust"));
+    let artifact = path_arg("--out").unwrap_or_else(|| root.join("shaders/vrrt.spv"));
     let cache = std::env::var_os("VRRT_SHADER_CACHE")
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target/shader-cache"));
 
-    let mut builder = SpirvBuilder::new(root.join("shaders-rust"), "spirv-unknown-vulkan1.2");
+    let mut builder = SpirvBuilder::new(&shader_crate, "spirv-unknown-vulkan1.2");
     builder.toolchain_overwrite = Some(TOOLCHAIN.into());
     builder.target_dir_path = Some(cache.join("shaders"));
     builder.spirv_metadata = SpirvMetadata::None;
@@ -88,16 +96,21 @@ fn main() -> ExitCode {
         let committed = std::fs::read(&artifact).unwrap_or_default();
         if committed != fresh {
             eprintln!(
-                "shaders/vrrt.spv is stale: it differs from a fresh build of vrrt-shaders \
-                 ({} vs {} bytes). Regenerate with shaders-builder/build.sh and commit it.",
+                "{} is stale: it differs from a fresh build of {} ({} vs {} bytes). \
+                 Regenerate with shaders-builder/build.sh and commit it.",
+                artifact.display(),
+                shader_crate.display(),
                 committed.len(),
                 fresh.len()
             );
             return ExitCode::FAILURE;
         }
-        println!("shaders/vrrt.spv is fresh");
+        println!("{} is fresh", artifact.display());
     } else {
-        std::fs::write(&artifact, &fresh).expect("write shaders/vrrt.spv");
+        if let Some(dir) = artifact.parent() {
+            std::fs::create_dir_all(dir).expect("create the output directory");
+        }
+        std::fs::write(&artifact, &fresh).expect("write the SPIR-V module");
         println!("wrote {}", artifact.display());
     }
     ExitCode::SUCCESS
