@@ -4,7 +4,7 @@
 //! or its own backend, against the CPU backend:
 //!
 //! 1. a [`Case`] is a kernel plus generated input buffers, parameters and a dispatch size;
-//! 2. [`run_case`] runs it on any [`Executor`](vrrt_core::plan::Executor);
+//! 2. [`run_case`] runs it on any [`Executor`];
 //! 3. [`compare`] compares the results word by word — integers exactly, floats by ULP distance.
 //!
 //! [`cases::TABLE`] lists one generator per kernel: adding a kernel adds one line there.
