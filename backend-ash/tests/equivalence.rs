@@ -15,6 +15,7 @@ use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::kernels::accumulate::{self, AccumulateParams};
 use vrrt_core::kernels::atrous::{self, AtrousParams, Filtered};
 use vrrt_core::kernels::buckets::{self, BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
+use vrrt_core::kernels::classify;
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_cpu::CpuExecutor;
@@ -255,22 +256,25 @@ fn atrous_matches_cpu() {
         })
         .collect();
     let surf = surfaces(&mut rng);
+    let tiles = tile_levels();
     let out = vec![0u8; n * 8];
-    for step in [1u32, 2, 4] {
+    for (i, step) in [1u32, 2, 4].into_iter().enumerate() {
         let params = AtrousParams {
             width: W,
             height: H,
             step,
+            iteration: i as u32,
             ..AtrousParams::default()
         };
-        let inputs: [&[u8]; 3] = [
+        let inputs: [&[u8]; 4] = [
             bytemuck::cast_slice(&input),
             bytemuck::cast_slice(&surf),
+            bytemuck::cast_slice(&tiles),
             &out,
         ];
         let p = bytemuck::bytes_of(&params);
         let (gpu, cpu) =
-            run_both::<Filtered>(&mut ex, &inputs, 2, n, &atrous::KERNEL, p, [W, H, PLANES]);
+            run_both::<Filtered>(&mut ex, &inputs, 3, n, &atrous::KERNEL, p, [W, H, PLANES]);
         assert_bits(&format!("atrous step {step}"), &gpu, &cpu, true, ATROUS_ULP);
         assert_ne!(gpu, input, "the filter did nothing");
     }
@@ -316,6 +320,12 @@ fn buckets_match_cpu() {
     check_validation(&ex);
 }
 
+/// À-trous iterations per tile, varied so that some tiles pass through.
+fn tile_levels() -> Vec<u32> {
+    let (tw, th) = classify::tile_grid(W, H);
+    (0..tw * th).map(|t| 1 + t % 5).collect()
+}
+
 /// Five dependent à-trous passes (ping-pong) recorded without waits, the fourth launched
 /// indirectly, with a `write_buffer` in the middle of the stream. Returns the final buffer.
 fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> BufferId {
@@ -330,6 +340,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
             &zeros,
             &zeros,
             bytemuck::cast_slice(&indirect),
+            bytemuck::cast_slice(&tile_levels()),
         ],
     );
     let (s, ind) = (b[1], b[4]);
@@ -339,10 +350,11 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
             width: W,
             height: H,
             step,
+            iteration: i as u32,
             ..AtrousParams::default()
         };
         let out = b[2 + i % 2];
-        let bufs = [prev, s, out];
+        let bufs = [prev, s, b[5], out];
         let mut pass = Pass::over_grid(
             &atrous::KERNEL,
             &bufs,

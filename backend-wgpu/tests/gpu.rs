@@ -6,7 +6,7 @@
 //! executor saw no validation error.
 
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
-use vrrt_core::kernels::{accumulate, atrous, buckets};
+use vrrt_core::kernels::{accumulate, atrous, buckets, classify};
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_cpu::CpuExecutor;
@@ -102,6 +102,12 @@ impl Rng {
             _ => self.unit(),
         }
     }
+}
+
+/// À-trous iterations per tile, varied so that some tiles pass through.
+fn tile_levels() -> Vec<u32> {
+    let (tw, th) = classify::tile_grid(W, H);
+    (0..tw * th).map(|t| t % 3).collect()
 }
 
 /// Runs the same steps on the CPU and the GPU executor.
@@ -280,6 +286,7 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
         .collect();
     let input = b.buffer(bytemuck::cast_slice(&input));
     let surfaces = b.buffer(bytemuck::cast_slice(&surfaces(&mut rng)));
+    let tiles = b.buffer(bytemuck::cast_slice(&tile_levels()));
     let out = [
         b.buffer(&vec![0u8; n as usize * 8]),
         b.buffer(&vec![0u8; n as usize * 8]),
@@ -289,10 +296,11 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
             width: W,
             height: H,
             step,
+            iteration: i as u32,
             ..Default::default()
         };
         let src = if i == 0 { input } else { out[0] };
-        let buffers = [src, surfaces, out[i]];
+        let buffers = [src, surfaces, tiles, out[i]];
         b.dispatch(&Pass::over_grid(
             &atrous::KERNEL,
             &buffers,

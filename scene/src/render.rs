@@ -11,7 +11,7 @@ use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{gbuffer, raygen};
+use vrrt_core::kernels::{classify, gbuffer, raygen};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 
@@ -266,6 +266,12 @@ pub struct FrameOutput {
     pub gradient_raw: Vec<f32>,
     /// Overlays, when the prepass ran: reconstructed `λ` per cell and plane.
     pub gradient: Vec<f32>,
+    /// The frame's signal has no source (shadows without a light): nothing was traced or
+    /// denoised, `denoised` is all 1 (unshadowed), and the next frame with a source starts fresh.
+    pub signal_absent: bool,
+    /// 8×8 tiles of the spatial filter (`Denoiser::tile_histogram`): without geometry, then
+    /// needing 0, 1, … 5 à-trous iterations.
+    pub tiles: [u32; classify::HISTOGRAM_LEN as usize],
 }
 
 /// Runs a scene frame by frame through the denoiser.
@@ -278,6 +284,8 @@ pub struct Renderer {
     gpu: GpuScene,
     frames: u32,
     prev_lights: Vec<raygen::AreaLight>,
+    /// The last frame ran no passes (its signal was absent): history is stale.
+    resume: bool,
 }
 
 impl Renderer {
@@ -302,6 +310,7 @@ impl Renderer {
             gpu: GpuScene::default(),
             frames: 0,
             prev_lights: Vec::new(),
+            resume: false,
         })
     }
 
@@ -318,6 +327,18 @@ impl Renderer {
         readback: Readback,
     ) -> Result<FrameOutput, E::Error> {
         let (w, h, planes) = (self.width, self.height, self.planes);
+        if self.signal == Signal::Shadows && f.lights.is_empty() {
+            // A signal the scene lacks costs zero passes.
+            self.resume = true;
+            self.prev_lights.clear();
+            return Ok(FrameOutput {
+                denoised: vec![1.0; (w * h * planes) as usize],
+                raw: vec![1.0; (w * h * planes) as usize],
+                rays: vec![0; (w * h) as usize],
+                signal_absent: true,
+                ..FrameOutput::default()
+            });
+        }
         let d = &mut self.denoiser;
         // Nothing moved: same camera, every instance map the identity, same lights. Then the
         // gradient prepass is skipped (every re-trace would repeat last frame's ray exactly).
@@ -334,12 +355,13 @@ impl Renderer {
         self.prev_lights = f.lights.clone();
         d.begin_frame(FrameInfo {
             index: self.frames,
-            reset: self.frames == 0 || f.camera_cut,
+            reset: self.frames == 0 || f.camera_cut || self.resume,
             pixel_angle: 2.0 * f.camera.tan_half_fov_y / h as f32,
             use_mask: false,
             moved,
         });
         self.frames += 1;
+        self.resume = false;
         self.gpu.upload(exec, f)?;
         self.gpu.gbuffer(exec, f, w, h, d.surfaces())?;
         let gradient_ran = d.temporal_gradients(exec, &self.gpu.gradient_scene(f, self.signal))?;
@@ -384,6 +406,7 @@ impl Renderer {
         let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
         let flags: Vec<u32> = read(exec, d.flags(), (w * h) as usize)?;
+        let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.value).collect(),
             raw: samples
@@ -399,6 +422,7 @@ impl Renderer {
             gradient_size,
             gradient_raw: gradient_overlays.0,
             gradient: gradient_overlays.1,
+            tiles: tiles.try_into().expect("histogram length"),
             ..FrameOutput::default()
         };
         if let Some((requests, reprojected)) = overlays_before {

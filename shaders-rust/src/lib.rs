@@ -10,8 +10,8 @@ use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::{
-    accumulate, apply, atrous, balance, buckets, clear, gbuffer, gradient, raygen, reproject,
-    variance,
+    accumulate, apply, atrous, balance, buckets, classify, clear, gbuffer, gradient, raygen,
+    reproject, variance,
 };
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::trace::{BvhNode, Triangle, TriangleNormals};
@@ -34,9 +34,22 @@ pub fn atrous(
     #[spirv(push_constant)] p: &atrous::AtrousParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] input: &[atrous::Filtered],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] surfaces: &[Surface],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] out: &mut [atrous::Filtered],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] tiles: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] out: &mut [atrous::Filtered],
 ) {
-    atrous::atrous(id, p, input, surfaces, out);
+    atrous::atrous(id, p, input, surfaces, tiles, out);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn classify(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &classify::ClassifyParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] filtered: &[atrous::Filtered],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] tiles: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] histogram: &mut [u32],
+) {
+    classify::classify(id, p, surfaces, filtered, tiles, histogram);
 }
 
 #[spirv(compute(threads(16, 16, 1)))]

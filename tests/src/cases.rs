@@ -8,7 +8,9 @@ use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::kernels::{accumulate, apply, atrous, balance, buckets, clear, reproject, variance};
+use vrrt_core::kernels::{
+    accumulate, apply, atrous, balance, buckets, classify, clear, reproject, variance,
+};
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
@@ -20,6 +22,7 @@ pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
 pub static TABLE: &[(&str, Generator)] = &[
     ("accumulate", accumulate_case),
     ("atrous", atrous_case),
+    ("classify", classify_case),
     ("count_buckets", buckets_case),
     ("reproject", reproject_case),
     ("variance", variance_case),
@@ -199,22 +202,70 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| surface(rng, x, y))
         .collect();
+    let iteration = rng.random_range(0..5);
     let params = atrous::AtrousParams {
         width: w,
         height: h,
-        step: [1, 2, 4, 8, 16][rng.random_range(0..5)],
+        step: 1 << iteration,
+        iteration,
         ..atrous::AtrousParams::default()
     };
+    let (tw, th) = classify::tile_grid(w, h);
+    // Tiles needing 0..=5 iterations: some pass through, some filter.
+    let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!("atrous {w}x{h}x{PLANES} step {}", params.step),
         kernel: &atrous::KERNEL,
         buffers: vec![
             BufferSpec::from_pod(&input, FLOATS),
             BufferSpec::from_pod(&surfaces, SURFACE),
+            BufferSpec::from_pod(&tiles, INTS),
             BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&atrous::KERNEL, w, h, PLANES),
+    }
+}
+
+fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let filtered: Vec<atrous::Filtered> = (0..n)
+        .map(|_| atrous::Filtered {
+            value: value(rng),
+            variance: match rng.random_range(0..50) {
+                0 => f32::NAN,
+                1 => f32::INFINITY,
+                _ => value(rng) * 1e-3,
+            },
+        })
+        .collect();
+    let surfaces: Vec<Surface> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| surface(rng, x, y))
+        .collect();
+    let params = classify::ClassifyParams {
+        width: w,
+        height: h,
+        planes: PLANES,
+        iterations: rng.random_range(0..6),
+        skip_sigma: [0.0, 0.004, 0.02, 0.3][rng.random_range(0..4)],
+        ..Default::default()
+    };
+    let (tw, th) = classify::tile_grid(w, h);
+    Case {
+        name: format!(
+            "classify {w}x{h}x{PLANES} sigma {} cap {}",
+            params.skip_sigma, params.iterations
+        ),
+        kernel: &classify::KERNEL,
+        buffers: vec![
+            BufferSpec::from_pod(&surfaces, SURFACE),
+            BufferSpec::from_pod(&filtered, FLOATS),
+            BufferSpec::from_pod(&vec![7u32; (tw * th) as usize], INTS),
+            BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&classify::KERNEL, tw, th, 1),
     }
 }
 
@@ -292,6 +343,8 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         gradient_stratum: [0, 3, 8][rng.random_range(0..3)],
         gradient_threshold: rng.random_range(0.2..0.9),
         gradient_scale: [1.0, 8.0][rng.random_range(0..2)],
+        still_history: [0.0, 2.0][rng.random_range(0..2)],
+        still_variance: [0.0, 1e-3, 1.0][rng.random_range(0..3)],
         ..Default::default()
     };
     let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();

@@ -5,7 +5,11 @@
 //! each tap is weighted by normal similarity, distance from the centre's tangent plane, and the
 //! luminance difference relative to the centre's (3×3 pre-blurred) standard deviation. Variance is
 //! filtered along with squared weights, so later iterations blur less where the signal is known.
+//!
+//! Tiles that [`super::classify`] found need fewer iterations than this one pass the input through
+//! (a copy, uniform per workgroup): converged regions skip the wide late iterations.
 
+use super::classify::tile_index;
 use super::{pixel_index, plane_index};
 use crate::gbuffer::{self, Surface};
 use crate::math;
@@ -32,8 +36,8 @@ pub struct AtrousParams {
     pub height: u32,
     /// Tap spacing in pixels: 1, 2, 4, 8, 16 for the five SVGF iterations.
     pub step: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// This iteration's number (0-based): tiles needing no more than this many pass through.
+    pub iteration: u32,
     /// Luminance sharpness σ_l (SVGF: 4). Larger blurs more.
     pub sigma_luminance: f32,
     /// Plane-distance tolerance per pixel of offset and unit of view depth: σ_p times the angle one
@@ -51,7 +55,7 @@ impl Default for AtrousParams {
             width: 0,
             height: 0,
             step: 1,
-            _pad: 0,
+            iteration: 0,
             sigma_luminance: 4.0,
             plane_scale: 0.01,
             normal_power: 128.0,
@@ -99,6 +103,7 @@ pub fn atrous(
     p: &AtrousParams,
     input: &[Filtered],
     surfaces: &[Surface],
+    tiles: &[u32],
     out: &mut [Filtered],
 ) {
     if id.x >= p.width || id.y >= p.height {
@@ -107,7 +112,7 @@ pub fn atrous(
     let i = plane_index(id, p.width, p.height);
     let center = input[i];
     let c = surfaces[pixel_index(id.x, id.y, p.width)];
-    if !c.is_valid() {
+    if !c.is_valid() || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
         out[i] = center;
         return;
     }
@@ -155,8 +160,14 @@ pub fn atrous(
 
 #[cfg(not(target_arch = "spirv"))]
 crate::per_invocation_kernel!(
-    /// Kernel description of [`atrous`]: bindings `input`, `surfaces`, `out`.
+    /// Kernel description of [`atrous`]: bindings `input`, `surfaces`, `tiles` (iterations each
+    /// tile needs, `classify`), `out`.
     KERNEL = "atrous", atrous, threads(8, 8, 1),
     params: AtrousParams,
-    bindings: [input: Read Filtered, surfaces: Read Surface, out: ReadWrite Filtered]
+    bindings: [
+        input: Read Filtered,
+        surfaces: Read Surface,
+        tiles: Read u32,
+        out: ReadWrite Filtered,
+    ]
 );

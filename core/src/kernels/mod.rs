@@ -6,6 +6,7 @@ pub mod apply;
 pub mod atrous;
 pub mod balance;
 pub mod buckets;
+pub mod classify;
 pub mod clear;
 pub mod gbuffer;
 pub mod gradient;
@@ -41,6 +42,7 @@ pub static ALL: &[&crate::plan::KernelDesc] = &[
     &balance::KERNEL,
     &apply::KERNEL,
     &clear::KERNEL,
+    &classify::KERNEL,
     &gradient::PROJECT_KERNEL,
     &gradient::AO_KERNEL,
     &gradient::SHADOW_KERNEL,

@@ -81,6 +81,13 @@ pub struct ReprojectParams {
     pub gradient_threshold: f32,
     /// Gain on the reconstructed `λ` before use (`min(1, scale · λ)`).
     pub gradient_scale: f32,
+    /// On a frame where nothing moved: history length from which a pixel whose estimate is
+    /// quiet (`variance / count < still_variance`) asks only for the floor, `variance_rate[0]`: its
+    /// history stays valid and further rays barely change it. 0 = the frame is not still.
+    pub still_history: f32,
+    /// Variance of the estimate below which a full-history pixel of a still frame drops to the
+    /// floor.
+    pub still_variance: f32,
 }
 
 impl Default for ReprojectParams {
@@ -105,6 +112,8 @@ impl Default for ReprojectParams {
             gradient_height: 0,
             gradient_threshold: 0.5,
             gradient_scale: 1.0,
+            still_history: 0.0,
+            still_variance: 0.0,
         }
     }
 }
@@ -132,6 +141,12 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
             1.0,
             16.0,
         );
+    }
+    if p.still_history > 0.0
+        && min_count >= p.still_history
+        && max_variance < p.still_variance * min_count
+    {
+        return p.variance_rate[0];
     }
     if min_count >= p.full_history {
         let mut i = 0;
