@@ -225,7 +225,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
 
     let csv = bench_csv(&cells);
-    let md = bench_md(&cells);
+    let md = bench_md(&cells) + &adaptive_md(&cells);
     std::fs::write(args.out.join("bench.csv"), csv).context("writing bench.csv")?;
     std::fs::write(args.out.join("bench.md"), &md).context("writing bench.md")?;
     if let Err(e) = plots(&args.out, &cells) {
@@ -328,6 +328,47 @@ pub fn bench_md(cells: &[Cell]) -> String {
             c.rays_per_frame / px,
             c.ms_per_frame,
             c.ms_spread / 2.0
+        );
+    }
+    s
+}
+
+/// The adaptive plan against the same frames with nothing skipped: for every cell of `vrrt` or
+/// `vrrt-save` with a `vrrt-noskip` twin (same scene, budget, backend), the differences in error,
+/// time and rays. Empty when the matrix has no such pair.
+pub fn adaptive_md(cells: &[Cell]) -> String {
+    let mut s = String::new();
+    for c in cells
+        .iter()
+        .filter(|c| matches!(c.config, Config::Vrrt | Config::VrrtSave))
+    {
+        let Some(full) = cells.iter().find(|f| {
+            f.config == Config::VrrtNoskip
+                && f.scene == c.scene
+                && f.budget == c.budget
+                && f.backend == c.backend
+        }) else {
+            continue;
+        };
+        if s.is_empty() {
+            s.push_str(
+                "\nAdaptive plan against nothing skipped (`vrrt-noskip`):\n\n\
+                 | scene | config | rpp | backend | relMSE change | moving relMSE change | ms/frame change | rays change |\n\
+                 |---|---|---:|---|---:|---:|---:|---:|\n",
+            );
+        }
+        let pct = |a: f64, b: f64| 100.0 * (a / b - 1.0);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:+.2}% | {:+.2}% | {:+.1}% | {:+.1}% |",
+            c.scene,
+            c.config.name(),
+            c.budget,
+            c.backend,
+            pct(c.relmse, full.relmse),
+            pct(c.moving_relmse, full.moving_relmse),
+            pct(c.ms_per_frame, full.ms_per_frame),
+            pct(c.rays_per_frame, full.rays_per_frame)
         );
     }
     s

@@ -204,6 +204,23 @@ pub fn run(args: &RunArgs) -> Result<()> {
         "max budget overshoot (rays)",
         format!("{overshoot:.0}"),
     );
+    let n = rs.records.len().max(1) as f64;
+    let budget: f64 = rs.records.iter().map(|r| r.budget).sum();
+    let saved: f64 = rs.records.iter().map(FrameRecord::rays_saved).sum();
+    row(
+        &mut t,
+        "adaptive plan",
+        format!(
+            "prepass ran on {}/{} frames; rays saved {:.1}% of the budget; filter tile-iterations \
+             skipped {:.1}%; empty tiles {:.1}%; {} frames without a signal",
+            rs.records.iter().filter(|r| r.prepass_ran).count(),
+            rs.records.len(),
+            if budget > 0.0 { 100.0 * saved / budget } else { 0.0 },
+            100.0 * rs.mean_of(|r| r.filter_skipped),
+            100.0 * rs.records.iter().map(|r| r.empty_tiles).sum::<f64>() / n,
+            rs.records.iter().filter(|r| r.signal_absent).count()
+        ),
+    );
     row(
         &mut t,
         "ms per frame (mean)",
@@ -238,7 +255,7 @@ fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
 /// `frames.csv`: one row per frame, then per-pass milliseconds.
 pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
     let mut s = String::from(
-        "frame,rays_traced,budget,requested,granted,overshoot,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,ms_frame",
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,ms_frame",
     );
     for p in pass_names {
         let _ = write!(s, ",ms_{p}");
@@ -247,13 +264,18 @@ pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
     for r in records {
         let _ = write!(
             s,
-            "{},{},{:.1},{:.1},{:.1},{:.1},{},{},{},{},{},{},{},{:.3}",
+            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{:.3}",
             r.frame,
             r.rays_traced,
             r.budget,
             r.requested,
             r.granted,
             r.overshoot(),
+            r.rays_saved(),
+            r.prepass_ran as u8,
+            r.filter_skipped,
+            r.empty_tiles,
+            r.signal_absent as u8,
             fmt(r.relmse, 7),
             fmt(r.rmse, 7),
             fmt(r.psnr, 3),

@@ -97,17 +97,24 @@ pub enum Config {
     VrrtBalance,
     /// Full VRRT: supersampling, load balancing and undersampling.
     Vrrt,
+    /// Full VRRT in "save" mode: rays the plan saves stay unspent.
+    VrrtSave,
+    /// Full VRRT with nothing skipped: every tile runs every filter iteration and still pixels
+    /// keep their rays (what the adaptive plan is measured against).
+    VrrtNoskip,
 }
 
 impl Config {
     /// Every configuration, baselines first.
-    pub const ALL: [Config; 6] = [
+    pub const ALL: [Config; 8] = [
         Config::Raw,
         Config::Svgf,
         Config::SvgfClamp,
         Config::VrrtSuper,
         Config::VrrtBalance,
         Config::Vrrt,
+        Config::VrrtSave,
+        Config::VrrtNoskip,
     ];
 
     /// The command-line name.
@@ -119,6 +126,8 @@ impl Config {
             Config::VrrtSuper => "vrrt-super",
             Config::VrrtBalance => "vrrt-balance",
             Config::Vrrt => "vrrt",
+            Config::VrrtSave => "vrrt-save",
+            Config::VrrtNoskip => "vrrt-noskip",
         }
     }
 
@@ -144,6 +153,15 @@ impl Config {
                 ..vrrt
             },
             Config::Vrrt => vrrt,
+            Config::VrrtSave => Settings {
+                spend_saved_rays: false,
+                ..vrrt
+            },
+            Config::VrrtNoskip => Settings {
+                skip_sigma: 0.0,
+                still_sigma: 0.0,
+                ..vrrt
+            },
         }
     }
 
@@ -372,12 +390,26 @@ pub struct FrameRecord {
     pub ms_frame: f64,
     /// Milliseconds per pass entry point, summed over dispatches of the frame.
     pub passes: Vec<(&'static str, f64)>,
+    /// The temporal-gradient prepass ran.
+    pub prepass_ran: bool,
+    /// Share of the à-trous tile-iterations (over tiles with geometry) the adaptive filter
+    /// skipped.
+    pub filter_skipped: f64,
+    /// Share of tiles without geometry (no pass does work there).
+    pub empty_tiles: f64,
+    /// The signal had no source: no pass ran.
+    pub signal_absent: bool,
 }
 
 impl FrameRecord {
     /// `rays_traced - budget`.
     pub fn overshoot(&self) -> f64 {
         self.rays_traced as f64 - self.budget
+    }
+
+    /// Rays of the budget left untraced (0 when over budget).
+    pub fn rays_saved(&self) -> f64 {
+        (self.budget - self.rays_traced as f64).max(0.0)
     }
 }
 
@@ -505,7 +537,26 @@ pub fn run_sequence(
             }
         }
         let d = out.decision;
+        // Histogram: empty tiles, then tiles needing 0..=5 iterations.
+        let tiles = out.tiles;
+        let geometry: u32 = tiles[1..7].iter().sum();
+        let iterations = opts.config.settings(opts.rpp).atrous_iterations;
+        let run: u32 = (0..6u32).map(|n| tiles[1 + n as usize] * n.min(iterations)).sum();
+        let filter_skipped = if geometry == 0 || iterations == 0 {
+            0.0
+        } else {
+            1.0 - run as f64 / (geometry * iterations) as f64
+        };
+        let all_tiles = geometry + tiles[0];
         let mut record = FrameRecord {
+            prepass_ran: out.gradient_ran,
+            filter_skipped,
+            empty_tiles: if all_tiles == 0 {
+                0.0
+            } else {
+                tiles[0] as f64 / all_tiles as f64
+            },
+            signal_absent: out.signal_absent,
             frame: i,
             rays_traced: out.rays_traced,
             budget: d.budget as f64,

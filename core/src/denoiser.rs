@@ -422,6 +422,10 @@ impl<E: fmt::Display> fmt::Display for DenoiserError<E> {
     }
 }
 
+impl core::error::Error for SettingsError {}
+
+impl<E: fmt::Debug + fmt::Display> core::error::Error for DenoiserError<E> {}
+
 impl<E> From<E> for DenoiserError<E> {
     fn from(e: E) -> Self {
         DenoiserError::Backend(e)
@@ -611,7 +615,7 @@ impl Denoiser {
         (self.width, self.height)
     }
 
-    /// This frame's G-buffer (`Surface` per pixel): the caller fills it before [`Self::reproject`].
+    /// This frame's G-buffer (`Surface` per pixel): the caller fills it before [`Self::plan_rays`].
     pub fn surfaces(&self) -> BufferId {
         self.surfaces[self.cur]
     }
@@ -664,7 +668,7 @@ impl Denoiser {
     }
 
     /// This frame's raygen output (`Sample` per pixel and plane): the caller fills it between
-    /// [`Self::reproject`] and [`Self::resolve`].
+    /// [`Self::plan_rays`] and [`Self::resolve`].
     pub fn samples(&self) -> BufferId {
         self.samples
     }
@@ -674,7 +678,8 @@ impl Denoiser {
         self.history[self.cur]
     }
 
-    /// The denoised signal after [`Self::resolve`] (`Filtered` per pixel and plane).
+    /// The denoised signal after [`Self::resolve`] (`Filtered` per pixel and plane). The buffer
+    /// depends on the iteration count, so ask for it after `resolve`, not before.
     pub fn output(&self) -> BufferId {
         self.filtered[self.out]
     }
