@@ -215,7 +215,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
              skipped {:.1}%; empty tiles {:.1}%; {} frames without a signal",
             rs.records.iter().filter(|r| r.prepass_ran).count(),
             rs.records.len(),
-            if budget > 0.0 { 100.0 * saved / budget } else { 0.0 },
+            if budget > 0.0 {
+                100.0 * saved / budget
+            } else {
+                0.0
+            },
             100.0 * rs.mean_of(|r| r.filter_skipped),
             100.0 * rs.records.iter().map(|r| r.empty_tiles).sum::<f64>() / n,
             rs.records.iter().filter(|r| r.signal_absent).count()

@@ -541,7 +541,9 @@ pub fn run_sequence(
         let tiles = out.tiles;
         let geometry: u32 = tiles[1..7].iter().sum();
         let iterations = opts.config.settings(opts.rpp).atrous_iterations;
-        let run: u32 = (0..6u32).map(|n| tiles[1 + n as usize] * n.min(iterations)).sum();
+        let run: u32 = (0..6u32)
+            .map(|n| tiles[1 + n as usize] * n.min(iterations))
+            .sum();
         let filter_skipped = if geometry == 0 || iterations == 0 {
             0.0
         } else {
