@@ -148,7 +148,7 @@ pub fn log2(x: f32) -> f32 {
         return x;
     }
     // Scale denormals into the normal range first.
-    let (x, bias) = if x < 1.175_494_4e-38 {
+    let (x, bias) = if x < MIN_NORMAL {
         (x * 16_777_216.0, 24.0)
     } else {
         (x, 0.0)
@@ -169,6 +169,11 @@ pub fn log2(x: f32) -> f32 {
 }
 
 /// `x^y` for `x >= 0` (`0^y = 0` for `y > 0`, `x^0 = 1`).
+///
+/// Whole exponents up to 1024 of `x` in `(0, 1]` (the edge-stopping weights: `(n·m)^128` is
+/// evaluated for every filter tap) take square-and-multiply: a handful of multiplications instead
+/// of a log and an exp, exact to a few ulp, and with results below the normal range flushed to 0
+/// (as [`exp2`] does) so GPUs that flush denormals agree bit for bit.
 pub fn pow(x: f32, y: f32) -> f32 {
     if y == 0.0 {
         return 1.0;
@@ -176,8 +181,32 @@ pub fn pow(x: f32, y: f32) -> f32 {
     if x == 0.0 {
         return 0.0;
     }
+    if x > 0.0 && x <= 1.0 && y >= 1.0 && y <= 1024.0 && floor(y) == y {
+        let mut e = y as u32;
+        let mut base = x;
+        let mut acc = 1.0f32;
+        loop {
+            if e & 1 == 1 {
+                acc *= base;
+                if acc < MIN_NORMAL {
+                    return 0.0;
+                }
+            }
+            e >>= 1;
+            if e == 0 {
+                return acc;
+            }
+            base *= base;
+            if base < MIN_NORMAL {
+                return 0.0;
+            }
+        }
+    }
     exp2(y * log2(x))
 }
+
+/// Smallest positive normal f32.
+const MIN_NORMAL: f32 = 1.175_494_4e-38;
 
 /// `x` rounded to the nearest integer, ties away from zero, for `|x| < 2^31`.
 #[inline]
@@ -316,6 +345,17 @@ mod tests {
     #[test]
     fn pow_and_floor() {
         approx::assert_relative_eq!(pow(0.9, 128.0), 0.9f32.powf(128.0), max_relative = 1e-5);
+        // Both paths (whole exponents by squaring, the rest through exp2/log2) agree with std.
+        for &y in &[1.0f32, 2.0, 3.0, 7.0, 128.0, 1000.0, 2.5, 127.9] {
+            for &x in &[1e-3f32, 0.1, 0.5, 0.9, 0.99, 0.999_9, 1.0] {
+                let want = (x as f64).powf(y as f64);
+                if want < MIN_NORMAL as f64 {
+                    assert_eq!(pow(x, y), 0.0, "{x}^{y} flushes");
+                } else {
+                    approx::assert_relative_eq!(pow(x, y) as f64, want, max_relative = 2e-5);
+                }
+            }
+        }
         for &x in &[-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9] {
             assert_eq!(floor(x), x.floor(), "{x}");
         }
