@@ -94,8 +94,14 @@ pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
 /// distance-independent).
 #[inline]
 pub fn plane_weight(p: Vec3, n: Vec3, q: Vec3, scale: f32) -> f32 {
-    let d = math::abs(n.dot(q - p));
-    math::exp(-d / math::max(scale, 1e-12))
+    math::exp(-plane_distance(p, n, q, scale))
+}
+
+/// The exponent of [`plane_weight`]: `|n·(q − p)| / scale`. Filters that multiply it with other
+/// exponential weights add the exponents instead and pay for one `exp` per tap.
+#[inline]
+pub fn plane_distance(p: Vec3, n: Vec3, q: Vec3, scale: f32) -> f32 {
+    math::abs(n.dot(q - p)) / math::max(scale, 1e-12)
 }
 
 /// Combined geometric edge-stopping weight of neighbour `s` seen from centre `c` at `offset_px`
