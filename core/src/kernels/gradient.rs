@@ -280,6 +280,44 @@ pub fn cell_index(x: u32, y: u32, z: u32, grid_width: u32, grid_height: u32) -> 
     ((z * grid_height + y) * grid_width + x) as usize
 }
 
+/// The loop both re-traces share. For every plane whose pixel traced last frame, `trace(surface,
+/// plane, seed, index)` re-creates that plane's 0th ray against this frame's scene (`None`: the
+/// plane has no ray to re-create) and the gradient against last frame's value is stored.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn retrace(
+    id: UVec3,
+    p: &RetraceParams,
+    keys: &[u32],
+    prev_surfaces: &[Surface],
+    next: &[InstanceData],
+    prev_payload: &[Payload],
+    prev_samples: &[Sample],
+    out: &mut [GradientSample],
+    trace: impl Fn(&Surface, u32, u32, u32) -> Option<f32>,
+) {
+    if id.x >= p.grid_width || id.y >= p.grid_height {
+        return;
+    }
+    let sample = cell_sample(id, p, keys, prev_surfaces, next);
+    let mut z = 0;
+    while z < p.planes {
+        let o = cell_index(id.x, id.y, z, p.grid_width, p.grid_height);
+        out[o] = GradientSample::default();
+        if let Some((pix, s)) = sample {
+            let i = (z * p.width * p.height) as usize + pix;
+            if prev_samples[i].rays > 0 {
+                let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
+                let seed = pixel_seed(x, y, z);
+                if let Some(curr) = trace(&s, z, seed, prev_payload[i].rng_index) {
+                    out[o] = gradient_of(curr, prev_samples[i].first);
+                }
+            }
+        }
+        z += 1;
+    }
+}
+
 /// One invocation per cell: re-trace last frame's 0th AO ray of the cell's sample in every plane.
 /// `prev_payload` is last frame's reprojected history (its `rng_index` is the 0th ray's index),
 /// `prev_samples` last frame's raygen output.
@@ -296,26 +334,17 @@ pub fn retrace_ao(
     tris: &[Triangle],
     out: &mut [GradientSample],
 ) {
-    if id.x >= p.grid_width || id.y >= p.grid_height {
-        return;
-    }
-    let sample = cell_sample(id, p, keys, prev_surfaces, next);
-    let mut z = 0;
-    while z < p.planes {
-        let o = cell_index(id.x, id.y, z, p.grid_width, p.grid_height);
-        out[o] = GradientSample::default();
-        if let Some((pix, s)) = sample {
-            let i = (z * p.width * p.height) as usize + pix;
-            if prev_samples[i].rays > 0 {
-                let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-                let seed = pixel_seed(x, y, z);
-                let index = prev_payload[i].rng_index;
-                let curr = ao_ray(&s, seed, index, p.max_distance, nodes, tris);
-                out[o] = gradient_of(curr, prev_samples[i].first);
-            }
-        }
-        z += 1;
-    }
+    retrace(
+        id,
+        p,
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+        out,
+        |s, _, seed, index| Some(ao_ray(s, seed, index, p.max_distance, nodes, tris)),
+    );
 }
 
 /// As [`retrace_ao`] for the shadow of `lights[z]` in plane `z` (the lights of *this* frame).
@@ -333,26 +362,23 @@ pub fn retrace_shadow(
     lights: &[AreaLight],
     out: &mut [GradientSample],
 ) {
-    if id.x >= p.grid_width || id.y >= p.grid_height {
-        return;
-    }
-    let sample = cell_sample(id, p, keys, prev_surfaces, next);
-    let mut z = 0;
-    while z < p.planes {
-        let o = cell_index(id.x, id.y, z, p.grid_width, p.grid_height);
-        out[o] = GradientSample::default();
-        if let Some((pix, s)) = sample {
-            let i = (z * p.width * p.height) as usize + pix;
-            if prev_samples[i].rays > 0 && (z as usize) < lights.len() {
-                let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-                let seed = pixel_seed(x, y, z);
-                let index = prev_payload[i].rng_index;
-                let curr = shadow_ray(&s, &lights[z as usize], seed, index, nodes, tris);
-                out[o] = gradient_of(curr, prev_samples[i].first);
+    retrace(
+        id,
+        p,
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+        out,
+        |s, z, seed, index| {
+            if (z as usize) < lights.len() {
+                Some(shadow_ray(s, &lights[z as usize], seed, index, nodes, tris))
+            } else {
+                None
             }
-        }
-        z += 1;
-    }
+        },
+    );
 }
 
 /// B3-spline taps of the à-trous kernel (`[1, 4, 6, 4, 1] / 16`).
