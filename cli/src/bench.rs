@@ -264,9 +264,7 @@ fn pass_names(cells: &[Cell]) -> Vec<&'static str> {
 pub fn bench_csv(cells: &[Cell]) -> String {
     let names = pass_names(cells);
     let mut s = String::from(HEADER);
-    for p in &names {
-        let _ = write!(s, ",ms_{p}");
-    }
+    session::pass_header(&mut s, &names);
     s.push('\n');
     for c in cells {
         let _ = write!(
@@ -289,14 +287,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             c.ms_per_frame,
             c.ms_spread
         );
-        for p in &names {
-            let ms = c
-                .passes
-                .iter()
-                .find(|(n, _)| n == p)
-                .map_or(0.0, |(_, ms)| *ms);
-            let _ = write!(s, ",{ms:.4}");
-        }
+        session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');
     }
     s

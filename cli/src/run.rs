@@ -261,9 +261,7 @@ pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
     let mut s = String::from(
         "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,ms_frame",
     );
-    for p in pass_names {
-        let _ = write!(s, ",ms_{p}");
-    }
+    session::pass_header(&mut s, pass_names);
     s.push('\n');
     for r in records {
         let _ = write!(
@@ -289,15 +287,7 @@ pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
             fmt(r.moving_relmse, 7),
             r.ms_frame
         );
-        for p in pass_names {
-            let ms = r
-                .passes
-                .iter()
-                .filter(|(n, _)| n == p)
-                .map(|(_, ms)| ms)
-                .sum::<f64>();
-            let _ = write!(s, ",{ms:.4}");
-        }
+        session::pass_columns(&mut s, &r.passes, pass_names);
         s.push('\n');
     }
     s

@@ -4,6 +4,7 @@
 use crate::backend::{Backend, BackendKind};
 use anyhow::{anyhow, bail, Context, Result};
 use std::collections::HashMap;
+use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 use vrrt_core::denoiser::Settings;
@@ -168,6 +169,24 @@ impl Config {
     /// True when the reported image is the raw samples rather than the denoised output.
     pub fn reports_raw(self) -> bool {
         self == Config::Raw
+    }
+}
+
+/// Appends a `,ms_<pass>` column name for every pass in `names`.
+pub fn pass_header(s: &mut String, names: &[&str]) {
+    for p in names {
+        let _ = write!(s, ",ms_{p}");
+    }
+}
+
+/// Appends the milliseconds of every pass in `names` (0 where it did not run).
+pub fn pass_columns(s: &mut String, passes: &[(&'static str, f64)], names: &[&str]) {
+    for p in names {
+        let ms = passes
+            .iter()
+            .find(|(n, _)| n == p)
+            .map_or(0.0, |(_, ms)| *ms);
+        let _ = write!(s, ",{ms:.4}");
     }
 }
 
@@ -537,26 +556,19 @@ pub fn run_sequence(
             }
         }
         let d = out.decision;
-        // Histogram: empty tiles, then tiles needing 0..=5 iterations.
-        let tiles = out.tiles;
-        let geometry: u32 = tiles[1..7].iter().sum();
-        let iterations = opts.config.settings(opts.rpp).atrous_iterations;
-        let run: u32 = (0..6u32)
-            .map(|n| tiles[1 + n as usize] * n.min(iterations))
-            .sum();
-        let filter_skipped = if geometry == 0 || iterations == 0 {
-            0.0
-        } else {
-            1.0 - run as f64 / (geometry * iterations) as f64
-        };
-        let all_tiles = geometry + tiles[0];
+        let (run, configured) = out.filter_work(settings.atrous_iterations);
+        let all_tiles: u32 = out.tiles.iter().sum();
         let mut record = FrameRecord {
             prepass_ran: out.gradient_ran,
-            filter_skipped,
+            filter_skipped: if configured == 0 {
+                0.0
+            } else {
+                1.0 - run as f64 / configured as f64
+            },
             empty_tiles: if all_tiles == 0 {
                 0.0
             } else {
-                tiles[0] as f64 / all_tiles as f64
+                out.tiles[0] as f64 / all_tiles as f64
             },
             signal_absent: out.signal_absent,
             frame: i,

@@ -274,6 +274,20 @@ pub struct FrameOutput {
     pub tiles: [u32; classify::HISTOGRAM_LEN as usize],
 }
 
+impl FrameOutput {
+    /// À-trous tile-iterations over the tiles with geometry: `(run, configured)`, where every such
+    /// tile would run `iterations` with nothing skipped (`classify` never asks for more).
+    pub fn filter_work(&self, iterations: u32) -> (u64, u64) {
+        let mut work = (0, 0);
+        for n in 0..=5 {
+            let tiles = self.tiles[1 + n] as u64;
+            work.0 += tiles * n as u64;
+            work.1 += tiles * iterations as u64;
+        }
+        work
+    }
+}
+
 /// Runs a scene frame by frame through the denoiser.
 pub struct Renderer {
     width: u32,

@@ -59,11 +59,9 @@ fn run(
             traced += out.rays_traced;
             budget += out.decision.budget as f64;
             runs += out.gradient_ran as u32;
-            // Histogram slot 1 + n: tiles that needed n of the 5 iterations.
-            for n in 0..6 {
-                tiles_run += out.tiles[1 + n] as u64 * n as u64;
-                tiles_full += out.tiles[1 + n] as u64 * 5;
-            }
+            let (run, configured) = out.filter_work(settings.atrous_iterations);
+            tiles_run += run;
+            tiles_full += configured;
         }
     }
     Run {
