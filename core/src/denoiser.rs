@@ -29,7 +29,7 @@ use crate::blue_noise;
 use crate::camera::Camera;
 use crate::kernels::gradient::{self, GradientSample};
 use crate::kernels::{
-    accumulate, apply, atrous, balance, buckets, classify, clear, reproject, variance,
+    accumulate, apply, atrous, balance, buckets, classify, clear, reflect, reproject, variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups, Pass};
@@ -130,6 +130,10 @@ pub struct Settings {
     /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
     /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
     pub gradient_scale: f32,
+    /// Plane reprojected along the reflection parallax (`kernels::reflect::reflect_motion`, which
+    /// the caller runs into [`Denoiser::parallax`] before [`Denoiser::plan_rays`]) instead of the
+    /// surface motion; `None` (default) for none.
+    pub parallax_plane: Option<u32>,
 }
 
 impl Default for Settings {
@@ -165,6 +169,7 @@ impl Default for Settings {
             gradient_iterations: 3,
             gradient_threshold: 0.5,
             gradient_scale: 1.0,
+            parallax_plane: None,
         }
     }
 }
@@ -400,6 +405,14 @@ impl Settings {
             self.gradient_threshold,
             "0..=1",
         )?;
+        if let Some(z) = self.parallax_plane {
+            check(
+                z < self.planes,
+                "parallax_plane",
+                z as f32,
+                "a plane (< planes)",
+            )?;
+        }
         Ok(())
     }
 }
@@ -447,6 +460,9 @@ pub struct FrameInfo {
     /// Something moved since last frame (camera, objects or lights). When false the
     /// temporal-gradient prepass is skipped: every re-trace would return last frame's value.
     pub moved: bool,
+    /// Scale each pixel's ray request by its tile's [`Denoiser::importance`], which the caller
+    /// wrote this frame (the reflection tile classification).
+    pub use_importance: bool,
 }
 
 /// What the temporal-gradient prepass re-traces against: this frame's scene on the executor.
@@ -507,6 +523,8 @@ pub struct Denoiser {
     gradient_ran: bool,
     tiles: BufferId,
     tile_histogram: BufferId,
+    importance: BufferId,
+    parallax: BufferId,
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -593,6 +611,11 @@ impl Denoiser {
                 exec.create_buffer(tw as u64 * th as u64 * 4)?
             },
             tile_histogram: exec.create_buffer(classify::HISTOGRAM_LEN as u64 * 4)?,
+            importance: {
+                let (tw, th) = reflect::tile_grid(width, height);
+                exec.create_buffer(tw as u64 * th as u64 * 4)?
+            },
+            parallax: exec.create_buffer(pixels * 8)?,
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -601,8 +624,14 @@ impl Denoiser {
                 pixel_angle: 1.0 / height as f32,
                 use_mask: false,
                 moved: true,
+                use_importance: false,
             },
         })
+    }
+
+    /// This frame's [`FrameInfo`] (from [`Self::begin_frame`]).
+    pub fn frame(&self) -> FrameInfo {
+        self.frame
     }
 
     /// The settings in use.
@@ -635,6 +664,19 @@ impl Denoiser {
     /// [`FrameInfo::use_mask`] is set; the caller writes it.
     pub fn mask(&self) -> BufferId {
         self.mask
+    }
+
+    /// Request scale per tile (`f32` per `reflect::TILE`² tile, row-major over
+    /// `reflect::tile_grid`), read when [`FrameInfo::use_importance`] is set; the caller writes
+    /// it (`reflect::reflect_tiles`).
+    pub fn importance(&self) -> BufferId {
+        self.importance
+    }
+
+    /// Where each pixel's [`Settings::parallax_plane`] was last frame (`[f32; 2]` per pixel, in
+    /// pixels); the caller writes it (`reflect::reflect_motion`) before [`Self::plan_rays`].
+    pub fn parallax(&self) -> BufferId {
+        self.parallax
     }
 
     /// Requested bucket per pixel (after [`Self::plan_rays`]).
@@ -927,6 +969,8 @@ impl Denoiser {
             gradient_scale: s.gradient_scale,
             still_history: if still { s.max_history } else { 0.0 },
             still_variance: s.still_sigma * s.still_sigma,
+            use_importance: self.frame.use_importance as u32,
+            parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
             ..Default::default()
         };
         let buffers = [
@@ -935,6 +979,8 @@ impl Denoiser {
             self.history[1 - self.cur],
             self.mask,
             self.gradient(),
+            self.importance,
+            self.parallax,
             self.reprojected,
             self.flags,
             self.requests,

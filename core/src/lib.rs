@@ -32,6 +32,8 @@ pub mod payload;
 #[cfg(not(target_arch = "spirv"))]
 pub mod plan;
 pub mod quantize;
+#[cfg(not(target_arch = "spirv"))]
+pub mod reflections;
 pub mod sampling;
 pub mod trace;
 

@@ -4,7 +4,7 @@
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
 use vrrt_core::denoiser::{
-    Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene, Settings,
+    Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene, Settings, SettingsError,
 };
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::apply::LIST_GROUP;
@@ -14,6 +14,7 @@ use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{classify, gbuffer, raygen};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
+use vrrt_core::reflections::{ReflectionScene, ReflectionSettings, Reflections};
 
 /// The ray-traced signal being denoised.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -25,22 +26,98 @@ pub enum Signal {
     },
     /// Area-light shadows: one plane per light of the scene (up to 4).
     Shadows,
+    /// Glossy reflections (`vrrt_core::reflections`, one plane).
+    Reflections(ReflectionSettings),
+    /// AO, the shadows of every light and reflections in one frame: planes AO, shadows…,
+    /// reflections, sharing reprojection and one ray budget.
+    All {
+        /// AO radius.
+        max_distance: f32,
+        /// The reflections' settings.
+        reflections: ReflectionSettings,
+    },
+}
+
+/// Where each signal of a [`Signal`] lives among the denoiser's planes.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct PlaneLayout {
+    /// The AO plane.
+    pub ao: Option<u32>,
+    /// First shadow plane and how many (one per light).
+    pub shadows: Option<(u32, u32)>,
+    /// The reflection plane.
+    pub reflections: Option<u32>,
+    /// Planes in all.
+    pub planes: u32,
 }
 
 impl Signal {
-    /// Signal planes for a frame with `lights` lights.
-    pub fn planes(&self, lights: usize) -> u32 {
+    /// The planes of each signal for a frame with `lights` lights.
+    pub fn layout(&self, lights: usize) -> PlaneLayout {
+        let shadows = lights.clamp(1, 4) as u32;
         match self {
-            Signal::Ao { .. } => 1,
-            Signal::Shadows => lights.clamp(1, 4) as u32,
+            Signal::Ao { .. } => PlaneLayout {
+                ao: Some(0),
+                planes: 1,
+                ..PlaneLayout::default()
+            },
+            Signal::Shadows => PlaneLayout {
+                shadows: Some((0, shadows)),
+                planes: shadows,
+                ..PlaneLayout::default()
+            },
+            Signal::Reflections(_) => PlaneLayout {
+                reflections: Some(0),
+                planes: 1,
+                ..PlaneLayout::default()
+            },
+            Signal::All { .. } => PlaneLayout {
+                ao: Some(0),
+                shadows: Some((1, shadows)),
+                reflections: Some(1 + shadows),
+                planes: 2 + shadows,
+            },
         }
     }
 
-    /// Short name, used in file names and cache keys.
+    /// Signal planes for a frame with `lights` lights.
+    pub fn planes(&self, lights: usize) -> u32 {
+        self.layout(lights).planes
+    }
+
+    /// The AO radius, when the signal has AO.
+    fn ao_distance(&self) -> Option<f32> {
+        match *self {
+            Signal::Ao { max_distance } | Signal::All { max_distance, .. } => Some(max_distance),
+            _ => None,
+        }
+    }
+
+    /// The reflections' settings, when the signal has reflections.
+    pub fn reflections(&self) -> Option<ReflectionSettings> {
+        match *self {
+            Signal::Reflections(r) | Signal::All { reflections: r, .. } => Some(r),
+            _ => None,
+        }
+    }
+
+    /// Short name, used in file names and cache keys: it names everything the estimator
+    /// depends on (reflections: roughness cut-off and hit lighting, not reuse or tiles).
     pub fn name(&self) -> String {
+        let reflect = |r: &ReflectionSettings| {
+            format!(
+                "reflect{}-{}-{}-{}-{}",
+                r.max_roughness, r.light_radiance, r.albedo, r.sky, r.ambient
+            )
+        };
         match self {
             Signal::Ao { max_distance } => format!("ao{max_distance}"),
             Signal::Shadows => "shadows".into(),
+            Signal::Reflections(r) => reflect(r),
+            Signal::All {
+                max_distance,
+                reflections,
+            } => format!("all-ao{max_distance}-{}", reflect(reflections)),
         }
     }
 }
@@ -134,18 +211,34 @@ impl GpuScene {
         ]
     }
 
-    /// What the denoiser's temporal-gradient prepass re-traces against for `signal` in frame `f`.
-    pub fn gradient_scene(&self, f: &FrameGeometry, signal: Signal) -> GradientScene {
+    /// What the denoiser's temporal-gradient prepass re-traces against for `signal` in frame `f`;
+    /// `None` for signals it cannot re-trace (reflections).
+    pub fn gradient_scene(&self, f: &FrameGeometry, signal: Signal) -> Option<GradientScene> {
         let [nodes, tris, _, _, lights] = self.ids();
-        GradientScene {
+        let rays = match signal {
+            Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
+            Signal::Shadows => GradientRays::Shadows { lights },
+            Signal::Reflections(_) | Signal::All { .. } => return None,
+        };
+        Some(GradientScene {
             nodes,
             tris,
             next: self.next.expect("GpuScene::upload first").id,
             camera: f.camera,
-            rays: match signal {
-                Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
-                Signal::Shadows => GradientRays::Shadows { lights },
-            },
+            rays,
+        })
+    }
+
+    /// What the reflection passes trace against in frame `f`.
+    pub fn reflection_scene(&self, f: &FrameGeometry) -> ReflectionScene {
+        let [nodes, tris, _, _, lights] = self.ids();
+        ReflectionScene {
+            nodes,
+            tris,
+            lights,
+            light_count: f.lights.len() as u32,
+            camera: f.camera,
+            prev_camera: f.prev_camera,
         }
     }
 
@@ -171,59 +264,69 @@ impl GpuScene {
         ))
     }
 
-    /// Records raygen of `signal` over a work list (dispatched indirectly from `args`).
+    /// Records raygen of the AO and shadow planes of `signal` over a work list (dispatched
+    /// indirectly from `args`); reflections are traced by [`Reflections`].
     #[allow(clippy::too_many_arguments)]
     pub fn raygen<E: Executor>(
         &self,
         exec: &mut E,
         signal: Signal,
-        size: (u32, u32, u32),
+        size: (u32, u32),
+        lights: usize,
         list: [BufferId; 3],
         surfaces: BufferId,
         history: BufferId,
         out: BufferId,
     ) -> Result<(), E::Error> {
-        let [nodes, tris, _, _, lights] = self.ids();
-        let (width, height, planes) = size;
+        let [nodes, tris, _, _, light_buffer] = self.ids();
+        let (width, height) = size;
+        let layout = signal.layout(lights);
         let [work, args, rays] = list;
         let groups = Groups::Indirect {
             buffer: args,
             offset: 4,
         };
-        match signal {
-            Signal::Ao { max_distance } => {
-                let p = raygen::AoParams {
-                    width,
-                    height,
-                    planes,
-                    max_distance,
-                };
-                let buffers = [work, args, rays, surfaces, history, nodes, tris, out];
-                exec.dispatch(&Pass {
-                    kernel: &raygen::AO_KERNEL,
-                    buffers: &buffers,
-                    params: bytemuck::bytes_of(&p),
-                    groups,
-                })
-            }
-            Signal::Shadows => {
-                let p = raygen::ShadowParams {
-                    width,
-                    height,
-                    planes,
-                    _pad: 0,
-                };
-                let buffers = [
-                    work, args, rays, surfaces, history, nodes, tris, lights, out,
-                ];
-                exec.dispatch(&Pass {
-                    kernel: &raygen::SHADOW_KERNEL,
-                    buffers: &buffers,
-                    params: bytemuck::bytes_of(&p),
-                    groups,
-                })
-            }
+        if let Some(max_distance) = signal.ao_distance() {
+            let p = raygen::AoParams {
+                width,
+                height,
+                planes: 1,
+                max_distance,
+            };
+            let buffers = [work, args, rays, surfaces, history, nodes, tris, out];
+            exec.dispatch(&Pass {
+                kernel: &raygen::AO_KERNEL,
+                buffers: &buffers,
+                params: bytemuck::bytes_of(&p),
+                groups,
+            })?;
         }
+        if let Some((first_plane, planes)) = layout.shadows {
+            let p = raygen::ShadowParams {
+                width,
+                height,
+                planes,
+                first_plane,
+            };
+            let buffers = [
+                work,
+                args,
+                rays,
+                surfaces,
+                history,
+                nodes,
+                tris,
+                light_buffer,
+                out,
+            ];
+            exec.dispatch(&Pass {
+                kernel: &raygen::SHADOW_KERNEL,
+                buffers: &buffers,
+                params: bytemuck::bytes_of(&p),
+                groups,
+            })?;
+        }
+        Ok(())
     }
 }
 
@@ -294,7 +397,9 @@ pub struct Renderer {
     height: u32,
     signal: Signal,
     planes: u32,
+    lights: usize,
     denoiser: Denoiser,
+    reflections: Option<Reflections>,
     gpu: GpuScene,
     frames: u32,
     prev_lights: Vec<raygen::AreaLight>,
@@ -303,8 +408,9 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    /// A renderer for `width × height` with denoiser `settings` (its `planes` are set from the
-    /// signal and the number of lights).
+    /// A renderer for `width × height` with denoiser `settings` (its `planes` and
+    /// `parallax_plane` are set from the signal and the number of lights). Reflections cannot be
+    /// re-traced by the temporal-gradient prepass, so with them `gradient_stratum` must be 0.
     pub fn new<E: Executor>(
         exec: &mut E,
         width: u32,
@@ -313,19 +419,41 @@ impl Renderer {
         lights: usize,
         mut settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
-        settings.planes = signal.planes(lights);
+        let layout = signal.layout(lights);
+        settings.planes = layout.planes;
+        settings.parallax_plane = layout
+            .reflections
+            .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
+        if layout.reflections.is_some() && settings.gradient_stratum != 0 {
+            return Err(DenoiserError::Settings(SettingsError::OutOfRange {
+                field: "gradient_stratum",
+                value: settings.gradient_stratum as f32,
+                range: "0 with reflections (the prepass has no reflection re-trace)",
+            }));
+        }
         let denoiser = Denoiser::new(exec, width, height, settings)?;
+        let reflections = match (layout.reflections, signal.reflections()) {
+            (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
+            _ => None,
+        };
         Ok(Renderer {
             width,
             height,
             signal,
             planes: settings.planes,
+            lights,
             denoiser,
+            reflections,
             gpu: GpuScene::default(),
             frames: 0,
             prev_lights: Vec::new(),
             resume: false,
         })
+    }
+
+    /// The reflection effect, when the signal has reflections.
+    pub fn reflections(&self) -> Option<&Reflections> {
+        self.reflections.as_ref()
     }
 
     /// The denoiser (buffers, settings).
@@ -373,12 +501,20 @@ impl Renderer {
             pixel_angle: 2.0 * f.camera.tan_half_fov_y / h as f32,
             use_mask: false,
             moved,
+            use_importance: self.reflections.is_some(),
         });
         self.frames += 1;
         self.resume = false;
         self.gpu.upload(exec, f)?;
         self.gpu.gbuffer(exec, f, w, h, d.surfaces())?;
-        let gradient_ran = d.temporal_gradients(exec, &self.gpu.gradient_scene(f, self.signal))?;
+        let gradient_ran = match self.gpu.gradient_scene(f, self.signal) {
+            Some(scene) => d.temporal_gradients(exec, &scene)?,
+            None => false,
+        };
+        let reflection_scene = self.gpu.reflection_scene(f);
+        if let Some(r) = &self.reflections {
+            r.prepare(exec, d, &reflection_scene)?;
+        }
         let mut gradient_rays = 0;
         let gradient_size = d.gradient_size();
         let mut gradient_overlays = (Vec::new(), Vec::new());
@@ -399,12 +535,16 @@ impl Renderer {
         self.gpu.raygen(
             exec,
             self.signal,
-            (w, h, planes),
+            (w, h),
+            self.lights,
             [d.work(), d.args(), d.rays()],
             d.surfaces(),
             d.reprojected(),
             d.samples(),
         )?;
+        if let Some(r) = &self.reflections {
+            r.trace(exec, d, &reflection_scene)?;
+        }
         let overlays_before = if readback.overlays {
             Some((
                 read::<u32, E>(exec, d.requests(), (w * h) as usize)?,
@@ -474,7 +614,7 @@ pub fn reference<E: Executor>(
     signal: Signal,
     spp: u32,
     mut progress: impl FnMut(u32, u32),
-) -> Result<Reference, E::Error> {
+) -> Result<Reference, DenoiserError<E::Error>> {
     let pixels = (width * height) as usize;
     let planes = signal.planes(f.lights.len());
     let n = pixels * planes as usize;
@@ -493,6 +633,11 @@ pub fn reference<E: Executor>(
     let rays = exec.create_buffer(pixels as u64 * 4)?;
     let history = exec.create_buffer((n * std::mem::size_of::<Payload>()) as u64)?;
     let out = exec.create_buffer((n * std::mem::size_of::<Sample>()) as u64)?;
+    let layout = signal.layout(f.lights.len());
+    let reflections = match (layout.reflections, signal.reflections()) {
+        (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
+        _ => None,
+    };
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
     let mut done = 0u32;
     while done < spp {
@@ -510,12 +655,25 @@ pub fn reference<E: Executor>(
         gpu.raygen(
             exec,
             signal,
-            (width, height, planes),
+            (width, height),
+            f.lights.len(),
             [work, args, rays],
             surfaces,
             history,
             out,
         )?;
+        if let Some(r) = &reflections {
+            r.raygen(
+                exec,
+                &gpu.reflection_scene(f),
+                (width, height),
+                [work, args, rays],
+                surfaces,
+                history,
+                out,
+                0,
+            )?;
+        }
         let samples: Vec<Sample> = read(exec, out, n)?;
         for (i, s) in samples.iter().enumerate() {
             sum[i] += s.m1 as f64 * s.rays as f64;

@@ -11,7 +11,7 @@ use spirv_std::spirv;
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::{
     accumulate, apply, atrous, balance, buckets, classify, clear, gbuffer, gradient, raygen,
-    reproject, variance,
+    reflect, reproject, variance,
 };
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::trace::{BvhNode, Triangle, TriangleNormals};
@@ -127,9 +127,11 @@ pub fn reproject(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] mask: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)]
     gradient: &[gradient::GradientSample],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] out: &mut [Payload],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] flags: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] requests: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] importance: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] parallax: &[[f32; 2]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] out: &mut [Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] requests: &mut [u32],
 ) {
     reproject::reproject(
         id,
@@ -139,6 +141,8 @@ pub fn reproject(
         history,
         mask,
         gradient,
+        importance,
+        parallax,
         out,
         flags,
         requests,
@@ -271,4 +275,59 @@ pub fn gradient_atrous(
     out: &mut [gradient::GradientSample],
 ) {
     gradient::atrous(id, p, input, out);
+}
+
+#[spirv(compute(threads(64, 1, 1)))]
+pub fn raygen_reflect(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &reflect::RaygenParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] work: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] args: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] rays: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] history: &[Payload],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lights: &[raygen::AreaLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] out: &mut [Sample],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] hits: &mut [reflect::RayHit],
+) {
+    reflect::raygen_reflect(
+        id, p, work, args, rays, surfaces, history, nodes, tris, lights, out, hits,
+    );
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn reflect_tiles(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &reflect::TileParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] tris: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] lights: &[raygen::AreaLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] importance: &mut [f32],
+) {
+    reflect::reflect_tiles(id, p, surfaces, nodes, tris, lights, importance);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn reflect_motion(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &reflect::MotionParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] hits: &[reflect::RayHit],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] motion: &mut [[f32; 2]],
+) {
+    reflect::reflect_motion(id, p, surfaces, hits, motion);
+}
+
+#[spirv(compute(threads(8, 8, 1)))]
+pub fn reflect_reuse(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] p: &reflect::ReuseParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] surfaces: &[Surface],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] hits: &[reflect::RayHit],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] samples: &mut [Sample],
+) {
+    reflect::reflect_reuse(id, p, surfaces, hits, samples);
 }

@@ -36,6 +36,10 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("gradient_ao", crate::gradient_cases::ao_case),
     ("gradient_shadow", crate::gradient_cases::shadow_case),
     ("gradient_atrous", crate::gradient_cases::atrous_case),
+    ("raygen_reflect", crate::reflect_cases::raygen_case),
+    ("reflect_tiles", crate::reflect_cases::tiles_case),
+    ("reflect_motion", crate::reflect_cases::motion_case),
+    ("reflect_reuse", crate::reflect_cases::reuse_case),
 ];
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
@@ -345,8 +349,26 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         gradient_scale: [1.0, 8.0][rng.random_range(0..2)],
         still_history: [0.0, 2.0][rng.random_range(0..2)],
         still_variance: [0.0, 1e-3, 1.0][rng.random_range(0..3)],
+        use_importance: rng.random_range(0..2),
+        parallax_plane: [reproject::NO_PLANE, 0, 1][rng.random_range(0..3)],
         ..Default::default()
     };
+    let (tw, th) = vrrt_core::kernels::reflect::tile_grid(w, h);
+    let importance: Vec<f32> = (0..tw * th).map(|_| rng.random_range(0.25..4.0)).collect();
+    // Parallax positions: the surface motion moved by up to 3 pixels, some off screen.
+    let parallax: Vec<[f32; 2]> = current
+        .iter()
+        .map(|s| {
+            if rng.random_range(0..20) == 0 {
+                [f32::NAN, -1.0e9]
+            } else {
+                [
+                    s.prev_x + rng.random_range(-3.0..3.0),
+                    s.prev_y + rng.random_range(-3.0..3.0),
+                ]
+            }
+        })
+        .collect();
     let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();
     let (gw, gh) = vrrt_core::denoiser::grid_size(w, h, params.gradient_stratum);
     let params = reproject::ReprojectParams {
@@ -369,6 +391,8 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
             BufferSpec::from_pod(&mask, INTS),
             BufferSpec::from_pod(&gradient, FLOATS),
+            BufferSpec::from_pod(&importance, FLOATS),
+            BufferSpec::from_pod(&parallax, FLOATS),
             BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),

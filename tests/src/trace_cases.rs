@@ -18,12 +18,12 @@ const U: Word = Word::U32;
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 /// `Triangle`: nine coordinates, then the instance id.
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
-const FLOATS: &[Word] = &[F];
+pub(crate) const FLOATS: &[Word] = &[F];
 const INTS: &[Word] = &[U];
-const SAMPLE: &[Word] = &[F, F, U, U];
+pub(crate) const SAMPLE: &[Word] = &[F, F, U, U];
 /// `Surface`: all floats but `instance` (word 7).
 #[rustfmt::skip]
-const SURFACE: &[Word] = &[
+pub(crate) const SURFACE: &[Word] = &[
     F, F, F, F, F, F, F, U, F, F, F, F, F, F, F, F, F, F, F, F,
 ];
 
@@ -53,13 +53,18 @@ pub fn surfaces(frame: &FrameGeometry, w: u32, h: u32) -> Vec<Surface> {
         .collect()
 }
 
-fn groups(kernel: &vrrt_core::plan::KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
+pub(crate) fn groups(
+    kernel: &vrrt_core::plan::KernelDesc,
+    w: u32,
+    h: u32,
+    planes: u32,
+) -> [u32; 3] {
     let [x, y, z] = kernel.workgroup_size;
     [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
 }
 
 /// Geometry buffers shared by all three kernels: nodes, then triangles.
-fn geometry_buffers(frame: &FrameGeometry) -> [BufferSpec; 2] {
+pub(crate) fn geometry_buffers(frame: &FrameGeometry) -> [BufferSpec; 2] {
     [
         BufferSpec::from_pod(&frame.geometry.nodes, NODE),
         BufferSpec::from_pod(&frame.geometry.triangles, TRIANGLE),
@@ -87,52 +92,52 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 /// A work list over a random subset of pixels in random order, the rays each traces (0..=4) and
 /// the reprojected history holding each pixel's rng index (including indices about to wrap).
-struct WorkList {
+pub(crate) struct WorkList {
     work: Vec<u32>,
-    args: [u32; 4],
+    pub(crate) args: [u32; 4],
     rays: Vec<u32>,
-    history: Vec<Payload>,
-    groups: [u32; 3],
-}
-
-fn work_list(rng: &mut Pcg32, w: u32, h: u32, planes: u32) -> WorkList {
-    let pixels = w * h;
-    let mut work: Vec<u32> = (0..pixels)
-        .filter(|_| rng.random_range(0..4) != 0)
-        .collect();
-    for i in (1..work.len()).rev() {
-        work.swap(i, rng.random_range(0..=i));
-    }
-    let count = work.len() as u32;
-    work.resize(pixels as usize, 0);
-    let rays = (0..pixels).map(|_| rng.random_range(0..5)).collect();
-    let history = (0..pixels * planes)
-        .map(|_| Payload {
-            rng_index: match rng.random_range(0..4) {
-                0 => 0,
-                1 => u32::MAX - rng.random_range(0..4),
-                _ => rng.random(),
-            },
-            ..Payload::default()
-        })
-        .collect();
-    // One group more than the list needs: invocations past the count must do nothing.
-    let groups = [
-        count.div_ceil(raygen::AO_KERNEL.workgroup_size[0]) + 1,
-        1,
-        1,
-    ];
-    WorkList {
-        work,
-        args: [count, groups[0] - 1, 1, 1],
-        rays,
-        history,
-        groups,
-    }
+    pub(crate) history: Vec<Payload>,
+    pub(crate) groups: [u32; 3],
 }
 
 impl WorkList {
-    fn buffers(&self) -> [BufferSpec; 3] {
+    pub(crate) fn new(rng: &mut Pcg32, w: u32, h: u32, planes: u32) -> WorkList {
+        let pixels = w * h;
+        let mut work: Vec<u32> = (0..pixels)
+            .filter(|_| rng.random_range(0..4) != 0)
+            .collect();
+        for i in (1..work.len()).rev() {
+            work.swap(i, rng.random_range(0..=i));
+        }
+        let count = work.len() as u32;
+        work.resize(pixels as usize, 0);
+        let rays = (0..pixels).map(|_| rng.random_range(0..5)).collect();
+        let history = (0..pixels * planes)
+            .map(|_| Payload {
+                rng_index: match rng.random_range(0..4) {
+                    0 => 0,
+                    1 => u32::MAX - rng.random_range(0..4),
+                    _ => rng.random(),
+                },
+                ..Payload::default()
+            })
+            .collect();
+        // One group more than the list needs: invocations past the count must do nothing.
+        let groups = [
+            count.div_ceil(raygen::AO_KERNEL.workgroup_size[0]) + 1,
+            1,
+            1,
+        ];
+        WorkList {
+            work,
+            args: [count, groups[0] - 1, 1, 1],
+            rays,
+            history,
+            groups,
+        }
+    }
+
+    pub(crate) fn buffers(&self) -> [BufferSpec; 3] {
         [
             BufferSpec::from_pod(&self.work, INTS),
             BufferSpec::from_pod(&self.args, INTS),
@@ -141,7 +146,7 @@ impl WorkList {
     }
 }
 
-const PAYLOAD: &[Word] = &[F, F, F, U];
+pub(crate) const PAYLOAD: &[Word] = &[F, F, F, U];
 
 /// `raygen_ao`: AO rays from the room's G-buffer over a work list, two planes.
 pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
@@ -149,7 +154,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let planes = crate::cases::PLANES;
     let n = (w * h * planes) as usize;
     let [nodes, tris] = geometry_buffers(&frame);
-    let list = work_list(rng, w, h, planes);
+    let list = WorkList::new(rng, w, h, planes);
     let params = raygen::AoParams {
         width: w,
         height: h,
@@ -191,12 +196,15 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     ));
     lights.truncate(planes as usize);
     let [nodes, tris] = geometry_buffers(&frame);
-    let list = work_list(rng, w, h, planes);
+    let list = WorkList::new(rng, w, h, planes);
+    // Shadows after another signal's plane, sometimes with planes that have no light.
+    let first_plane = rng.random_range(0..planes);
+    lights.truncate(rng.random_range(1..=(planes - first_plane) as usize));
     let params = raygen::ShadowParams {
         width: w,
         height: h,
-        planes,
-        _pad: 0,
+        planes: planes - first_plane,
+        first_plane,
     };
     let [work, args, rays] = list.buffers();
     Case {

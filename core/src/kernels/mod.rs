@@ -11,6 +11,7 @@ pub mod clear;
 pub mod gbuffer;
 pub mod gradient;
 pub mod raygen;
+pub mod reflect;
 pub mod reproject;
 pub mod variance;
 
@@ -47,4 +48,8 @@ pub static ALL: &[&crate::plan::KernelDesc] = &[
     &gradient::AO_KERNEL,
     &gradient::SHADOW_KERNEL,
     &gradient::ATROUS_KERNEL,
+    &reflect::RAYGEN_KERNEL,
+    &reflect::TILES_KERNEL,
+    &reflect::MOTION_KERNEL,
+    &reflect::REUSE_KERNEL,
 ];

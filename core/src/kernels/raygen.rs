@@ -136,10 +136,11 @@ pub struct ShadowParams {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Signal planes: plane `z` is the shadow of `lights[z]`.
+    /// Shadow planes: plane `first_plane + z` is the shadow of `lights[z]` (a plane without a
+    /// light is unshadowed: value 1).
     pub planes: u32,
-    /// Reserved.
-    pub _pad: u32,
+    /// The first shadow plane (other planes hold other signals).
+    pub first_plane: u32,
 }
 
 /// Origin of the secondary rays of `s`: its position pushed off the surface along `g`.
@@ -358,18 +359,29 @@ pub fn raygen_shadow(
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
     let s = surfaces[pix];
     let mut z = 0;
-    while z < p.planes && (z as usize) < lights.len() {
-        let i = (z * p.width * p.height) as usize + pix;
-        let seed = pixel_seed(x, y, z);
-        out[i] = shadow_pixel(
-            &s,
-            &lights[z as usize],
-            seed,
-            history[i].rng_index,
-            n,
-            nodes,
-            tris,
-        );
+    while z < p.planes {
+        let plane = p.first_plane + z;
+        let i = (plane * p.width * p.height) as usize + pix;
+        out[i] = if (z as usize) < lights.len() {
+            shadow_pixel(
+                &s,
+                &lights[z as usize],
+                pixel_seed(x, y, plane),
+                history[i].rng_index,
+                n,
+                nodes,
+                tris,
+            )
+        } else if n > 0 && s.instance != NO_INSTANCE {
+            Sample {
+                m1: 1.0,
+                m2: 1.0,
+                rays: n,
+                first: 1.0,
+            }
+        } else {
+            Sample::default()
+        };
         z += 1;
     }
 }

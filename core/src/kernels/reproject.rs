@@ -35,6 +35,9 @@ pub const FLAG_DISOCCLUDED: u32 = 1;
 /// Flag: the pixel hit no geometry.
 pub const FLAG_SKY: u32 = 2;
 
+/// `parallax_plane` when no plane reprojects along the reflection parallax.
+pub const NO_PLANE: u32 = u32::MAX;
+
 /// Push constants of [`reproject`].
 #[repr(C)]
 #[derive(Copy, Clone, Debug, PartialEq, Pod, Zeroable)]
@@ -88,6 +91,12 @@ pub struct ReprojectParams {
     /// Variance of the estimate below which a full-history pixel of a still frame drops to the
     /// floor.
     pub still_variance: f32,
+    /// Scale each pixel's request by the `importance` of its tile (`reflect::TILE` pixels
+    /// square, `reflect::tile_grid`), e.g. the reflection tile classification's (0 = off).
+    pub use_importance: u32,
+    /// Plane reprojected from the `parallax` positions instead of the surface motion (the
+    /// reflections); [`NO_PLANE`] for none.
+    pub parallax_plane: u32,
 }
 
 impl Default for ReprojectParams {
@@ -114,6 +123,8 @@ impl Default for ReprojectParams {
             gradient_scale: 1.0,
             still_history: 0.0,
             still_variance: 0.0,
+            use_importance: 0,
+            parallax_plane: NO_PLANE,
         }
     }
 }
@@ -160,6 +171,51 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
     p.base_rate
 }
 
+/// The 2×2 bilinear footprint of previous-frame position `(x, y)` in pixels: texel indices,
+/// bilinear weights with every texel that fails [`same_surface`] (or lies off-screen) set to 0,
+/// and whether any survived.
+#[inline]
+fn footprint(
+    c: &Surface,
+    x: f32,
+    y: f32,
+    geometry_ok: bool,
+    prev_surfaces: &[Surface],
+    p: &ReprojectParams,
+) -> ([usize; 4], [f32; 4], bool) {
+    // Texel centres are at integer pixel coordinates.
+    let x0f = math::floor(x);
+    let y0f = math::floor(y);
+    let (ax, ay) = (x - x0f, y - y0f);
+    let ok = geometry_ok && math::is_finite(ax) && math::is_finite(ay);
+    let mut texel = [0usize; 4];
+    let mut bilinear = [
+        (1.0 - ax) * (1.0 - ay),
+        ax * (1.0 - ay),
+        (1.0 - ax) * ay,
+        ax * ay,
+    ];
+    let mut any = false;
+    let mut k = 0;
+    while k < 4 {
+        let tx = x0f + (k & 1) as f32;
+        let ty = y0f + (k >> 1) as f32;
+        let inside = tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32;
+        if ok && inside {
+            texel[k] = pixel_index(tx as u32, ty as u32, p.width);
+            if same_surface(c, &prev_surfaces[texel[k]], p) {
+                any = true;
+            } else {
+                bilinear[k] = 0.0;
+            }
+        } else {
+            bilinear[k] = 0.0;
+        }
+        k += 1;
+    }
+    (texel, bilinear, any)
+}
+
 /// One invocation per pixel; loops over the signal planes so the geometric tests run once.
 /// Writes the reprojected history of every plane to `out`, the pixel's flags to `flags` and its
 /// ray request (a bucket) to `requests`.
@@ -172,6 +228,8 @@ pub fn reproject(
     history: &[Payload],
     mask: &[u32],
     gradient: &[GradientSample],
+    importance: &[f32],
+    parallax: &[[f32; 2]],
     out: &mut [Payload],
     flags: &mut [u32],
     requests: &mut [u32],
@@ -188,37 +246,15 @@ pub fn reproject(
         rng_index: p.frame_index,
     };
 
-    // Footprint: texel centres are at integer pixel coordinates.
-    let x0f = math::floor(c.prev_x);
-    let y0f = math::floor(c.prev_y);
-    let (ax, ay) = (c.prev_x - x0f, c.prev_y - y0f);
-    let geometry_ok = c.is_valid() && p.reset == 0 && math::is_finite(ax) && math::is_finite(ay);
-    let mut texel = [0usize; 4];
-    let mut bilinear = [
-        (1.0 - ax) * (1.0 - ay),
-        ax * (1.0 - ay),
-        (1.0 - ax) * ay,
-        ax * ay,
-    ];
-    let mut any = false;
-    let mut k = 0;
-    while k < 4 {
-        let tx = x0f + (k & 1) as f32;
-        let ty = y0f + (k >> 1) as f32;
-        let inside = tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32;
-        if geometry_ok && inside {
-            texel[k] = pixel_index(tx as u32, ty as u32, p.width);
-            if same_surface(&c, &prev_surfaces[texel[k]], p) {
-                any = true;
-            } else {
-                bilinear[k] = 0.0;
-            }
-        } else {
-            bilinear[k] = 0.0;
-        }
-        k += 1;
-    }
-
+    let geometry_ok = c.is_valid() && p.reset == 0;
+    let (texel, bilinear, any) = footprint(&c, c.prev_x, c.prev_y, geometry_ok, prev_surfaces, p);
+    // Reflections move with the reflected image, not the surface (`reflect::reflect_motion`).
+    let (ptexel, pbilinear, _) = if p.parallax_plane < p.planes {
+        let [x, y] = parallax[pix];
+        footprint(&c, x, y, geometry_ok, prev_surfaces, p)
+    } else {
+        (texel, bilinear, any)
+    };
     let mut lost = !any;
     let mut min_count = f32::MAX;
     let mut max_variance = 0.0f32;
@@ -229,6 +265,11 @@ pub fn reproject(
         let mut sum_w = 0.0;
         let mut best_w = 0.0;
         let mut rng_index = p.frame_index;
+        let (texel, bilinear) = if z == p.parallax_plane {
+            (ptexel, pbilinear)
+        } else {
+            (texel, bilinear)
+        };
         let mut k = 0;
         while k < 4 {
             if bilinear[k] > 0.0 {
@@ -287,7 +328,12 @@ pub fn reproject(
     }
     let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
     requests[pix] = if wanted {
-        rate_to_bucket(requested_rate(min_count, max_variance, p))
+        let scale = if p.use_importance != 0 {
+            importance[super::reflect::tile_index(id.x, id.y, p.width)]
+        } else {
+            1.0
+        };
+        rate_to_bucket(requested_rate(min_count, max_variance, p) * scale)
     } else {
         super::buckets::NO_RAYS
     };
@@ -313,6 +359,8 @@ crate::per_invocation_kernel!(
         history: Read Payload,
         mask: Read u32,
         gradient: Read GradientSample,
+        importance: Read f32,
+        parallax: Read [f32; 2],
         out: ReadWrite Payload,
         flags: ReadWrite u32,
         requests: ReadWrite u32,

@@ -1,0 +1,381 @@
+//! Glossy reflections as one effect beside the denoiser (like kajiya's per-effect structs): it
+//! owns the ray records and records the passes of `kernels::reflect` around the denoiser's plan.
+//!
+//! Per frame, with the reflections in plane `plane` of a [`Denoiser`]:
+//!
+//! ```text
+//! begin_frame(use_importance) ─► Reflections::prepare ─► Denoiser::plan_rays ─► Reflections::trace ─► Denoiser::resolve
+//!                                 tiles → importance                            raygen → samples, hits
+//!                                 motion → parallax                             reuse  → samples
+//! ```
+//!
+//! The other planes (AO, shadows) are traced by their own raygen between `plan_rays` and
+//! `resolve`: all planes share the reprojection, the one ray request per pixel and the one load
+//! balancer, so the ray budget is spent across signals.
+
+use crate::camera::Camera;
+use crate::denoiser::{Denoiser, SettingsError};
+use crate::kernels::reflect::{self, RayHit, Shading};
+use crate::plan::{BufferId, Executor, Groups, Pass};
+
+/// Tunables of the reflection passes, with documented defaults and ranges.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ReflectionSettings {
+    /// Surfaces with a larger GGX alpha reflect nothing and trace no reflection ray (0..=1;
+    /// default 0.5; the seed traces "HQ rays for roughness < 20%" and filters the rest).
+    pub max_roughness: f32,
+    /// Request scale of a tile whose reflection is flat or empty (0 < min <= max; default 0.5).
+    pub min_rate: f32,
+    /// Request scale of the noisiest tiles (min..=4; default 2).
+    pub max_rate: f32,
+    /// Standard deviation of the tone-mapped tracer values that earns `max_rate` (> 0; default
+    /// 0.15).
+    pub tile_sigma: f32,
+    /// Ray reuse radius in pixels (0..=3; 0 = no reuse; default 1, a 3×3 neighbourhood: on the
+    /// room, 5×5 reuses rays across lobes too different and the error rises again).
+    pub reuse_radius: u32,
+    /// Reproject reflections along the parallax of their hit distance (default on); off, they
+    /// follow the surface (the G-buffer motion), which smears them when the camera moves.
+    pub parallax: bool,
+    /// Radius over which last frame's hit distances are averaged for the parallax (0..=3;
+    /// default 2).
+    pub motion_radius: u32,
+    /// Reuse only neighbours within this fraction of view depth of the pixel's tangent plane
+    /// (> 0; default 0.02, the reprojection's plane test).
+    pub plane_threshold: f32,
+    /// Radiance of the lights seen in a reflection (>= 0; default 5).
+    pub light_radiance: f32,
+    /// Albedo of the surfaces seen in a reflection (0..=1; default 0.7).
+    pub albedo: f32,
+    /// Radiance of the sky (>= 0; default 0.3).
+    pub sky: f32,
+    /// Ambient irradiance at reflected hits (>= 0; default 0.1).
+    pub ambient: f32,
+}
+
+impl Default for ReflectionSettings {
+    fn default() -> Self {
+        let sh = Shading::default();
+        ReflectionSettings {
+            max_roughness: sh.max_roughness,
+            min_rate: 0.5,
+            max_rate: 2.0,
+            tile_sigma: 0.15,
+            reuse_radius: 1,
+            parallax: true,
+            motion_radius: 2,
+            plane_threshold: 0.02,
+            light_radiance: sh.light_radiance,
+            albedo: sh.albedo,
+            sky: sh.sky,
+            ambient: sh.ambient,
+        }
+    }
+}
+
+impl ReflectionSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let check = |ok: bool, field, value: f32, range| {
+            if ok {
+                Ok(())
+            } else {
+                Err(SettingsError::OutOfRange {
+                    field,
+                    value,
+                    range,
+                })
+            }
+        };
+        let f = |v: f32| v.is_finite();
+        check(
+            f(self.max_roughness) && (0.0..=1.0).contains(&self.max_roughness),
+            "max_roughness",
+            self.max_roughness,
+            "0..=1",
+        )?;
+        check(
+            f(self.min_rate) && self.min_rate > 0.0 && self.min_rate <= self.max_rate,
+            "min_rate",
+            self.min_rate,
+            "0 < min_rate <= max_rate",
+        )?;
+        check(
+            f(self.max_rate) && self.max_rate <= 4.0,
+            "max_rate",
+            self.max_rate,
+            "min_rate..=4",
+        )?;
+        check(
+            f(self.tile_sigma) && self.tile_sigma > 0.0,
+            "tile_sigma",
+            self.tile_sigma,
+            "> 0",
+        )?;
+        check(
+            self.reuse_radius <= 3,
+            "reuse_radius",
+            self.reuse_radius as f32,
+            "0..=3",
+        )?;
+        check(
+            self.motion_radius <= 3,
+            "motion_radius",
+            self.motion_radius as f32,
+            "0..=3",
+        )?;
+        check(
+            f(self.plane_threshold) && self.plane_threshold > 0.0,
+            "plane_threshold",
+            self.plane_threshold,
+            "> 0",
+        )?;
+        for (field, v) in [
+            ("light_radiance", self.light_radiance),
+            ("sky", self.sky),
+            ("ambient", self.ambient),
+        ] {
+            check(f(v) && v >= 0.0, field, v, ">= 0")?;
+        }
+        check(
+            f(self.albedo) && (0.0..=1.0).contains(&self.albedo),
+            "albedo",
+            self.albedo,
+            "0..=1",
+        )
+    }
+}
+
+/// What the reflection passes trace against in this frame.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ReflectionScene {
+    /// BVH nodes of this frame's geometry.
+    pub nodes: BufferId,
+    /// Triangles of this frame's geometry.
+    pub tris: BufferId,
+    /// This frame's lights (`AreaLight`).
+    pub lights: BufferId,
+    /// How many of them to use.
+    pub light_count: u32,
+    /// This frame's camera.
+    pub camera: Camera,
+    /// Last frame's camera (parallax).
+    pub prev_camera: Camera,
+}
+
+/// The reflection effect: its settings, plane and ray records.
+#[derive(Clone, Debug)]
+pub struct Reflections {
+    settings: ReflectionSettings,
+    plane: u32,
+    hits: BufferId,
+}
+
+impl Reflections {
+    /// Reflections written to plane `plane` of a `width × height` denoiser (which should
+    /// reproject that plane along the parallax: `Settings::parallax_plane`).
+    pub fn new<E: Executor>(
+        exec: &mut E,
+        width: u32,
+        height: u32,
+        plane: u32,
+        settings: ReflectionSettings,
+    ) -> Result<Self, crate::denoiser::DenoiserError<E::Error>> {
+        settings
+            .validate()
+            .map_err(crate::denoiser::DenoiserError::Settings)?;
+        let bytes = width as u64 * height as u64 * core::mem::size_of::<RayHit>() as u64;
+        // Zero-filled: pdf 0 marks every record unused until the first trace.
+        let hits = exec.create_buffer(bytes.max(4))?;
+        Ok(Reflections {
+            settings,
+            plane,
+            hits,
+        })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &ReflectionSettings {
+        &self.settings
+    }
+
+    /// The plane the reflections are written to.
+    pub fn plane(&self) -> u32 {
+        self.plane
+    }
+
+    /// Ray records (`RayHit` per pixel) of the last [`Self::trace`].
+    pub fn hits(&self) -> BufferId {
+        self.hits
+    }
+
+    /// The shading constants for `scene`.
+    pub fn shading(&self, scene: &ReflectionScene) -> Shading {
+        let s = &self.settings;
+        let eye = scene.camera.origin();
+        Shading {
+            eye_x: eye.x,
+            eye_y: eye.y,
+            eye_z: eye.z,
+            max_roughness: s.max_roughness,
+            light_radiance: s.light_radiance,
+            albedo: s.albedo,
+            sky: s.sky,
+            ambient: s.ambient,
+        }
+    }
+
+    /// Before [`Denoiser::plan_rays`] (after the G-buffer): tile classification into
+    /// [`Denoiser::importance`] (begin the frame with `use_importance` to use it) and, with
+    /// `parallax` on, the reflection parallax into [`Denoiser::parallax`].
+    pub fn prepare<E: Executor>(
+        &self,
+        exec: &mut E,
+        denoiser: &Denoiser,
+        scene: &ReflectionScene,
+    ) -> Result<(), E::Error> {
+        let s = &self.settings;
+        let (w, h) = denoiser.size();
+        let frame = denoiser.frame().index;
+        let tiles = reflect::TileParams {
+            width: w,
+            height: h,
+            lights: scene.light_count,
+            frame,
+            min_rate: s.min_rate,
+            max_rate: s.max_rate,
+            sigma: s.tile_sigma,
+            _pad: 0,
+            shading: self.shading(scene),
+        };
+        let (tw, th) = reflect::tile_grid(w, h);
+        exec.dispatch(&Pass::over_grid(
+            &reflect::TILES_KERNEL,
+            &[
+                denoiser.surfaces(),
+                scene.nodes,
+                scene.tris,
+                scene.lights,
+                denoiser.importance(),
+            ],
+            bytemuck::bytes_of(&tiles),
+            tw,
+            th,
+            1,
+        ))?;
+        if !s.parallax {
+            return Ok(());
+        }
+        let eye = scene.camera.origin();
+        let motion = reflect::MotionParams {
+            width: w,
+            height: h,
+            frame: frame.wrapping_sub(1),
+            radius: s.motion_radius,
+            eye_x: eye.x,
+            eye_y: eye.y,
+            eye_z: eye.z,
+            max_roughness: s.max_roughness,
+            prev_camera: scene.prev_camera,
+        };
+        exec.dispatch(&Pass::over_grid(
+            &reflect::MOTION_KERNEL,
+            &[denoiser.surfaces(), self.hits, denoiser.parallax()],
+            bytemuck::bytes_of(&motion),
+            w,
+            h,
+            1,
+        ))
+    }
+
+    /// The reflection rays of a work list (`[work, args, rays]`, dispatched indirectly from
+    /// `args`) into plane [`Self::plane`] of `out` (`Sample`s of a `width × height` image) and the
+    /// ray records, stamped with `frame`; rng indices from `history`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn raygen<E: Executor>(
+        &self,
+        exec: &mut E,
+        scene: &ReflectionScene,
+        size: (u32, u32),
+        list: [BufferId; 3],
+        surfaces: BufferId,
+        history: BufferId,
+        out: BufferId,
+        frame: u32,
+    ) -> Result<(), E::Error> {
+        let p = reflect::RaygenParams {
+            width: size.0,
+            height: size.1,
+            plane: self.plane,
+            lights: scene.light_count,
+            frame,
+            _pad: [0; 3],
+            shading: self.shading(scene),
+        };
+        let [work, args, rays] = list;
+        let buffers = [
+            work,
+            args,
+            rays,
+            surfaces,
+            history,
+            scene.nodes,
+            scene.tris,
+            scene.lights,
+            out,
+            self.hits,
+        ];
+        exec.dispatch(&Pass {
+            kernel: &reflect::RAYGEN_KERNEL,
+            buffers: &buffers,
+            params: bytemuck::bytes_of(&p),
+            groups: Groups::Indirect {
+                buffer: args,
+                offset: 4,
+            },
+        })
+    }
+
+    /// After [`Denoiser::plan_rays`]: the reflection rays over the denoiser's work list into its
+    /// samples, then ray reuse.
+    pub fn trace<E: Executor>(
+        &self,
+        exec: &mut E,
+        denoiser: &Denoiser,
+        scene: &ReflectionScene,
+    ) -> Result<(), E::Error> {
+        let (w, h) = denoiser.size();
+        let frame = denoiser.frame().index;
+        self.raygen(
+            exec,
+            scene,
+            (w, h),
+            [denoiser.work(), denoiser.args(), denoiser.rays()],
+            denoiser.surfaces(),
+            denoiser.reprojected(),
+            denoiser.samples(),
+            frame,
+        )?;
+        if self.settings.reuse_radius == 0 {
+            return Ok(());
+        }
+        let reuse = reflect::ReuseParams {
+            width: w,
+            height: h,
+            plane: self.plane,
+            frame,
+            radius: self.settings.reuse_radius,
+            plane_threshold: self.settings.plane_threshold,
+            _pad: [0; 2],
+            shading: self.shading(scene),
+        };
+        exec.dispatch(&Pass::over_grid(
+            &reflect::REUSE_KERNEL,
+            &[denoiser.surfaces(), self.hits, denoiser.samples()],
+            bytemuck::bytes_of(&reuse),
+            w,
+            h,
+            1,
+        ))
+    }
+}
