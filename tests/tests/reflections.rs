@@ -1,0 +1,303 @@
+//! Glossy reflections (issue: stochastic SSR ideas, multi-signal) on the CPU backend, against
+//! converged references traced by the same raygen: the estimator converges to them, ray reuse
+//! lowers the error at equal rays, the parallax reprojection follows a reflection under camera
+//! motion, and AO, shadows and reflections share one frame and one ray budget.
+
+use vrrt_core::denoiser::Settings;
+use vrrt_core::glam::Vec3;
+use vrrt_core::kernels::balance::MODE_KEEP;
+use vrrt_core::kernels::reflect;
+use vrrt_core::payload::Payload;
+use vrrt_core::reflections::ReflectionSettings;
+use vrrt_cpu::CpuExecutor;
+use vrrt_scene::animation::{CameraKey, CameraPath};
+use vrrt_scene::render::{read, reference, Readback, Renderer, Signal};
+use vrrt_scene::Scene;
+
+const SIZE: (u32, u32) = (128, 72);
+
+fn rel_mse(test: &[f32], reference: &[f32]) -> f64 {
+    let sum: f64 = test
+        .iter()
+        .zip(reference)
+        .map(|(&a, &b)| (a as f64 - b as f64).powi(2) / ((b as f64).powi(2) + 1e-2))
+        .sum();
+    sum / test.len() as f64
+}
+
+fn reflections(reuse_radius: u32, parallax: bool) -> Signal {
+    Signal::Reflections(ReflectionSettings {
+        reuse_radius,
+        parallax,
+        ..ReflectionSettings::default()
+    })
+}
+
+fn references(scene: &Scene, frames: &[u32], signal: Signal, spp: u32) -> Vec<Vec<f32>> {
+    let mut exec = CpuExecutor::new();
+    frames
+        .iter()
+        .map(|&i| {
+            reference(
+                &mut exec,
+                &scene.frame(i),
+                SIZE.0,
+                SIZE.1,
+                signal,
+                spp,
+                |_, _| {},
+            )
+            .unwrap()
+            .mean
+        })
+        .collect()
+}
+
+/// Mean relMSE at `frames` of the denoised output, the per-frame samples and the accumulated
+/// history.
+#[derive(Debug)]
+struct Errors {
+    denoised: f64,
+    samples: f64,
+    history: f64,
+}
+
+fn run(
+    scene: &Scene,
+    signal: Signal,
+    settings: Settings,
+    frames: &[u32],
+    refs: &[Vec<f32>],
+) -> Errors {
+    let mut exec = CpuExecutor::new();
+    let mut r = Renderer::new(
+        &mut exec,
+        SIZE.0,
+        SIZE.1,
+        signal,
+        scene.lights.len(),
+        settings,
+    )
+    .unwrap();
+    let mut e = Errors {
+        denoised: 0.0,
+        samples: 0.0,
+        history: 0.0,
+    };
+    for i in 0..=*frames.iter().max().unwrap() {
+        let out = r
+            .render(&mut exec, &scene.frame(i), Readback::default())
+            .unwrap();
+        if let Some(k) = frames.iter().position(|&f| f == i) {
+            let history: Vec<Payload> = read(
+                &mut exec,
+                r.denoiser().history(),
+                (SIZE.0 * SIZE.1) as usize,
+            )
+            .unwrap();
+            let m1: Vec<f32> = history.iter().map(|p| p.m1).collect();
+            e.denoised += rel_mse(&out.denoised, &refs[k]);
+            e.samples += rel_mse(&out.raw, &refs[k]);
+            e.history += rel_mse(&m1, &refs[k]);
+        }
+    }
+    let n = frames.len() as f64;
+    e.denoised /= n;
+    e.samples /= n;
+    e.history /= n;
+    e
+}
+
+#[test]
+fn reflections_converge_to_the_reference_of_the_same_estimator() {
+    let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
+    let signal = reflections(0, true);
+    let refs = references(&scene, &[0], signal, 2048);
+    let settings = Settings {
+        max_history: 1024.0,
+        ..Settings::svgf(1.0)
+    };
+    let mut exec = CpuExecutor::new();
+    let mut r = Renderer::new(&mut exec, SIZE.0, SIZE.1, signal, 1, settings).unwrap();
+    let mut errors = Vec::new();
+    for i in 0..256 {
+        r.render(&mut exec, &scene.frame(i), Readback::default())
+            .unwrap();
+        if [7, 31, 127, 255].contains(&i) {
+            let h: Vec<Payload> = read(
+                &mut exec,
+                r.denoiser().history(),
+                (SIZE.0 * SIZE.1) as usize,
+            )
+            .unwrap();
+            let m1: Vec<f32> = h.iter().map(|p| p.m1).collect();
+            let bias = m1
+                .iter()
+                .zip(&refs[0])
+                .map(|(&a, &b)| a as f64 - b as f64)
+                .sum::<f64>()
+                / refs[0].iter().map(|&b| b as f64).sum::<f64>();
+            errors.push((i + 1, rel_mse(&m1, &refs[0]), bias));
+        }
+    }
+    for (rays, e, bias) in &errors {
+        println!("{rays:>4} rays per pixel: relMSE {e:.6}, relative bias {bias:+.5}");
+    }
+    // Monte Carlo: error ∝ 1/rays. 32x the rays must cut it at least 16x, and the accumulated
+    // mean carries no bias beyond the reference's own noise.
+    let (first, last) = (errors[0], errors[3]);
+    assert!(last.1 * 16.0 < first.1, "{errors:?}");
+    assert!(last.2.abs() < 2e-3, "{errors:?}");
+}
+
+#[test]
+fn ray_reuse_lowers_error_at_equal_rays() {
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let frames = [20, 27, 35];
+    let refs = references(&scene, &frames, reflections(0, true), 512);
+    // Fixed 1 ray per pixel: both runs trace exactly the same rays.
+    let none = run(
+        &scene,
+        reflections(0, true),
+        Settings::svgf(1.0),
+        &frames,
+        &refs,
+    );
+    let reuse = run(
+        &scene,
+        reflections(1, true),
+        Settings::svgf(1.0),
+        &frames,
+        &refs,
+    );
+    let reuse2 = run(
+        &scene,
+        reflections(2, true),
+        Settings::svgf(1.0),
+        &frames,
+        &refs,
+    );
+    println!("no reuse:    {none:?}");
+    println!("reuse 3x3:   {reuse:?}");
+    println!("reuse 5x5:   {reuse2:?}");
+    println!(
+        "3x3 reuse: per-frame estimate {:.1}x, accumulated {:.2}x, denoised {:.3}x lower",
+        none.samples / reuse.samples,
+        none.history / reuse.history,
+        none.denoised / reuse.denoised
+    );
+    assert!(reuse.samples * 3.0 < none.samples);
+    assert!(reuse.history < none.history);
+    assert!(reuse.denoised < none.denoised);
+}
+
+#[test]
+fn parallax_reprojection_follows_the_reflection() {
+    // The still room with near-mirror floor, box and sphere, and a camera panning across it.
+    let mut scene = vrrt_scene::builtin::builtin("room_static").unwrap();
+    let key = |time, x: f32, y, z| CameraKey {
+        time,
+        position: Vec3::new(x, y, z),
+        target: Vec3::new(x, 1.0, -3.0),
+        fov_y: 1.0,
+        cut: false,
+    };
+    scene.camera = CameraPath {
+        keys: vec![key(0.0, -1.0, 2.2, 7.5), key(1.2, 1.0, 1.8, 6.5)],
+    };
+    for i in scene.instances.iter_mut() {
+        if i.roughness < 1.0 {
+            i.roughness = 0.05;
+        }
+    }
+    let frames = [20, 27, 35];
+    let refs = references(&scene, &frames, reflections(0, true), 256);
+    let surface = run(
+        &scene,
+        reflections(0, false),
+        Settings::default(),
+        &frames,
+        &refs,
+    );
+    let parallax = run(
+        &scene,
+        reflections(0, true),
+        Settings::default(),
+        &frames,
+        &refs,
+    );
+    println!("surface motion:   {surface:?}");
+    println!("parallax motion:  {parallax:?}");
+    println!(
+        "parallax: denoised {:.2}x lower",
+        surface.denoised / parallax.denoised
+    );
+    assert!(parallax.denoised * 1.5 < surface.denoised);
+}
+
+/// Denoised output of frame `last` of `signal` on the room.
+fn last_frame(scene: &Scene, signal: Signal, last: u32) -> Vec<f32> {
+    let mut exec = CpuExecutor::new();
+    let mut r = Renderer::new(&mut exec, SIZE.0, SIZE.1, signal, 1, Settings::default()).unwrap();
+    let mut out = Vec::new();
+    for i in 0..=last {
+        out = r
+            .render(&mut exec, &scene.frame(i), Readback::default())
+            .unwrap()
+            .denoised;
+    }
+    out
+}
+
+#[test]
+fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let settings = ReflectionSettings::default();
+    let signal = Signal::All {
+        max_distance: 1.0,
+        reflections: settings,
+    };
+    let layout = signal.layout(scene.lights.len());
+    assert_eq!(layout.planes, 3);
+    let last = 40;
+    let refs = references(&scene, &[last], signal, 256);
+    let mut exec = CpuExecutor::new();
+    let mut r = Renderer::new(&mut exec, SIZE.0, SIZE.1, signal, 1, Settings::default()).unwrap();
+    let pixels = (SIZE.0 * SIZE.1) as usize;
+    let (tw, th) = reflect::tile_grid(SIZE.0, SIZE.1);
+    let mut all = Vec::new();
+    for i in 0..=last {
+        let out = r
+            .render(&mut exec, &scene.frame(i), Readback::default())
+            .unwrap();
+        let d = out.decision;
+        if d.mode != MODE_KEEP {
+            assert!(
+                d.granted as f64 <= d.budget as f64 * (1.0 + 1e-5),
+                "frame {i}: {d:?}"
+            );
+        }
+        let importance: Vec<f32> =
+            read(&mut exec, r.denoiser().importance(), (tw * th) as usize).unwrap();
+        assert!(importance
+            .iter()
+            .all(|&v| (settings.min_rate..=settings.max_rate).contains(&v)));
+        if i == last {
+            assert!(importance.iter().any(|&v| v > settings.min_rate));
+            all = out.denoised;
+        }
+    }
+    // Each plane against the same signal denoised alone at the same settings and budget.
+    let alone = [
+        last_frame(&scene, Signal::Ao { max_distance: 1.0 }, last),
+        last_frame(&scene, Signal::Shadows, last),
+        last_frame(&scene, Signal::Reflections(settings), last),
+    ];
+    for (plane, name) in ["ao", "shadow", "reflections"].iter().enumerate() {
+        let range = plane * pixels..(plane + 1) * pixels;
+        let together = rel_mse(&all[range.clone()], &refs[0][range.clone()]);
+        let single = rel_mse(&alone[plane], &refs[0][range]);
+        println!("{name}: relMSE {together:.5} in one frame with the others, {single:.5} alone");
+        assert!(together < single * 1.5, "{name}: {together} vs {single}");
+    }
+}
