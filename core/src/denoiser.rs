@@ -231,17 +231,6 @@ impl Settings {
 
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), SettingsError> {
-        let check = |ok: bool, field, value: f32, range| {
-            if ok {
-                Ok(())
-            } else {
-                Err(SettingsError::OutOfRange {
-                    field,
-                    value,
-                    range,
-                })
-            }
-        };
         let finite = |v: f32| v.is_finite();
         check(
             finite(self.rays_per_pixel) && self.rays_per_pixel > 0.0 && self.rays_per_pixel <= 16.0,
@@ -414,6 +403,24 @@ impl Settings {
             )?;
         }
         Ok(())
+    }
+}
+
+/// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
+pub(crate) fn check(
+    ok: bool,
+    field: &'static str,
+    value: f32,
+    range: &'static str,
+) -> Result<(), SettingsError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(SettingsError::OutOfRange {
+            field,
+            value,
+            range,
+        })
     }
 }
 

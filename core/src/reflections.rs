@@ -14,7 +14,7 @@
 //! balancer, so the ray budget is spent across signals.
 
 use crate::camera::Camera;
-use crate::denoiser::{Denoiser, SettingsError};
+use crate::denoiser::{check, Denoiser, SettingsError};
 use crate::kernels::reflect::{self, RayHit, Shading};
 use crate::plan::{BufferId, Executor, Groups, Pass};
 
@@ -76,17 +76,6 @@ impl Default for ReflectionSettings {
 impl ReflectionSettings {
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), SettingsError> {
-        let check = |ok: bool, field, value: f32, range| {
-            if ok {
-                Ok(())
-            } else {
-                Err(SettingsError::OutOfRange {
-                    field,
-                    value,
-                    range,
-                })
-            }
-        };
         let f = |v: f32| v.is_finite();
         check(
             f(self.max_roughness) && (0.0..=1.0).contains(&self.max_roughness),
