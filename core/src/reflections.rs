@@ -368,3 +368,40 @@ impl Reflections {
         ))
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_out_of_range_name_their_field() {
+        assert_eq!(ReflectionSettings::default().validate(), Ok(()));
+        let bad = [
+            ReflectionSettings {
+                max_roughness: f32::NAN,
+                ..Default::default()
+            },
+            ReflectionSettings {
+                min_rate: 3.0,
+                ..Default::default()
+            },
+            ReflectionSettings {
+                reuse_radius: 9,
+                ..Default::default()
+            },
+            ReflectionSettings {
+                sky: -1.0,
+                ..Default::default()
+            },
+        ];
+        for (s, field) in bad
+            .iter()
+            .zip(["max_roughness", "min_rate", "reuse_radius", "sky"])
+        {
+            match s.validate() {
+                Err(SettingsError::OutOfRange { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("{field}: {other:?}"),
+            }
+        }
+    }
+}
