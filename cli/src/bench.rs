@@ -1,5 +1,5 @@
 //! `vrrt bench`: error against cost over a matrix of denoiser configurations × ray budgets ×
-//! scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
+//! signals × scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
 
 use crate::backend::BackendKind;
 use crate::plot::{self, Curve};
@@ -16,13 +16,14 @@ use std::time::Instant;
 /// Options of `vrrt bench`. Unset options take the quick or full defaults.
 #[derive(Clone, Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Quick matrix: room, 160x90, 48 frames, budgets 0.5 and 1, cpu, 1 repeat.
+    /// Quick matrix: room, 160x90, 48 frames, budgets 0.5 and 1, cpu, 1 repeat; signals other
+    /// than AO only through svgf, vrrt and vrrt-noskip.
     #[arg(long)]
     pub quick: bool,
     /// Scenes, comma separated (default room).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// Configurations, comma separated (default all).
+    /// Configurations, comma separated (default all; see `--quick`).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub configs: Vec<Config>,
     /// Ray budgets in rays per pixel, comma separated (full default 0.25,0.5,1,2,4).
@@ -43,9 +44,9 @@ pub struct BenchArgs {
     /// Reference samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Signal.
-    #[arg(long, value_enum, default_value = "ao")]
-    pub signal: SignalKind,
+    /// Signals, comma separated (default ao,reflections).
+    #[arg(long, alias = "signal", value_enum, value_delimiter = ',')]
+    pub signals: Vec<SignalKind>,
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
@@ -59,6 +60,8 @@ pub struct BenchArgs {
 pub struct Cell {
     /// Scene key.
     pub scene: String,
+    /// Signal.
+    pub signal: SignalKind,
     /// Configuration.
     pub config: Config,
     /// Budget, rays per pixel.
@@ -91,7 +94,11 @@ pub struct Cell {
     pub passes: Vec<(&'static str, f64)>,
 }
 
-const HEADER: &str = "scene,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread";
+/// Configurations of the quick matrix for signals other than AO: the SVGF baseline, VRRT and its
+/// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
+const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
+
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -128,7 +135,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if repeats == 0 {
         bail!("--repeats must be at least 1");
     }
-    let signal = args.signal.signal(args.ao_radius);
+    let signals = if args.signals.is_empty() {
+        vec![SignalKind::Ao, SignalKind::Reflections]
+    } else {
+        args.signals.clone()
+    };
     let loaded = scenes
         .iter()
         .map(|s| load_scene(s))
@@ -163,59 +174,69 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("backend {backend}: {}", exec.device());
         for scene in &loaded {
             let frames = clamp_frames(frames, scene.scene.frame_count);
-            for &config in &configs {
-                for &budget in &budgets {
-                    let mut opts = SequenceOptions {
-                        size,
-                        frames,
-                        signal,
-                        spp: args.spp,
-                        config,
-                        rpp: budget,
-                        overlays: false,
-                        measure: true,
-                    };
-                    let mut ms = Vec::new();
-                    let mut first = None;
-                    for _ in 0..repeats {
-                        let r = session::run_sequence(&mut exec, scene, &opts, &refs, |_| Ok(()))?;
-                        ms.push(r.mean_of(|f| f.ms_frame));
-                        first.get_or_insert(r);
-                        opts.measure = false;
+            for &kind in &signals {
+                let configs = if q && args.configs.is_empty() && kind != SignalKind::Ao {
+                    &QUICK_OTHER_CONFIGS[..]
+                } else {
+                    &configs
+                };
+                for &config in configs {
+                    for &budget in &budgets {
+                        let mut opts = SequenceOptions {
+                            size,
+                            frames,
+                            signal: kind.signal(args.ao_radius),
+                            spp: args.spp,
+                            config,
+                            rpp: budget,
+                            overlays: false,
+                            measure: true,
+                        };
+                        let mut ms = Vec::new();
+                        let mut first = None;
+                        for _ in 0..repeats {
+                            let r =
+                                session::run_sequence(&mut exec, scene, &opts, &refs, |_| Ok(()))?;
+                            ms.push(r.mean_of(|f| f.ms_frame));
+                            first.get_or_insert(r);
+                            opts.measure = false;
+                        }
+                        let r = first.expect("at least one repeat");
+                        ms.sort_by(f64::total_cmp);
+                        let s = r.summary();
+                        let cell = Cell {
+                            scene: scene.key.clone(),
+                            signal: kind,
+                            config,
+                            budget,
+                            backend: backend.clone(),
+                            size,
+                            frames,
+                            relmse: s.mean_rel_mse,
+                            psnr: s.psnr_of_mean_mse,
+                            ssim: s.mean_ssim,
+                            flip: r.mean_of(|f| f.flip),
+                            temporal: s.temporal.unwrap_or(f64::NAN),
+                            moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
+                            rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
+                            ms_per_frame: ms[ms.len() / 2],
+                            ms_spread: ms[ms.len() - 1] - ms[0],
+                            passes: r.pass_means(),
+                        };
+                        eprint!("\r{:<72}", "");
+                        eprintln!(
+                            "\r{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
+                            cell.scene,
+                            kind.name(),
+                            config.name(),
+                            budget,
+                            backend,
+                            fmt(cell.relmse, 6),
+                            cell.ms_per_frame,
+                            started.elapsed().as_secs_f64()
+                        );
+                        cells.push(cell);
                     }
-                    let r = first.expect("at least one repeat");
-                    ms.sort_by(f64::total_cmp);
-                    let s = r.metrics.summary();
-                    let cell = Cell {
-                        scene: scene.key.clone(),
-                        config,
-                        budget,
-                        backend: backend.clone(),
-                        size,
-                        frames,
-                        relmse: s.mean_rel_mse,
-                        psnr: s.psnr_of_mean_mse,
-                        ssim: s.mean_ssim,
-                        flip: r.mean_of(|f| f.flip),
-                        temporal: s.temporal.unwrap_or(f64::NAN),
-                        moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
-                        rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
-                        ms_per_frame: ms[ms.len() / 2],
-                        ms_spread: ms[ms.len() - 1] - ms[0],
-                        passes: r.pass_means(),
-                    };
-                    eprint!("\r{:<72}", "");
-                    eprintln!(
-                        "\r{} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
-                        cell.scene,
-                        config.name(),
-                        budget,
-                        backend,
-                        fmt(cell.relmse, 6),
-                        cell.ms_per_frame,
-                        started.elapsed().as_secs_f64()
-                    );
-                    cells.push(cell);
                 }
             }
         }
@@ -269,8 +290,9 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3}",
             c.scene,
+            c.signal.name(),
             c.config.name(),
             c.budget,
             c.backend,
@@ -296,15 +318,16 @@ pub fn bench_csv(cells: &[Cell]) -> String {
 /// `bench.md`: a markdown table of the cells.
 pub fn bench_md(cells: &[Cell]) -> String {
     let mut s = String::from(
-        "| scene | config | rpp | backend | size | relMSE | PSNR | SSIM | FLIP | temporal | moving relMSE | rays/px | ms/frame (spread) |\n\
-         |---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | signal | config | rpp | backend | size | relMSE | PSNR | SSIM | FLIP | temporal | moving relMSE | rays/px | ms/frame (spread) |\n\
+         |---|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for c in cells {
         let px = (c.size.0 * c.size.1) as f64;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.1} (±{:.1}) |",
+            "| {} | {} | {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.1} (±{:.1}) |",
             c.scene,
+            c.signal.name(),
             c.config.name(),
             c.budget,
             c.backend,
@@ -325,7 +348,7 @@ pub fn bench_md(cells: &[Cell]) -> String {
 }
 
 /// The adaptive plan against the same frames with nothing skipped: for every cell of `vrrt` or
-/// `vrrt-save` with a `vrrt-noskip` twin (same scene, budget, backend), the differences in error,
+/// `vrrt-save` with a `vrrt-noskip` twin (same scene, signal, budget, backend), the differences in error,
 /// time and rays. Empty when the matrix has no such pair.
 pub fn adaptive_md(cells: &[Cell]) -> String {
     let mut s = String::new();
@@ -336,6 +359,7 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
         let Some(full) = cells.iter().find(|f| {
             f.config == Config::VrrtNoskip
                 && f.scene == c.scene
+                && f.signal == c.signal
                 && f.budget == c.budget
                 && f.backend == c.backend
         }) else {
@@ -344,15 +368,16 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
         if s.is_empty() {
             s.push_str(
                 "\nAdaptive plan against nothing skipped (`vrrt-noskip`):\n\n\
-                 | scene | config | rpp | backend | relMSE change | moving relMSE change | ms/frame change | rays change |\n\
-                 |---|---|---:|---|---:|---:|---:|---:|\n",
+                 | scene | signal | config | rpp | backend | relMSE change | moving relMSE change | ms/frame change | rays change |\n\
+                 |---|---|---|---:|---|---:|---:|---:|---:|\n",
             );
         }
         let pct = |a: f64, b: f64| 100.0 * (a / b - 1.0);
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {:+.2}% | {:+.2}% | {:+.1}% | {:+.1}% |",
+            "| {} | {} | {} | {} | {} | {:+.2}% | {:+.2}% | {:+.1}% | {:+.1}% |",
             c.scene,
+            c.signal.name(),
             c.config.name(),
             c.budget,
             c.backend,
@@ -365,21 +390,22 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
     s
 }
 
-/// Per scene and backend: relMSE against ms per frame and against rays per pixel, one curve per
+/// Per scene, signal and backend: relMSE against ms per frame and against rays per pixel, one curve per
 /// configuration (its points are the budgets).
 fn plots(out: &std::path::Path, cells: &[Cell]) -> Result<()> {
-    let mut groups: Vec<(String, String)> = Vec::new();
+    let mut groups: Vec<(String, SignalKind, String)> = Vec::new();
     for c in cells {
-        let g = (c.scene.clone(), c.backend.clone());
+        let g = (c.scene.clone(), c.signal, c.backend.clone());
         if !groups.contains(&g) {
             groups.push(g);
         }
     }
-    for (scene, backend) in groups {
+    for (scene, signal, backend) in groups {
         let in_group: Vec<&Cell> = cells
             .iter()
-            .filter(|c| c.scene == scene && c.backend == backend)
+            .filter(|c| c.scene == scene && c.signal == signal && c.backend == backend)
             .collect();
+        let signal = signal.name();
         let mut configs: Vec<Config> = Vec::new();
         for c in &in_group {
             if !configs.contains(&c.config) {
@@ -400,15 +426,15 @@ fn plots(out: &std::path::Path, cells: &[Cell]) -> Result<()> {
                 .collect()
         };
         plot::curves(
-            &out.join(format!("relmse_vs_ms_{scene}_{backend}.png")),
-            &format!("{scene} on {backend}: error vs time"),
+            &out.join(format!("relmse_vs_ms_{scene}_{signal}_{backend}.png")),
+            &format!("{scene}, {signal} on {backend}: error vs time"),
             "ms per frame",
             "relMSE",
             &curves(&|c| c.ms_per_frame),
         )?;
         plot::curves(
-            &out.join(format!("relmse_vs_rpp_{scene}_{backend}.png")),
-            &format!("{scene} on {backend}: error vs rays"),
+            &out.join(format!("relmse_vs_rpp_{scene}_{signal}_{backend}.png")),
+            &format!("{scene}, {signal} on {backend}: error vs rays"),
             "rays per pixel per frame (traced)",
             "relMSE",
             &curves(&|c| c.rays_per_frame / (c.size.0 * c.size.1) as f64),

@@ -21,7 +21,8 @@ enum Command {
     Reference(reference::ReferenceArgs),
     /// List backends and adapters, and what `auto` would pick.
     Info,
-    /// Error-versus-cost matrix over denoiser configurations, budgets, scenes and backends.
+    /// Error-versus-cost matrix over denoiser configurations, budgets, signals, scenes and
+    /// backends.
     Bench(bench::BenchArgs),
 }
 

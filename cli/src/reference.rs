@@ -2,7 +2,9 @@
 
 use crate::backend::BackendKind;
 use crate::run::{check_common, clamp_frames};
-use crate::session::{load_scene, open_backend, parse_backend, parse_size, References, SignalKind};
+use crate::session::{
+    load_scene, open_backend, parse_backend, parse_size, parts, References, SignalKind,
+};
 use anyhow::Result;
 
 /// Options of `vrrt reference`.
@@ -31,7 +33,8 @@ pub struct ReferenceArgs {
     pub backend: BackendKind,
 }
 
-/// Runs `vrrt reference`.
+/// Runs `vrrt reference`: the references `run` measures against, one per part of the signal
+/// (`all`: AO, shadows and reflections).
 pub fn run(args: &ReferenceArgs) -> Result<()> {
     check_common(args.frames, args.spp, args.ao_radius)?;
     let scene = load_scene(&args.scene)?;
@@ -42,17 +45,21 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         println!("cache: {}", dir.display());
     }
     let signal = args.signal.signal(args.ao_radius);
-    println!("frame  source  mean_stderr");
+    let parts = parts(signal, scene.scene.lights.len());
+    println!("frame  signal       source  mean_stderr");
     let mut total = 0.0;
     for i in 0..frames {
         let f = scene.scene.frame(i);
-        let r = refs.get(&mut exec, &scene.key, &f, args.size, signal, args.spp)?;
-        total += r.mean_stderr;
-        println!(
-            "{i:>5}  {:<6}  {:.6}",
-            if r.cached { "cache" } else { "traced" },
-            r.mean_stderr
-        );
+        for p in &parts {
+            let r = refs.get(&mut exec, &scene.key, &f, args.size, p.signal, args.spp)?;
+            total += r.mean_stderr;
+            println!(
+                "{i:>5}  {:<11}  {:<6}  {:.6}",
+                p.name,
+                if r.cached { "cache" } else { "traced" },
+                r.mean_stderr
+            );
+        }
     }
     println!(
         "{} frames of {} at {}x{}, {} spp, {}: mean standard error {:.6}",
@@ -62,7 +69,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         args.size.1,
         args.spp,
         signal.name(),
-        total / frames as f64
+        total / (frames as usize * parts.len()) as f64
     );
     Ok(())
 }

@@ -46,7 +46,8 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
-    /// Write PNGs of every n-th frame.
+    /// Write PNGs of every n-th frame (clamped to [0, 1]: reflections are HDR radiance, which
+    /// `denoised_last*.exr` keeps).
     #[arg(long, default_value_t = 8)]
     pub every: u32,
     /// Write debug overlays every frame: requested and granted rays, history length after
@@ -97,21 +98,31 @@ pub fn run(args: &RunArgs) -> Result<()> {
     };
     let out = &args.out;
     let (w, h) = args.size;
-    let mut last_denoised = None;
+    let mut last_denoised = Vec::new();
     let result = session::run_sequence(&mut exec, &scene, &opts, &refs, |v| {
         let i = v.record.frame;
-        if i % args.every == 0 || i + 1 == frames {
-            write_png(out.join(format!("frame{i:04}_denoised.png")), v.test.view())?;
-            write_png(out.join(format!("frame{i:04}_raw.png")), v.raw.view())?;
-            if let Some(r) = v.reference {
-                write_png(out.join(format!("frame{i:04}_reference.png")), r.view())?;
+        let several = v.parts.len() > 1;
+        for p in v.parts {
+            // With several parts each has its own files: `frame0007_ao_denoised.png`.
+            let tag = if several {
+                format!("_{}", p.part.name)
+            } else {
+                String::new()
+            };
+            if i % args.every == 0 || i + 1 == frames {
+                let png = |what: &str| out.join(format!("frame{i:04}{tag}_{what}.png"));
+                write_png(png("denoised"), p.test.view())?;
+                write_png(png("raw"), p.raw.view())?;
+                if let Some(r) = &p.reference {
+                    write_png(png("reference"), r.view())?;
+                }
+            }
+            if i + 1 == frames {
+                last_denoised.push((tag, p.test.clone()));
             }
         }
         if args.overlays {
             write_overlays(out, v, (w, h))?;
-        }
-        if i + 1 == frames {
-            last_denoised = Some(v.test.clone());
         }
         let line = format!(
             "frame {}/{frames}: relMSE {}, {} rays, {:.1} ms",
@@ -124,10 +135,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
         Ok(())
     })?;
     eprintln!();
-    if let Some(img) = &last_denoised {
-        write_exr(out.join("denoised_last.exr"), img.view())?;
+    for (tag, img) in &last_denoised {
+        write_exr(out.join(format!("denoised_last{tag}.exr")), img.view())?;
     }
-    let csv = frames_csv(&result.records, &result.pass_names);
+    let part_names: Vec<&str> = result.parts.iter().map(|p| p.part.name).collect();
+    let csv = frames_csv(&result.records, &part_names, &result.pass_names);
     std::fs::write(out.join("frames.csv"), csv)
         .with_context(|| format!("cannot write {}", out.join("frames.csv").display()))?;
     if exec.validation_errors() > 0 {
@@ -173,7 +185,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         "relMSE, 2nd half (raw input)",
         fmt(rs.second_half_mean(|r| r.raw_relmse), 6),
     );
-    let s = rs.metrics.summary();
+    let s = rs.summary();
     row(
         &mut t,
         "whole sequence",
@@ -187,6 +199,24 @@ pub fn run(args: &RunArgs) -> Result<()> {
             fmt(s.mean_masked_rel_mse.unwrap_or(f64::NAN), 6)
         ),
     );
+    if rs.parts.len() > 1 {
+        for p in &rs.parts {
+            let ps = p.metrics.summary();
+            row(
+                &mut t,
+                &format!("  {}", p.part.name),
+                format!(
+                    "relMSE {}, moving relMSE {}, raw relMSE {}",
+                    fmt(ps.mean_rel_mse, 6),
+                    fmt(ps.mean_masked_rel_mse.unwrap_or(f64::NAN), 6),
+                    fmt(p.raw_metrics.summary().mean_rel_mse, 6)
+                ),
+            );
+        }
+    }
+    if s.non_finite > 0 {
+        eprintln!("warning: {} non-finite output pixels", s.non_finite);
+    }
     let pixels = (w * h) as f64;
     let rays = rs.mean_of(|r| r.rays_traced as f64);
     row(
@@ -256,17 +286,25 @@ fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
     }
 }
 
-/// `frames.csv`: one row per frame, then per-pass milliseconds.
-pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
+/// `frames.csv`: one row per frame (with several parts, their mean metrics and then each part's
+/// `relmse_<part>`), then per-pass milliseconds.
+pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&str]) -> String {
     let mut s = String::from(
-        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,ms_frame",
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse",
     );
+    let several = part_names.len() > 1;
+    if several {
+        for p in part_names {
+            let _ = write!(s, ",relmse_{p}");
+        }
+    }
+    s.push_str(",ms_frame");
     session::pass_header(&mut s, pass_names);
     s.push('\n');
     for r in records {
         let _ = write!(
             s,
-            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{:.3}",
+            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{}",
             r.frame,
             r.rays_traced,
             r.budget,
@@ -285,8 +323,14 @@ pub fn frames_csv(records: &[FrameRecord], pass_names: &[&str]) -> String {
             fmt(r.flip, 5),
             fmt(r.temporal, 7),
             fmt(r.moving_relmse, 7),
-            r.ms_frame
         );
+        if several {
+            for k in 0..part_names.len() {
+                let v = r.part_relmse.get(k).copied().unwrap_or(f64::NAN);
+                let _ = write!(s, ",{}", fmt(v, 7));
+            }
+        }
+        let _ = write!(s, ",{:.3}", r.ms_frame);
         session::pass_columns(&mut s, &r.passes, pass_names);
         s.push('\n');
     }

@@ -10,8 +10,9 @@ use std::time::Instant;
 use vrrt_core::denoiser::Settings;
 use vrrt_core::kernels::reproject::FLAG_DISOCCLUDED;
 use vrrt_core::plan::Executor;
+use vrrt_core::reflections::ReflectionSettings;
 use vrrt_scene::image::{Image, ImageRef};
-use vrrt_scene::metrics::{self, SequenceMetrics};
+use vrrt_scene::metrics::{self, SequenceMetrics, SequenceSummary};
 use vrrt_scene::reference_cache::{ReferenceCache, ReferenceKey, StdErr};
 use vrrt_scene::render::{self, FrameOutput, Readback, Renderer, Signal};
 use vrrt_scene::{FrameGeometry, Scene};
@@ -23,7 +24,8 @@ pub const REFERENCE_VERSION: u32 = 1;
 /// Largest accepted width or height.
 pub const MAX_DIMENSION: u32 = 8192;
 
-/// Reference change (per frame, any plane) above which a pixel counts as "moving".
+/// Reference change (per frame, any plane; relative above 1, see [`moving_mask`]) above which a
+/// pixel counts as "moving".
 pub const MOVING_THRESHOLD: f32 = 0.02;
 
 /// Parses `WxH` (e.g. `256x144`); both must be in `1..=MAX_DIMENSION`.
@@ -69,9 +71,23 @@ pub enum SignalKind {
     Ao,
     /// Area-light shadows (one plane per light).
     Shadows,
+    /// Glossy reflections (one plane of HDR radiance; default settings).
+    Reflections,
+    /// AO, shadows and reflections in one frame, sharing one ray budget.
+    All,
 }
 
 impl SignalKind {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SignalKind::Ao => "ao",
+            SignalKind::Shadows => "shadows",
+            SignalKind::Reflections => "reflections",
+            SignalKind::All => "all",
+        }
+    }
+
     /// The renderer's signal, with the AO distance `ao_radius`.
     pub fn signal(self, ao_radius: f32) -> Signal {
         match self {
@@ -79,8 +95,57 @@ impl SignalKind {
                 max_distance: ao_radius,
             },
             SignalKind::Shadows => Signal::Shadows,
+            SignalKind::Reflections => Signal::Reflections(ReflectionSettings::default()),
+            SignalKind::All => Signal::All {
+                max_distance: ao_radius,
+                reflections: ReflectionSettings::default(),
+            },
         }
     }
+}
+
+/// One signal among a frame's planes (`Signal::All` has three). Each part is measured against
+/// its own reference, cached under the part's signal alone, so `all` reuses the references of
+/// `ao`, `shadows` and `reflections`; and its images keep 1, 3 or 4 channels, which PNG, EXR
+/// and the cache need.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Part {
+    /// `ao`, `shadows` or `reflections`: the suffix of its files and columns.
+    pub name: &'static str,
+    /// The signal on its own.
+    pub signal: Signal,
+    /// First plane and how many.
+    pub planes: (u32, u32),
+}
+
+/// The parts of `signal` in plane order, for a scene with `lights` lights.
+pub fn parts(signal: Signal, lights: usize) -> Vec<Part> {
+    let layout = signal.layout(lights);
+    let mut parts = Vec::new();
+    if let (Some(plane), Signal::Ao { max_distance } | Signal::All { max_distance, .. }) =
+        (layout.ao, signal)
+    {
+        parts.push(Part {
+            name: "ao",
+            signal: Signal::Ao { max_distance },
+            planes: (plane, 1),
+        });
+    }
+    if let Some(planes) = layout.shadows {
+        parts.push(Part {
+            name: "shadows",
+            signal: Signal::Shadows,
+            planes,
+        });
+    }
+    if let (Some(plane), Some(r)) = (layout.reflections, signal.reflections()) {
+        parts.push(Part {
+            name: "reflections",
+            signal: Signal::Reflections(r),
+            planes: (plane, 1),
+        });
+    }
+    parts
 }
 
 /// A denoiser configuration: the baselines and the stages of VRRT.
@@ -132,13 +197,15 @@ impl Config {
         }
     }
 
-    /// Denoiser settings for a budget of `rpp` rays per pixel.
-    pub fn settings(self, rpp: f32) -> Settings {
+    /// Denoiser settings for a budget of `rpp` rays per pixel and `signal`. Temporal gradients
+    /// are off for signals with reflections, which the gradient prepass cannot re-trace
+    /// (`Renderer::new` refuses them).
+    pub fn settings(self, rpp: f32, signal: Signal) -> Settings {
         let vrrt = Settings {
             rays_per_pixel: rpp,
             ..Settings::default()
         };
-        match self {
+        let mut settings = match self {
             Config::Raw | Config::Svgf => Settings::svgf(rpp),
             Config::SvgfClamp => Settings {
                 clamp_radius: 1,
@@ -163,7 +230,11 @@ impl Config {
                 still_sigma: 0.0,
                 ..vrrt
             },
+        };
+        if signal.reflections().is_some() {
+            settings.gradient_stratum = 0;
         }
+        settings
     }
 
     /// True when the reported image is the raw samples rather than the denoised output.
@@ -342,10 +413,10 @@ impl References {
 }
 
 /// Mean of the finite values (NaN if none).
-pub fn mean(v: &[f32]) -> f64 {
-    let (mut s, mut n) = (0.0f64, 0usize);
-    for &x in v.iter().filter(|x| x.is_finite()) {
-        s += x as f64;
+pub fn mean_finite(values: impl IntoIterator<Item = f64>) -> f64 {
+    let (mut s, mut n) = (0.0, 0usize);
+    for v in values.into_iter().filter(|v| v.is_finite()) {
+        s += v;
         n += 1;
     }
     if n == 0 {
@@ -353,6 +424,11 @@ pub fn mean(v: &[f32]) -> f64 {
     } else {
         s / n as f64
     }
+}
+
+/// Mean of the finite values (NaN if none).
+pub fn mean(v: &[f32]) -> f64 {
+    mean_finite(v.iter().map(|&x| f64::from(x)))
 }
 
 /// What one sequence renders.
@@ -376,7 +452,8 @@ pub struct SequenceOptions {
     pub measure: bool,
 }
 
-/// One frame's numbers (a row of `frames.csv`).
+/// One frame's numbers (a row of `frames.csv`). With several parts, each metric is the mean over
+/// the parts (PSNR: of their mean MSE), so that a signal with many planes does not outweigh one.
 #[derive(Clone, Debug, Default)]
 pub struct FrameRecord {
     /// Frame index.
@@ -405,6 +482,8 @@ pub struct FrameRecord {
     pub moving_relmse: f64,
     /// relMSE of the raw samples (the denoiser's input).
     pub raw_relmse: f64,
+    /// relMSE of each part, in the order of [`SequenceResult::parts`].
+    pub part_relmse: Vec<f64>,
     /// Wall-clock milliseconds of the frame (render and read back).
     pub ms_frame: f64,
     /// Milliseconds per pass entry point, summed over dispatches of the frame.
@@ -438,29 +517,70 @@ pub struct FrameView<'a> {
     pub record: &'a FrameRecord,
     /// The renderer's output.
     pub output: &'a FrameOutput,
+    /// Each part's images.
+    pub parts: &'a [PartFrame],
+}
+
+/// One part's images of a frame.
+pub struct PartFrame {
+    /// The part.
+    pub part: Part,
     /// The reported image (denoised, or raw for `raw`).
-    pub test: &'a Image,
+    pub test: Image,
     /// The raw samples.
-    pub raw: &'a Image,
+    pub raw: Image,
     /// The reference (when measuring).
-    pub reference: Option<&'a Image>,
+    pub reference: Option<Image>,
     /// Moving-region mask (when measuring).
-    pub moving: Option<&'a [bool]>,
+    pub moving: Option<Vec<bool>>,
+}
+
+/// One part's sequence metrics.
+pub struct PartMetrics {
+    /// The part.
+    pub part: Part,
+    /// Metrics of the reported image (masked by the moving mask).
+    pub metrics: SequenceMetrics,
+    /// Metrics of the raw input.
+    pub raw_metrics: SequenceMetrics,
 }
 
 /// Sequence-wide results.
 pub struct SequenceResult {
     /// Per-frame rows.
     pub records: Vec<FrameRecord>,
-    /// Metrics of the reported image (masked by the moving mask).
-    pub metrics: SequenceMetrics,
-    /// Metrics of the raw input.
-    pub raw_metrics: SequenceMetrics,
+    /// Each part's metrics, in plane order.
+    pub parts: Vec<PartMetrics>,
     /// Pass entry points in order of first appearance.
     pub pass_names: Vec<&'static str>,
 }
 
 impl SequenceResult {
+    /// Whole-sequence metrics of the reported image: the one part's, or the means over the
+    /// parts (PSNR: of their mean MSE) with counts summed.
+    pub fn summary(&self) -> SequenceSummary {
+        let s: Vec<SequenceSummary> = self.parts.iter().map(|p| p.metrics.summary()).collect();
+        let avg = |v: fn(&SequenceSummary) -> f64| mean_finite(s.iter().map(v));
+        let avg_some = |v: fn(&SequenceSummary) -> Option<f64>| {
+            Some(mean_finite(s.iter().filter_map(v))).filter(|m| !m.is_nan())
+        };
+        let mean_mse = avg(|s| s.mean_mse);
+        SequenceSummary {
+            frames: s.iter().map(|s| s.frames).max().unwrap_or(0),
+            mean_mse,
+            mean_rmse: avg(|s| s.mean_rmse),
+            mean_rel_mse: avg(|s| s.mean_rel_mse),
+            psnr_of_mean_mse: metrics::psnr_from_mse(mean_mse),
+            mean_ssim: avg(|s| s.mean_ssim),
+            temporal: avg_some(|s| s.temporal),
+            mean_masked_rel_mse: avg_some(|s| s.mean_masked_rel_mse),
+            mean_masked_rmse: avg_some(|s| s.mean_masked_rmse),
+            masked_frames: s.iter().map(|s| s.masked_frames).max().unwrap_or(0),
+            non_finite: s.iter().map(|s| s.non_finite).sum(),
+            reference_non_finite: s.iter().map(|s| s.reference_non_finite).sum(),
+        }
+    }
+
     /// Mean over the frames of the second half (the converged part) of a per-frame value.
     pub fn second_half_mean(&self, value: impl Fn(&FrameRecord) -> f64) -> f64 {
         let n = self.records.len();
@@ -473,17 +593,7 @@ impl SequenceResult {
 
     /// Mean over all frames of a per-frame value (NaN skipped).
     pub fn mean_of(&self, value: impl Fn(&FrameRecord) -> f64) -> f64 {
-        let v: Vec<f64> = self
-            .records
-            .iter()
-            .map(value)
-            .filter(|v| v.is_finite())
-            .collect();
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v.iter().sum::<f64>() / v.len() as f64
-        }
+        mean_finite(self.records.iter().map(value))
     }
 
     /// Mean ms per frame of each pass.
@@ -505,7 +615,7 @@ impl SequenceResult {
     }
 }
 
-/// Renders `opts.frames` frames of `scene` on `exec`, measuring each against its reference
+/// Renders `opts.frames` frames of `scene` on `exec`, measuring each part against its reference
 /// (when `opts.measure`), and calls `on_frame` after each.
 pub fn run_sequence(
     exec: &mut Backend,
@@ -515,23 +625,32 @@ pub fn run_sequence(
     mut on_frame: impl FnMut(&FrameView<'_>) -> Result<()>,
 ) -> Result<SequenceResult> {
     let (width, height) = opts.size;
+    let pixels = (width * height) as usize;
     let sc = &scene.scene;
-    let settings = opts.config.settings(opts.rpp);
+    let settings = opts.config.settings(opts.rpp, opts.signal);
     let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
         .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
-    let planes = renderer.denoiser().settings().planes;
-    let mut metrics = SequenceMetrics::new();
-    let mut raw_metrics = SequenceMetrics::new();
+    let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
+        .into_iter()
+        .map(|part| PartMetrics {
+            part,
+            metrics: SequenceMetrics::new(),
+            raw_metrics: SequenceMetrics::new(),
+        })
+        .collect();
     let mut records = Vec::new();
     let mut pass_names: Vec<&'static str> = Vec::new();
-    let mut prev_reference: Option<Image> = None;
+    let mut prev_references: Vec<Option<Image>> = vec![None; parts.len()];
     for i in 0..opts.frames {
         let f = sc.frame(i);
-        let reference = if opts.measure {
-            Some(refs.get(exec, &scene.key, &f, opts.size, opts.signal, opts.spp)?)
-        } else {
-            None
-        };
+        let mut references = Vec::new();
+        for p in &parts {
+            references.push(if opts.measure {
+                Some(refs.get(exec, &scene.key, &f, opts.size, p.part.signal, opts.spp)?)
+            } else {
+                None
+            });
+        }
         exec.clear_timings();
         let start = Instant::now();
         let out = renderer
@@ -586,57 +705,96 @@ pub fn run_sequence(
             temporal: f64::NAN,
             moving_relmse: f64::NAN,
             raw_relmse: f64::NAN,
+            part_relmse: Vec::new(),
         };
-        let raw = planes_to_image(&out.raw, width, height, planes);
-        let test = if opts.config.reports_raw() {
-            raw.clone()
-        } else {
-            planes_to_image(&out.denoised, width, height, planes)
-        };
-        let mut moving = None;
-        if let Some(r) = &reference {
-            let mask = moving_mask(&out.flags, &r.image, prev_reference.as_ref());
-            let fm = metrics
-                .push(test.view(), r.image.view(), Some(&mask))
-                .context("metrics")?;
-            record.relmse = fm.metrics.rel_mse;
-            record.rmse = fm.metrics.rmse;
-            record.psnr = fm.metrics.psnr;
-            record.ssim = fm.metrics.ssim;
-            record.temporal = fm.temporal.unwrap_or(f64::NAN);
-            record.moving_relmse = fm.masked.map_or(f64::NAN, |m| m.rel_mse);
-            record.flip = flip(test.view(), r.image.view());
-            let rm = raw_metrics
-                .push(raw.view(), r.image.view(), None)
-                .context("metrics")?;
-            record.raw_relmse = rm.metrics.rel_mse;
-            moving = Some(mask);
+        let mut frames = Vec::new();
+        let mut measured: Vec<PartError> = Vec::new();
+        for ((p, reference), prev) in parts.iter_mut().zip(references).zip(&prev_references) {
+            let (first, planes) = p.part.planes;
+            let range = first as usize * pixels..(first + planes) as usize * pixels;
+            let raw = planes_to_image(&out.raw[range.clone()], width, height, planes);
+            let test = if opts.config.reports_raw() {
+                raw.clone()
+            } else {
+                planes_to_image(&out.denoised[range], width, height, planes)
+            };
+            let mut moving = None;
+            if let Some(r) = &reference {
+                let mask = moving_mask(&out.flags, &r.image, prev.as_ref());
+                let fm = p
+                    .metrics
+                    .push(test.view(), r.image.view(), Some(&mask))
+                    .context("metrics")?;
+                let rm = p
+                    .raw_metrics
+                    .push(raw.view(), r.image.view(), None)
+                    .context("metrics")?;
+                measured.push(PartError {
+                    relmse: fm.metrics.rel_mse,
+                    rmse: fm.metrics.rmse,
+                    mse: fm.metrics.mse,
+                    ssim: fm.metrics.ssim,
+                    flip: flip(test.view(), r.image.view()),
+                    temporal: fm.temporal.unwrap_or(f64::NAN),
+                    moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
+                    raw_relmse: rm.metrics.rel_mse,
+                });
+                moving = Some(mask);
+            }
+            frames.push(PartFrame {
+                part: p.part,
+                test,
+                raw,
+                reference: reference.map(|r| r.image),
+                moving,
+            });
+        }
+        if !measured.is_empty() {
+            let avg = |v: fn(&PartError) -> f64| mean_finite(measured.iter().map(v));
+            record.relmse = avg(|e| e.relmse);
+            record.rmse = avg(|e| e.rmse);
+            record.psnr = metrics::psnr_from_mse(avg(|e| e.mse));
+            record.ssim = avg(|e| e.ssim);
+            record.flip = avg(|e| e.flip);
+            record.temporal = avg(|e| e.temporal);
+            record.moving_relmse = avg(|e| e.moving_relmse);
+            record.raw_relmse = avg(|e| e.raw_relmse);
+            record.part_relmse = measured.iter().map(|e| e.relmse).collect();
         }
         on_frame(&FrameView {
             record: &record,
             output: &out,
-            test: &test,
-            raw: &raw,
-            reference: reference.as_ref().map(|r| &r.image),
-            moving: moving.as_deref(),
+            parts: &frames,
         })?;
         records.push(record);
-        prev_reference = reference.map(|r| r.image);
+        prev_references = frames.into_iter().map(|p| p.reference).collect();
     }
     Ok(SequenceResult {
         records,
-        metrics,
-        raw_metrics,
+        parts,
         pass_names,
     })
+}
+
+/// One part's error in one frame, before the means over parts of [`FrameRecord`].
+struct PartError {
+    relmse: f64,
+    rmse: f64,
+    mse: f64,
+    ssim: f64,
+    flip: f64,
+    temporal: f64,
+    moving_relmse: f64,
+    raw_relmse: f64,
 }
 
 fn flip(test: ImageRef<'_>, reference: ImageRef<'_>) -> f64 {
     metrics::flip(test, reference).unwrap_or(f64::NAN)
 }
 
-/// Pixels flagged disoccluded, or whose reference changed by more than [`MOVING_THRESHOLD`]
-/// (in any channel) since the previous frame.
+/// Pixels flagged disoccluded, or whose reference changed (in any channel) since the previous
+/// frame by more than [`MOVING_THRESHOLD`], relative to the previous value where that exceeds 1
+/// (HDR radiance, where an absolute threshold would flag every highlight).
 pub fn moving_mask(flags: &[u32], reference: &Image, previous: Option<&Image>) -> Vec<bool> {
     let c = reference.channels();
     (0..flags.len())
@@ -644,7 +802,8 @@ pub fn moving_mask(flags: &[u32], reference: &Image, previous: Option<&Image>) -
             let disoccluded = flags[i] & FLAG_DISOCCLUDED != 0;
             let changed = previous.is_some_and(|p| {
                 (0..c).any(|k| {
-                    (reference.data()[i * c + k] - p.data()[i * c + k]).abs() > MOVING_THRESHOLD
+                    let (now, before) = (reference.data()[i * c + k], p.data()[i * c + k]);
+                    (now - before).abs() > MOVING_THRESHOLD * before.abs().max(1.0)
                 })
             });
             disoccluded || changed

@@ -66,6 +66,8 @@ fn bench_writes_csv() {
             "1",
             "--configs",
             "svgf,vrrt",
+            "--signals",
+            "ao,reflections",
             "--backends",
             "cpu",
             "--repeats",
@@ -77,9 +79,57 @@ fn bench_writes_csv() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
-    assert!(csv.starts_with("scene,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread"));
-    assert_eq!(csv.lines().count(), 3);
+    assert!(csv.starts_with("scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread"));
+    assert_eq!(csv.lines().count(), 5);
+    assert!(csv.contains("\nroom,reflections,vrrt,"), "{csv}");
     assert!(out.join("bench.md").is_file());
+}
+
+#[test]
+fn run_all_signals_writes_each_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = vrrt(
+        &[
+            "run",
+            "--signal",
+            "all",
+            "--size",
+            "32x18",
+            "--frames",
+            "3",
+            "--spp",
+            "16",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &dir.path().join("cache"),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let parts = ["relmse_ao", "relmse_shadows", "relmse_reflections"];
+    let columns: Vec<usize> = parts
+        .iter()
+        .map(|p| header.iter().position(|h| h == p).expect(p))
+        .collect();
+    for line in lines {
+        let row: Vec<&str> = line.split(',').collect();
+        for &c in &columns {
+            let v: f64 = row[c].parse().unwrap();
+            assert!(v.is_finite() && v >= 0.0, "{line}");
+        }
+    }
+    for part in ["ao", "shadows", "reflections"] {
+        for f in [
+            format!("frame0000_{part}_denoised.png"),
+            format!("frame0002_{part}_reference.png"),
+            format!("denoised_last_{part}.exr"),
+        ] {
+            assert!(out.join(&f).is_file(), "{f} missing");
+        }
+    }
 }
 
 fn assert_usage_error(args: &[&str], needle: &str) {
