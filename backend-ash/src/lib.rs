@@ -49,7 +49,7 @@ use std::ffi::CString;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use track::{BarrierBatch, Hazard};
-use vrrt_core::plan::{Access, BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
+use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 
 /// Options of [`AshExecutor::new_headless`].
 #[derive(Clone, Debug)]
@@ -601,7 +601,7 @@ impl AshExecutor {
                     .buffers
                     .iter()
                     .zip(kernel.bindings)
-                    .any(|(&b, &a)| b == buffer && a == Access::ReadWrite);
+                    .any(|(&b, binding)| b == buffer && binding.access.writes());
                 if written {
                     return Err(AshError::AliasedBinding(buffer));
                 }
@@ -736,11 +736,12 @@ impl AshExecutor {
             arena.buffers.push(buffer);
         }
         let mut infos = Vec::with_capacity(pass.buffers.len());
-        for (&id, &access) in pass.buffers.iter().zip(kernel.bindings) {
+        for (&id, binding) in pass.buffers.iter().zip(kernel.bindings) {
             let e = self.entry_mut(id)?;
-            let flags = match access {
-                Access::Read => vk::AccessFlags::SHADER_READ,
-                Access::ReadWrite => vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+            let flags = if binding.access.writes() {
+                vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE
+            } else {
+                vk::AccessFlags::SHADER_READ
             };
             batch.access(
                 &mut e.hazard,

@@ -29,7 +29,7 @@ use std::sync::{Arc, Mutex};
 
 use validation::{Messenger, ValidationLog};
 use vrrt_core::plan::{
-    Access, BufferId, Executor, Groups, KernelDesc, Pass, PassTiming, PlanError,
+    BufferId, Executor, Groups, KernelDesc, Pass, PassTiming, PlanError,
 };
 use wgpu::util::DeviceExt as _;
 
@@ -487,12 +487,12 @@ impl WgpuExecutor {
             .bindings
             .iter()
             .enumerate()
-            .map(|(i, access)| wgpu::BindGroupLayoutEntry {
+            .map(|(i, binding)| wgpu::BindGroupLayoutEntry {
                 binding: i as u32,
                 visibility: wgpu::ShaderStages::COMPUTE,
                 ty: wgpu::BindingType::Buffer {
                     ty: wgpu::BufferBindingType::Storage {
-                        read_only: *access == Access::Read,
+                        read_only: !binding.access.writes(),
                     },
                     has_dynamic_offset: false,
                     min_binding_size: None,

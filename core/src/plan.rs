@@ -6,17 +6,41 @@
 //! implement [`Executor`] once; adding a kernel adds a `KernelDesc` here and an entry point in
 //! `vrrt-shaders`, never backend code.
 
+use bytemuck::{Pod, Zeroable};
 use core::fmt;
 use glam::UVec3;
 
-/// How a kernel uses a storage buffer binding. Must match the shader signature (`&[T]` is
-/// `Read`, `&mut [T]` is `ReadWrite`): GPU pipeline layouts are built from it.
+/// How a kernel uses a storage buffer binding. The shader signature follows from it (`&[T]` for
+/// `Read`, `&mut [T]` otherwise); GPU pipeline layouts and barriers are built from it.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Access {
     /// Read-only storage buffer.
     Read,
-    /// Read-write storage buffer.
-    ReadWrite,
+    /// Each invocation writes (and may read) only the elements it owns.
+    Write,
+    /// Invocations contend through integer atomics (`crate::atomic`): counters, histograms,
+    /// packed-key min/max.
+    Atomic,
+}
+
+impl Access {
+    /// Whether the kernel may modify the buffer.
+    pub fn writes(self) -> bool {
+        self != Access::Read
+    }
+}
+
+/// One storage buffer binding of a kernel, as declared in `kernels::table`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Binding {
+    /// Name of the binding (the kernel function's parameter).
+    pub name: &'static str,
+    /// Element type, as written in the declaration.
+    pub ty: &'static str,
+    /// Size of one element in bytes.
+    pub elem_size: u32,
+    /// How the kernel uses it.
+    pub access: Access,
 }
 
 /// Native entry of a kernel: runs every invocation of workgroup `group`.
@@ -32,7 +56,7 @@ pub struct KernelDesc {
     /// `LocalSize` of the entry point.
     pub workgroup_size: [u32; 3],
     /// Storage buffers at `descriptor_set = 0`, `binding = i`.
-    pub bindings: &'static [Access],
+    pub bindings: &'static [Binding],
     /// Size in bytes of the push-constant struct (0 if none).
     pub params_size: u32,
     /// The same kernel, compiled natively.
@@ -51,7 +75,10 @@ impl fmt::Debug for KernelDesc {
 }
 
 /// A buffer owned by an executor.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(transparent)]
+#[derive(
+    Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Pod, Zeroable,
+)]
 pub struct BufferId(pub u32);
 
 /// How many workgroups a pass launches.
