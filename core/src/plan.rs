@@ -347,7 +347,12 @@ macro_rules! per_invocation_kernel {
         pub static $name: $crate::plan::KernelDesc = $crate::plan::KernelDesc {
             entry: $entry,
             workgroup_size: [$x, $y, $z],
-            bindings: &[$($crate::plan::Access::$access),*],
+            bindings: &[$($crate::plan::Binding {
+                name: stringify!($bind),
+                ty: stringify!($ty),
+                elem_size: core::mem::size_of::<$ty>() as u32,
+                access: $crate::per_invocation_kernel!(@access $access),
+            }),*],
             params_size: core::mem::size_of::<$params>() as u32,
             cpu: {
                 unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
@@ -366,6 +371,8 @@ macro_rules! per_invocation_kernel {
             },
         };
     };
+    (@access Read) => { $crate::plan::Access::Read };
+    (@access ReadWrite) => { $crate::plan::Access::Write };
     (@bind Read $b:ident $i:ident $ty:ty) => { $b.read::<$ty>($i) };
     (@bind ReadWrite $b:ident $i:ident $ty:ty) => { $b.write::<$ty>($i) };
 }

@@ -171,7 +171,20 @@ unsafe fn count_cpu(group: UVec3, b: &crate::plan::CpuBindings<'_>) {
 pub static KERNEL: crate::plan::KernelDesc = crate::plan::KernelDesc {
     entry: "count_buckets",
     workgroup_size: [GROUP, GROUP, 1],
-    bindings: &[crate::plan::Access::Read, crate::plan::Access::ReadWrite],
+    bindings: &[
+        crate::plan::Binding {
+            name: "requests",
+            ty: "u32",
+            elem_size: 4,
+            access: crate::plan::Access::Read,
+        },
+        crate::plan::Binding {
+            name: "counts",
+            ty: "u32",
+            elem_size: 4,
+            access: crate::plan::Access::Atomic,
+        },
+    ],
     params_size: core::mem::size_of::<BucketParams>() as u32,
     cpu: count_cpu,
 };
