@@ -73,7 +73,7 @@ fn record_into_engine_command_buffer() {
     };
     let bufs = [req, counts];
     let pass = Pass::over_grid(
-        &buckets::KERNEL,
+        &vrrt_core::kernels::COUNT_BUCKETS,
         &bufs,
         bytemuck::bytes_of(&params),
         w,
@@ -137,7 +137,7 @@ fn record_into_engine_command_buffer() {
         let cb = [r, c];
         for _ in 0..2 * (frame + 1) {
             cpu.dispatch(&Pass::over_grid(
-                &buckets::KERNEL,
+                &vrrt_core::kernels::COUNT_BUCKETS,
                 &cb,
                 bytemuck::bytes_of(&params),
                 w,

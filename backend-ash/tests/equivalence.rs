@@ -201,7 +201,7 @@ fn accumulate_matches_cpu() {
         &inputs,
         2,
         n,
-        &accumulate::KERNEL,
+        &vrrt_core::kernels::ACCUMULATE,
         p,
         [W, H, PLANES],
     );
@@ -274,7 +274,7 @@ fn atrous_matches_cpu() {
         ];
         let p = bytemuck::bytes_of(&params);
         let (gpu, cpu) =
-            run_both::<Filtered>(&mut ex, &inputs, 3, n, &atrous::KERNEL, p, [W, H, PLANES]);
+            run_both::<Filtered>(&mut ex, &inputs, 3, n, &vrrt_core::kernels::ATROUS, p, [W, H, PLANES]);
         assert_bits(&format!("atrous step {step}"), &gpu, &cpu, true, ATROUS_ULP);
         assert_ne!(gpu, input, "the filter did nothing");
     }
@@ -309,7 +309,7 @@ fn buckets_match_cpu() {
             &inputs,
             1,
             COUNTS_LEN as usize,
-            &buckets::KERNEL,
+            &vrrt_core::kernels::COUNT_BUCKETS,
             p,
             [w, h, 1],
         );
@@ -356,7 +356,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
         let out = b[2 + i % 2];
         let bufs = [prev, s, b[5], out];
         let mut pass = Pass::over_grid(
-            &atrous::KERNEL,
+            &vrrt_core::kernels::ATROUS,
             &bufs,
             bytemuck::bytes_of(&params),
             W,
@@ -439,7 +439,7 @@ fn errors_are_reported_not_panicked() {
     };
     let aliased = [a, a];
     let pass = Pass::over_grid(
-        &buckets::KERNEL,
+        &vrrt_core::kernels::COUNT_BUCKETS,
         &aliased,
         bytemuck::bytes_of(&params),
         2,
@@ -451,7 +451,7 @@ fn errors_are_reported_not_panicked() {
         Err(AshError::AliasedBinding(_))
     ));
     let one = [a];
-    let pass = Pass::over_grid(&buckets::KERNEL, &one, bytemuck::bytes_of(&params), 2, 2, 1);
+    let pass = Pass::over_grid(&vrrt_core::kernels::COUNT_BUCKETS, &one, bytemuck::bytes_of(&params), 2, 2, 1);
     assert!(matches!(ex.dispatch(&pass), Err(AshError::Plan(_))));
     // Zero-sized buffers work and read back nothing.
     let z = ex.create_buffer(0).unwrap();

@@ -225,7 +225,7 @@ fn accumulate_matches_cpu() {
     let params = accumulate_params();
     let buffers = [history, samples, out, counters];
     b.dispatch(&Pass::over_grid(
-        &accumulate::KERNEL,
+        &vrrt_core::kernels::ACCUMULATE,
         &buffers,
         bytemuck::bytes_of(&params),
         W,
@@ -302,7 +302,7 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
         let src = if i == 0 { input } else { out[0] };
         let buffers = [src, surfaces, tiles, out[i]];
         b.dispatch(&Pass::over_grid(
-            &atrous::KERNEL,
+            &vrrt_core::kernels::ATROUS,
             &buffers,
             bytemuck::bytes_of(&params),
             W,
@@ -360,7 +360,7 @@ fn bucket_case(b: &mut Both, rng: &mut Rng, width: u32, height: u32) {
     let params = buckets::BucketParams { width, height };
     let buffers = [requests, counts];
     b.dispatch(&Pass::over_grid(
-        &buckets::KERNEL,
+        &vrrt_core::kernels::COUNT_BUCKETS,
         &buffers,
         bytemuck::bytes_of(&params),
         width,
@@ -401,7 +401,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let params = bytemuck::bytes_of(&params);
     let first = [history, samples_buf, out1, counters];
     b.dispatch(&Pass::over_grid(
-        &accumulate::KERNEL,
+        &vrrt_core::kernels::ACCUMULATE,
         &first,
         params,
         W,
@@ -410,7 +410,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     ));
     b.write(samples_buf, bytemuck::cast_slice(&samples(&mut rng, n)));
     let Groups::Direct(groups) =
-        Pass::over_grid(&accumulate::KERNEL, &first, params, W, H, PLANES).groups
+        Pass::over_grid(&vrrt_core::kernels::ACCUMULATE, &first, params, W, H, PLANES).groups
     else {
         unreachable!()
     };
@@ -419,7 +419,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let args = b.buffer(bytemuck::cast_slice(&args));
     let second = [out1, samples_buf, out2, counters];
     b.dispatch(&Pass {
-        kernel: &accumulate::KERNEL,
+        kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: &second,
         params,
         groups: Groups::Indirect {
@@ -455,7 +455,7 @@ fn passes_are_timed() {
     let params = accumulate_params();
     for _ in 0..3 {
         gpu.dispatch(&Pass::over_grid(
-            &accumulate::KERNEL,
+            &vrrt_core::kernels::ACCUMULATE,
             &ids,
             bytemuck::bytes_of(&params),
             W,
@@ -492,7 +492,7 @@ fn plan_errors_are_reported() {
     let aliased = [a, a, a, a];
     let err = gpu
         .dispatch(&Pass::over_grid(
-            &accumulate::KERNEL,
+            &vrrt_core::kernels::ACCUMULATE,
             &aliased,
             bytemuck::bytes_of(&params),
             1,
@@ -503,7 +503,7 @@ fn plan_errors_are_reported() {
     assert!(matches!(err, WgpuError::AliasedBinding(_)), "{err}");
     let err = gpu
         .dispatch(&Pass::over_grid(
-            &accumulate::KERNEL,
+            &vrrt_core::kernels::ACCUMULATE,
             &[a],
             bytemuck::bytes_of(&params),
             1,
@@ -641,7 +641,7 @@ fn embedded_in_an_engine() {
     let params = accumulate_params();
     let gpu_buffers = [ids[0], ids[1], ids[2], counters_g];
     let gpu_pass = Pass::over_grid(
-        &accumulate::KERNEL,
+        &vrrt_core::kernels::ACCUMULATE,
         &gpu_buffers,
         bytemuck::bytes_of(&params),
         W,

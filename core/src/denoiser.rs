@@ -29,10 +29,10 @@ use crate::blue_noise;
 use crate::camera::Camera;
 use crate::kernels::gradient::{self, GradientSample};
 use crate::kernels::{
-    accumulate, apply, atrous, balance, buckets, classify, clear, reflect, reproject, variance,
+    self, accumulate, apply, atrous, balance, buckets, classify, fill, reflect, reproject, variance,
 };
 use crate::payload::COUNTERS_LEN;
-use crate::plan::{BufferId, Executor, Groups, Pass};
+use crate::plan::{BufferId, Executor, Groups};
 pub use crate::quantize::StoragePrecision;
 use core::fmt;
 
@@ -822,18 +822,14 @@ impl Denoiser {
         let (w, h) = (self.width, self.height);
         let (gw, gh) = self.gradient_size();
         let index_mask = gradient::index_mask(w * h);
-        let fill = clear::FillParams {
+        let clear = fill::FillParams {
             len: gw * gh,
             value: gradient::EMPTY_KEY,
         };
-        exec.dispatch(&Pass::over_grid(
-            &clear::KERNEL,
-            &[self.gradient_keys],
-            bytemuck::bytes_of(&fill),
-            fill.len,
-            1,
-            1,
-        ))?;
+        let keys = kernels::FillBindings {
+            buf: self.gradient_keys,
+        };
+        exec.dispatch(&keys.over_grid(&clear, clear.len, 1, 1))?;
         let proj = gradient::ProjectParams {
             width: w,
             height: h,
@@ -846,21 +842,14 @@ impl Denoiser {
             plane_threshold: s.plane_threshold,
             camera: scene.camera,
         };
-        let buffers = [
-            self.surfaces[1 - self.cur],
-            self.surfaces[self.cur],
-            self.rays,
-            scene.next,
-            self.gradient_keys,
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &gradient::PROJECT_KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&proj),
-            gw,
-            gh,
-            1,
-        ))?;
+        let project = kernels::GradientProjectBindings {
+            prev_surfaces: self.surfaces[1 - self.cur],
+            surfaces: self.surfaces[self.cur],
+            rays: self.rays,
+            next: scene.next,
+            keys: self.gradient_keys,
+        };
+        exec.dispatch(&project.over_grid(&proj, gw, gh, 1))?;
         let mut retrace = gradient::RetraceParams {
             width: w,
             height: h,
@@ -873,52 +862,47 @@ impl Denoiser {
         };
         // Last frame's reprojected history still holds the rng index each pixel's raygen started
         // from, and `samples` last frame's 0th ray values.
-        let mut buffers = [
-            self.gradient_keys,
-            self.surfaces[1 - self.cur],
-            scene.next,
-            self.reprojected,
-            self.samples,
-            scene.nodes,
-            scene.tris,
-            self.gradient_raw,
-            self.gradient_raw,
-        ];
-        let (kernel, bound) = match scene.rays {
+        let ao = kernels::GradientAoBindings {
+            keys: self.gradient_keys,
+            prev_surfaces: self.surfaces[1 - self.cur],
+            next: scene.next,
+            prev_payload: self.reprojected,
+            prev_samples: self.samples,
+            nodes: scene.nodes,
+            tris: scene.tris,
+            out: self.gradient_raw,
+        };
+        match scene.rays {
             GradientRays::Ao { max_distance } => {
                 retrace.max_distance = max_distance;
-                (&gradient::AO_KERNEL, 8)
+                exec.dispatch(&ao.over_grid(&retrace, gw, gh, 1))?;
             }
             GradientRays::Shadows { lights } => {
-                buffers[7] = lights;
-                (&gradient::SHADOW_KERNEL, 9)
+                let shadow = kernels::GradientShadowBindings {
+                    keys: ao.keys,
+                    prev_surfaces: ao.prev_surfaces,
+                    next: ao.next,
+                    prev_payload: ao.prev_payload,
+                    prev_samples: ao.prev_samples,
+                    nodes: ao.nodes,
+                    tris: ao.tris,
+                    lights,
+                    out: ao.out,
+                };
+                exec.dispatch(&shadow.over_grid(&retrace, gw, gh, 1))?;
             }
-        };
-        exec.dispatch(&Pass::over_grid(
-            kernel,
-            &buffers[..bound],
-            bytemuck::bytes_of(&retrace),
-            gw,
-            gh,
-            1,
-        ))?;
+        }
         let mut input = self.gradient_raw;
         for i in 0..s.gradient_iterations {
-            let p = gradient::AtrousParams {
+            let p = gradient::GradientAtrousParams {
                 grid_width: gw,
                 grid_height: gh,
                 step: 1 << i,
                 _pad: 0,
             };
             let out = self.gradient[(i % 2) as usize];
-            exec.dispatch(&Pass::over_grid(
-                &gradient::ATROUS_KERNEL,
-                &[input, out],
-                bytemuck::bytes_of(&p),
-                gw,
-                gh,
-                s.planes,
-            ))?;
+            let pass = kernels::GradientAtrousBindings { input, out };
+            exec.dispatch(&pass.over_grid(&p, gw, gh, s.planes))?;
             input = out;
             self.gradient_out = (i % 2) as usize;
         }
@@ -980,51 +964,35 @@ impl Denoiser {
             parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
             ..Default::default()
         };
-        let buffers = [
-            self.surfaces[self.cur],
-            self.surfaces[1 - self.cur],
-            self.history[1 - self.cur],
-            self.mask,
-            self.gradient(),
-            self.importance,
-            self.parallax,
-            self.reprojected,
-            self.flags,
-            self.requests,
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &reproject::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&params),
-            w,
-            h,
-            1,
-        ))?;
+        let reproject = kernels::ReprojectBindings {
+            surfaces: self.surfaces[self.cur],
+            prev_surfaces: self.surfaces[1 - self.cur],
+            history: self.history[1 - self.cur],
+            mask: self.mask,
+            gradient: self.gradient(),
+            importance: self.importance,
+            parallax: self.parallax,
+            out: self.reprojected,
+            flags: self.flags,
+            requests: self.requests,
+        };
+        exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;
 
-        let fill = clear::FillParams {
+        let clear = fill::FillParams {
             len: buckets::COUNTS_LEN,
             value: 0,
         };
-        exec.dispatch(&Pass::over_grid(
-            &clear::KERNEL,
-            &[self.counts],
-            bytemuck::bytes_of(&fill),
-            fill.len,
-            1,
-            1,
-        ))?;
+        let counts = kernels::FillBindings { buf: self.counts };
+        exec.dispatch(&counts.over_grid(&clear, clear.len, 1, 1))?;
         let count = buckets::BucketParams {
             width: w,
             height: h,
         };
-        exec.dispatch(&Pass::over_grid(
-            &buckets::KERNEL,
-            &[self.requests, self.counts],
-            bytemuck::bytes_of(&count),
-            w,
-            h,
-            1,
-        ))?;
+        let buckets = kernels::CountBucketsBindings {
+            requests: self.requests,
+            counts: self.counts,
+        };
+        exec.dispatch(&buckets.over_grid(&count, w, h, 1))?;
 
         let bal = balance::BalanceParams {
             rays_per_pixel: s.rays_per_pixel,
@@ -1038,13 +1006,12 @@ impl Denoiser {
                 balance::POLICY_KEEP
             },
         };
-        let buffers = [self.counts, self.decision, self.args];
-        exec.dispatch(&Pass {
-            kernel: &balance::KERNEL,
-            buffers: &buffers,
-            params: bytemuck::bytes_of(&bal),
-            groups: Groups::Direct([1, 1, 1]),
-        })?;
+        let balance = kernels::BalanceBindings {
+            counts: self.counts,
+            out: self.decision,
+            args: self.args,
+        };
+        exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
 
         let app = apply::ApplyParams {
             width: w,
@@ -1052,23 +1019,16 @@ impl Denoiser {
             planes: s.planes,
             frame_index: self.frame.index,
         };
-        let buffers = [
-            self.requests,
-            self.decision,
-            self.noise,
-            self.rays,
-            self.work,
-            self.args,
-            self.samples,
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &apply::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&app),
-            w,
-            h,
-            1,
-        ))
+        let apply = kernels::ApplyBindings {
+            requests: self.requests,
+            decision: self.decision,
+            noise: self.noise,
+            rays: self.rays,
+            work: self.work,
+            args: self.args,
+            samples: self.samples,
+        };
+        exec.dispatch(&apply.over_grid(&app, w, h, 1))
     }
 
     /// Passes 2.. (after raygen): accumulation, variance estimation and the à-trous iterations.
@@ -1090,20 +1050,13 @@ impl Denoiser {
                     crate::quantize::STORAGE_NO_CORRECTION
                 },
         };
-        let buffers = [
-            self.reprojected,
-            self.samples,
-            self.history[self.cur],
-            self.counters,
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &accumulate::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&acc),
-            w,
-            h,
-            planes,
-        ))?;
+        let accumulate = kernels::AccumulateBindings {
+            history: self.reprojected,
+            samples: self.samples,
+            out: self.history[self.cur],
+            counters: self.counters,
+        };
+        exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
 
         let plane_scale = s.plane_tolerance * self.frame.pixel_angle;
         let var = variance::VarianceParams {
@@ -1115,32 +1068,21 @@ impl Denoiser {
             normal_power: s.normal_power,
             ..Default::default()
         };
-        let buffers = [
-            self.history[self.cur],
-            self.surfaces[self.cur],
-            self.filtered[0],
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &variance::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&var),
-            w,
-            h,
-            planes,
-        ))?;
+        let variance = kernels::VarianceBindings {
+            payload: self.history[self.cur],
+            surfaces: self.surfaces[self.cur],
+            out: self.filtered[0],
+        };
+        exec.dispatch(&variance.over_grid(&var, w, h, planes))?;
 
-        let fill = clear::FillParams {
+        let clear = fill::FillParams {
             len: classify::HISTOGRAM_LEN,
             value: 0,
         };
-        exec.dispatch(&Pass::over_grid(
-            &clear::KERNEL,
-            &[self.tile_histogram],
-            bytemuck::bytes_of(&fill),
-            classify::HISTOGRAM_LEN,
-            1,
-            1,
-        ))?;
+        let histogram = kernels::FillBindings {
+            buf: self.tile_histogram,
+        };
+        exec.dispatch(&histogram.over_grid(&clear, clear.len, 1, 1))?;
         let cls = classify::ClassifyParams {
             width: w,
             height: h,
@@ -1150,20 +1092,13 @@ impl Denoiser {
             ..Default::default()
         };
         let (tw, th) = classify::tile_grid(w, h);
-        let buffers = [
-            self.surfaces[self.cur],
-            self.filtered[0],
-            self.tiles,
-            self.tile_histogram,
-        ];
-        exec.dispatch(&Pass::over_grid(
-            &classify::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&cls),
-            tw,
-            th,
-            1,
-        ))?;
+        let classify = kernels::ClassifyBindings {
+            surfaces: self.surfaces[self.cur],
+            filtered: self.filtered[0],
+            tiles: self.tiles,
+            histogram: self.tile_histogram,
+        };
+        exec.dispatch(&classify.over_grid(&cls, tw, th, 1))?;
 
         self.out = 0;
         for i in 0..s.atrous_iterations {
@@ -1177,20 +1112,13 @@ impl Denoiser {
                 normal_power: s.normal_power,
                 ..Default::default()
             };
-            let buffers = [
-                self.filtered[self.out],
-                self.surfaces[self.cur],
-                self.tiles,
-                self.filtered[1 - self.out],
-            ];
-            exec.dispatch(&Pass::over_grid(
-                &atrous::KERNEL,
-                &buffers,
-                bytemuck::bytes_of(&params),
-                w,
-                h,
-                planes,
-            ))?;
+            let atrous = kernels::AtrousBindings {
+                input: self.filtered[self.out],
+                surfaces: self.surfaces[self.cur],
+                tiles: self.tiles,
+                out: self.filtered[1 - self.out],
+            };
+            exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
             self.out = 1 - self.out;
         }
         Ok(())

@@ -12,6 +12,8 @@
 //!   alignment differs between targets).
 //! - Float functions that differ between targets go through [`math`]; atomics through [`atomic`].
 #![no_std]
+// The kernel table (`kernels::table`) is expanded by one recursive macro, a few steps per binding.
+#![recursion_limit = "512"]
 #![deny(unsafe_op_in_unsafe_fn)]
 // `!(x > 0.0)` is how kernels say "not positive, or NaN" in one comparison; `partial_cmp` would
 // not compile to the same single instruction on every target.
@@ -23,6 +25,7 @@ extern crate std;
 pub mod atomic;
 pub mod blue_noise;
 pub mod camera;
+pub mod declare;
 #[cfg(not(target_arch = "spirv"))]
 pub mod denoiser;
 pub mod gbuffer;

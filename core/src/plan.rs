@@ -154,6 +154,40 @@ impl<'a> Pass<'a> {
         }
         Ok(())
     }
+
+    /// Everything about a pass that can be checked without a device: [`Pass::validate`], then
+    /// the buffers. `buffer_size` returns the size in bytes of a buffer of the executor, `None`
+    /// for an id it does not know.
+    ///
+    /// Buffer checks: every bound buffer exists and none is bound twice; the indirect-count
+    /// buffer exists, holds the three counts at `offset`, and is not bound to a binding whose
+    /// [`Access::writes`]. Backends add only what depends on their device (buffer usages,
+    /// device limits).
+    pub fn check(
+        &self,
+        mut buffer_size: impl FnMut(BufferId) -> Option<u64>,
+    ) -> Result<(), ExecError> {
+        self.validate().map_err(ExecError::Plan)?;
+        for (i, &id) in self.buffers.iter().enumerate() {
+            buffer_size(id).ok_or(ExecError::UnknownBuffer(id))?;
+            if self.buffers[..i].contains(&id) {
+                return Err(ExecError::AliasedBinding(id));
+            }
+        }
+        if let Groups::Indirect { buffer, offset } = self.groups {
+            let size = buffer_size(buffer).ok_or(ExecError::UnknownBuffer(buffer))?;
+            ExecError::check_range(buffer, offset.saturating_add(12), size)?;
+            let written = self
+                .buffers
+                .iter()
+                .zip(self.kernel.bindings)
+                .any(|(&b, binding)| b == buffer && binding.access.writes());
+            if written {
+                return Err(ExecError::IndirectWritten(buffer));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// A pass that does not match its kernel.
@@ -218,6 +252,95 @@ impl fmt::Display for PlanError {
         }
     }
 }
+
+impl core::error::Error for PlanError {}
+
+/// What every executor reports the same way, whatever its backend: a pass that does not match its
+/// kernel, or buffer ids, sizes and ranges that do not fit the executor's buffers.
+///
+/// Backends wrap it in one variant of their own error type (`Exec`), next to the errors only
+/// their device can raise; its messages are theirs unchanged.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ExecError {
+    /// The pass does not match its kernel.
+    Plan(PlanError),
+    /// A buffer id the executor did not create (or already destroyed).
+    UnknownBuffer(BufferId),
+    /// A write, read or indirect-count access beyond the end of a buffer.
+    OutOfRange {
+        /// The buffer.
+        buffer: BufferId,
+        /// Bytes asked for (end of the access).
+        bytes: u64,
+        /// Bytes the buffer has.
+        size: u64,
+    },
+    /// Buffer sizes must be multiples of 4 bytes.
+    UnalignedSize(u64),
+    /// The same buffer bound twice in one pass (the CPU backend hands the bindings to kernels as
+    /// disjoint slices; on GPUs one binding's writes would race the other's accesses).
+    AliasedBinding(BufferId),
+    /// The indirect-count buffer of a pass is also bound to a binding the pass writes (the counts
+    /// would be read while the pass may change them).
+    IndirectWritten(BufferId),
+}
+
+impl ExecError {
+    /// Checks a requested buffer size: a multiple of 4 bytes.
+    pub fn check_size(size_bytes: u64) -> Result<(), ExecError> {
+        if size_bytes.is_multiple_of(4) {
+            Ok(())
+        } else {
+            Err(ExecError::UnalignedSize(size_bytes))
+        }
+    }
+
+    /// Checks that an access ending at byte `end` fits `buffer`, which has `size` bytes.
+    pub fn check_range(buffer: BufferId, end: u64, size: u64) -> Result<(), ExecError> {
+        if end <= size {
+            Ok(())
+        } else {
+            Err(ExecError::OutOfRange {
+                buffer,
+                bytes: end,
+                size,
+            })
+        }
+    }
+}
+
+impl From<PlanError> for ExecError {
+    fn from(e: PlanError) -> Self {
+        ExecError::Plan(e)
+    }
+}
+
+impl fmt::Display for ExecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ExecError::Plan(e) => write!(f, "{e}"),
+            ExecError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
+            ExecError::OutOfRange {
+                buffer,
+                bytes,
+                size,
+            } => {
+                write!(
+                    f,
+                    "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes"
+                )
+            }
+            ExecError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
+            ExecError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
+            ExecError::IndirectWritten(b) => write!(
+                f,
+                "buffer {b:?} holds the pass's indirect counts and is also written by the pass"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ExecError {}
 
 /// GPU (or CPU wall) time of one executed pass.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -332,47 +455,4 @@ impl<'a> CpuBindings<'a> {
     pub fn workgroup_len(&self) -> u32 {
         self.workgroup_size.x * self.workgroup_size.y * self.workgroup_size.z
     }
-}
-
-/// Declares a kernel's [`KernelDesc`] and its native per-workgroup entry: each invocation calls the
-/// kernel function with the bindings cast to the given slice types, like the SPIR-V entry does.
-#[macro_export]
-macro_rules! per_invocation_kernel {
-    (
-        $(#[$doc:meta])*
-        $name:ident = $entry:literal, $kernel:path, threads($x:literal, $y:literal, $z:literal),
-        params: $params:ty, bindings: [$($bind:ident: $access:ident $ty:ty),* $(,)?]
-    ) => {
-        $(#[$doc])*
-        pub static $name: $crate::plan::KernelDesc = $crate::plan::KernelDesc {
-            entry: $entry,
-            workgroup_size: [$x, $y, $z],
-            bindings: &[$($crate::plan::Binding {
-                name: stringify!($bind),
-                ty: stringify!($ty),
-                elem_size: core::mem::size_of::<$ty>() as u32,
-                access: $crate::per_invocation_kernel!(@access $access),
-            }),*],
-            params_size: core::mem::size_of::<$params>() as u32,
-            cpu: {
-                unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
-                    let params: $params = b.params();
-                    let mut _i = 0usize;
-                    $(
-                        // SAFETY: bindings laid out as declared (caller's contract).
-                        let $bind = unsafe { $crate::per_invocation_kernel!(@bind $access b _i $ty) };
-                        _i += 1;
-                    )*
-                    for id in b.invocations(group) {
-                        $kernel(id, &params, $($bind),*);
-                    }
-                }
-                run
-            },
-        };
-    };
-    (@access Read) => { $crate::plan::Access::Read };
-    (@access ReadWrite) => { $crate::plan::Access::Write };
-    (@bind Read $b:ident $i:ident $ty:ty) => { $b.read::<$ty>($i) };
-    (@bind ReadWrite $b:ident $i:ident $ty:ty) => { $b.write::<$ty>($i) };
 }

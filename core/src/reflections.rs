@@ -16,7 +16,8 @@
 use crate::camera::Camera;
 use crate::denoiser::{check, Denoiser, SettingsError};
 use crate::kernels::reflect::{self, RayHit, Shading};
-use crate::plan::{BufferId, Executor, Groups, Pass};
+use crate::kernels;
+use crate::plan::{BufferId, Executor, Groups};
 
 /// Tunables of the reflection passes, with documented defaults and ranges.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -238,20 +239,14 @@ impl Reflections {
             shading: self.shading(scene),
         };
         let (tw, th) = reflect::tile_grid(w, h);
-        exec.dispatch(&Pass::over_grid(
-            &reflect::TILES_KERNEL,
-            &[
-                denoiser.surfaces(),
-                scene.nodes,
-                scene.tris,
-                scene.lights,
-                denoiser.importance(),
-            ],
-            bytemuck::bytes_of(&tiles),
-            tw,
-            th,
-            1,
-        ))?;
+        let pass = kernels::ReflectTilesBindings {
+            surfaces: denoiser.surfaces(),
+            nodes: scene.nodes,
+            tris: scene.tris,
+            lights: scene.lights,
+            importance: denoiser.importance(),
+        };
+        exec.dispatch(&pass.over_grid(&tiles, tw, th, 1))?;
         if !s.parallax {
             return Ok(());
         }
@@ -267,62 +262,44 @@ impl Reflections {
             max_roughness: s.max_roughness,
             prev_camera: scene.prev_camera,
         };
-        exec.dispatch(&Pass::over_grid(
-            &reflect::MOTION_KERNEL,
-            &[denoiser.surfaces(), self.hits, denoiser.parallax()],
-            bytemuck::bytes_of(&motion),
-            w,
-            h,
-            1,
-        ))
+        let pass = kernels::ReflectMotionBindings {
+            surfaces: denoiser.surfaces(),
+            hits: self.hits,
+            motion: denoiser.parallax(),
+        };
+        exec.dispatch(&pass.over_grid(&motion, w, h, 1))
     }
 
-    /// The reflection rays of a work list (`[work, args, rays]`, dispatched indirectly from
-    /// `args`) into plane [`Self::plane`] of `out` (`Sample`s of a `width × height` image) and the
-    /// ray records, stamped with `frame`; rng indices from `history`.
-    #[allow(clippy::too_many_arguments)]
+    /// The reflection rays of `target`'s work list into plane [`Self::plane`] of its samples and
+    /// the ray records.
     pub fn raygen<E: Executor>(
         &self,
         exec: &mut E,
         scene: &ReflectionScene,
-        size: (u32, u32),
-        list: [BufferId; 3],
-        surfaces: BufferId,
-        history: BufferId,
-        out: BufferId,
-        frame: u32,
+        target: &RaygenTarget,
     ) -> Result<(), E::Error> {
         let p = reflect::RaygenParams {
-            width: size.0,
-            height: size.1,
+            width: target.size.0,
+            height: target.size.1,
             plane: self.plane,
             lights: scene.light_count,
-            frame,
+            frame: target.frame,
             _pad: [0; 3],
             shading: self.shading(scene),
         };
-        let [work, args, rays] = list;
-        let buffers = [
-            work,
-            args,
-            rays,
-            surfaces,
-            history,
-            scene.nodes,
-            scene.tris,
-            scene.lights,
-            out,
-            self.hits,
-        ];
-        exec.dispatch(&Pass {
-            kernel: &reflect::RAYGEN_KERNEL,
-            buffers: &buffers,
-            params: bytemuck::bytes_of(&p),
-            groups: Groups::Indirect {
-                buffer: args,
-                offset: 4,
-            },
-        })
+        let pass = kernels::RaygenReflectBindings {
+            work: target.work,
+            args: target.args,
+            rays: target.rays,
+            surfaces: target.surfaces,
+            history: target.history,
+            nodes: scene.nodes,
+            tris: scene.tris,
+            lights: scene.lights,
+            out: target.out,
+            hits: self.hits,
+        };
+        exec.dispatch(&pass.pass(&p, target.groups()))
     }
 
     /// After [`Denoiser::plan_rays`]: the reflection rays over the denoiser's work list into its
@@ -335,16 +312,7 @@ impl Reflections {
     ) -> Result<(), E::Error> {
         let (w, h) = denoiser.size();
         let frame = denoiser.frame().index;
-        self.raygen(
-            exec,
-            scene,
-            (w, h),
-            [denoiser.work(), denoiser.args(), denoiser.rays()],
-            denoiser.surfaces(),
-            denoiser.reprojected(),
-            denoiser.samples(),
-            frame,
-        )?;
+        self.raygen(exec, scene, &RaygenTarget::of(denoiser))?;
         if self.settings.reuse_radius == 0 {
             return Ok(());
         }
@@ -358,14 +326,59 @@ impl Reflections {
             _pad: [0; 2],
             shading: self.shading(scene),
         };
-        exec.dispatch(&Pass::over_grid(
-            &reflect::REUSE_KERNEL,
-            &[denoiser.surfaces(), self.hits, denoiser.samples()],
-            bytemuck::bytes_of(&reuse),
-            w,
-            h,
-            1,
-        ))
+        let pass = kernels::ReflectReuseBindings {
+            surfaces: denoiser.surfaces(),
+            hits: self.hits,
+            samples: denoiser.samples(),
+        };
+        exec.dispatch(&pass.over_grid(&reuse, w, h, 1))
+    }
+}
+
+/// What a raygen pass traces and where it writes, besides the scene: a compacted work list
+/// (dispatched indirectly from `args` at byte offset 4), the surfaces, the history whose rng
+/// indices seed the rays, and the `Sample`s of a `size` image.
+#[derive(Copy, Clone, Debug)]
+pub struct RaygenTarget {
+    /// Image width and height in pixels.
+    pub size: (u32, u32),
+    /// Compacted work list (`apply`).
+    pub work: BufferId,
+    /// Indirect dispatch arguments of the work list.
+    pub args: BufferId,
+    /// Rays per pixel.
+    pub rays: BufferId,
+    /// The G-buffer.
+    pub surfaces: BufferId,
+    /// Payloads whose rng indices seed the rays.
+    pub history: BufferId,
+    /// Samples written.
+    pub out: BufferId,
+    /// Frame stamp of the ray records.
+    pub frame: u32,
+}
+
+impl RaygenTarget {
+    /// The denoiser's own work list, reprojected history and samples this frame.
+    pub fn of(denoiser: &Denoiser) -> Self {
+        RaygenTarget {
+            size: denoiser.size(),
+            work: denoiser.work(),
+            args: denoiser.args(),
+            rays: denoiser.rays(),
+            surfaces: denoiser.surfaces(),
+            history: denoiser.reprojected(),
+            out: denoiser.samples(),
+            frame: denoiser.frame().index,
+        }
+    }
+
+    /// The indirect dispatch of the work list.
+    pub fn groups(&self) -> Groups {
+        Groups::Indirect {
+            buffer: self.args,
+            offset: 4,
+        }
     }
 }
 

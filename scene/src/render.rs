@@ -11,10 +11,10 @@ use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{classify, gbuffer, raygen};
+use vrrt_core::kernels::{self, classify, gbuffer, raygen};
 use vrrt_core::payload::{Payload, Sample};
-use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
-use vrrt_core::reflections::{ReflectionScene, ReflectionSettings, Reflections};
+use vrrt_core::plan::{BufferId, Executor};
+use vrrt_core::reflections::{RaygenTarget, ReflectionScene, ReflectionSettings, Reflections};
 
 /// The ray-traced signal being denoised.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -253,38 +253,37 @@ impl GpuScene {
     ) -> Result<(), E::Error> {
         let [nodes, tris, normals, instances, _] = self.ids();
         let p = f.gbuffer_params(width, height);
-        let buffers = [nodes, tris, normals, instances, surfaces];
-        exec.dispatch(&Pass::over_grid(
-            &gbuffer::KERNEL,
-            &buffers,
-            bytemuck::bytes_of(&p),
-            width,
-            height,
-            1,
-        ))
+        let pass = kernels::GbufferBindings {
+            nodes,
+            tris,
+            normals,
+            instances,
+            out: surfaces,
+        };
+        exec.dispatch(&pass.over_grid(&p, width, height, 1))
     }
 
-    /// Records raygen of the AO and shadow planes of `signal` over a work list (dispatched
-    /// indirectly from `args`); reflections are traced by [`Reflections`].
-    #[allow(clippy::too_many_arguments)]
+    /// Records raygen of the AO and shadow planes of `signal` over `target`'s work list;
+    /// reflections are traced by [`Reflections`].
     pub fn raygen<E: Executor>(
         &self,
         exec: &mut E,
         signal: Signal,
-        size: (u32, u32),
         lights: usize,
-        list: [BufferId; 3],
-        surfaces: BufferId,
-        history: BufferId,
-        out: BufferId,
+        target: &RaygenTarget,
     ) -> Result<(), E::Error> {
         let [nodes, tris, _, _, light_buffer] = self.ids();
-        let (width, height) = size;
+        let (width, height) = target.size;
         let layout = signal.layout(lights);
-        let [work, args, rays] = list;
-        let groups = Groups::Indirect {
-            buffer: args,
-            offset: 4,
+        let ao = kernels::RaygenAoBindings {
+            work: target.work,
+            args: target.args,
+            rays: target.rays,
+            surfaces: target.surfaces,
+            history: target.history,
+            nodes,
+            tris,
+            out: target.out,
         };
         if let Some(max_distance) = signal.ao_distance() {
             let p = raygen::AoParams {
@@ -293,13 +292,7 @@ impl GpuScene {
                 planes: 1,
                 max_distance,
             };
-            let buffers = [work, args, rays, surfaces, history, nodes, tris, out];
-            exec.dispatch(&Pass {
-                kernel: &raygen::AO_KERNEL,
-                buffers: &buffers,
-                params: bytemuck::bytes_of(&p),
-                groups,
-            })?;
+            exec.dispatch(&ao.pass(&p, target.groups()))?;
         }
         if let Some((first_plane, planes)) = layout.shadows {
             let p = raygen::ShadowParams {
@@ -308,23 +301,18 @@ impl GpuScene {
                 planes,
                 first_plane,
             };
-            let buffers = [
-                work,
-                args,
-                rays,
-                surfaces,
-                history,
+            let shadow = kernels::RaygenShadowBindings {
+                work: ao.work,
+                args: ao.args,
+                rays: ao.rays,
+                surfaces: ao.surfaces,
+                history: ao.history,
                 nodes,
                 tris,
-                light_buffer,
-                out,
-            ];
-            exec.dispatch(&Pass {
-                kernel: &raygen::SHADOW_KERNEL,
-                buffers: &buffers,
-                params: bytemuck::bytes_of(&p),
-                groups,
-            })?;
+                lights: light_buffer,
+                out: ao.out,
+            };
+            exec.dispatch(&shadow.pass(&p, target.groups()))?;
         }
         Ok(())
     }
@@ -532,16 +520,8 @@ impl Renderer {
             }
         }
         d.plan_rays(exec)?;
-        self.gpu.raygen(
-            exec,
-            self.signal,
-            (w, h),
-            self.lights,
-            [d.work(), d.args(), d.rays()],
-            d.surfaces(),
-            d.reprojected(),
-            d.samples(),
-        )?;
+        self.gpu
+            .raygen(exec, self.signal, self.lights, &RaygenTarget::of(d))?;
         if let Some(r) = &self.reflections {
             r.trace(exec, d, &reflection_scene)?;
         }
@@ -652,27 +632,19 @@ pub fn reference<E: Executor>(
             n
         ];
         exec.write_buffer(history, bytes(&hist))?;
-        gpu.raygen(
-            exec,
-            signal,
-            (width, height),
-            f.lights.len(),
-            [work, args, rays],
+        let target = RaygenTarget {
+            size: (width, height),
+            work,
+            args,
+            rays,
             surfaces,
             history,
             out,
-        )?;
+            frame: 0,
+        };
+        gpu.raygen(exec, signal, f.lights.len(), &target)?;
         if let Some(r) = &reflections {
-            r.raygen(
-                exec,
-                &gpu.reflection_scene(f),
-                (width, height),
-                [work, args, rays],
-                surfaces,
-                history,
-                out,
-                0,
-            )?;
+            r.raygen(exec, &gpu.reflection_scene(f), &target)?;
         }
         let samples: Vec<Sample> = read(exec, out, n)?;
         for (i, s) in samples.iter().enumerate() {

@@ -9,7 +9,7 @@ use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
-    accumulate, apply, atrous, balance, buckets, classify, clear, reproject, variance,
+    accumulate, apply, atrous, balance, buckets, classify, fill, reproject, variance,
 };
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
@@ -182,7 +182,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "accumulate {w}x{h}x{PLANES} clamp {} storage {storage}",
             params.clamp_radius
         ),
-        kernel: &accumulate::KERNEL,
+        kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
             BufferSpec::from_pod(&samples, SAMPLE),
@@ -190,7 +190,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&accumulate::KERNEL, w, h, PLANES),
+        groups: groups(&vrrt_core::kernels::ACCUMULATE, w, h, PLANES),
     }
 }
 
@@ -219,7 +219,7 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!("atrous {w}x{h}x{PLANES} step {}", params.step),
-        kernel: &atrous::KERNEL,
+        kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
             BufferSpec::from_pod(&input, FLOATS),
             BufferSpec::from_pod(&surfaces, SURFACE),
@@ -227,7 +227,7 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&atrous::KERNEL, w, h, PLANES),
+        groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
     }
 }
 
@@ -261,7 +261,7 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "classify {w}x{h}x{PLANES} sigma {} cap {}",
             params.skip_sigma, params.iterations
         ),
-        kernel: &classify::KERNEL,
+        kernel: &vrrt_core::kernels::CLASSIFY,
         buffers: vec![
             BufferSpec::from_pod(&surfaces, SURFACE),
             BufferSpec::from_pod(&filtered, FLOATS),
@@ -269,7 +269,7 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&classify::KERNEL, tw, th, 1),
+        groups: groups(&vrrt_core::kernels::CLASSIFY, tw, th, 1),
     }
 }
 
@@ -291,13 +291,13 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     Case {
         name: format!("count_buckets {w}x{h}"),
-        kernel: &buckets::KERNEL,
+        kernel: &vrrt_core::kernels::COUNT_BUCKETS,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&counts, INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&buckets::KERNEL, w, h, 1),
+        groups: groups(&vrrt_core::kernels::COUNT_BUCKETS, w, h, 1),
     }
 }
 
@@ -384,7 +384,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         .collect();
     Case {
         name: format!("reproject {w}x{h}x{PLANES} reset {}", params.reset),
-        kernel: &reproject::KERNEL,
+        kernel: &vrrt_core::kernels::REPROJECT,
         buffers: vec![
             BufferSpec::from_pod(&current, SURFACE),
             BufferSpec::from_pod(&previous, SURFACE),
@@ -398,7 +398,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&reproject::KERNEL, w, h, 1),
+        groups: groups(&vrrt_core::kernels::REPROJECT, w, h, 1),
     }
 }
 
@@ -411,14 +411,14 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     Case {
         name: format!("variance {w}x{h}x{PLANES}"),
-        kernel: &variance::KERNEL,
+        kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
             BufferSpec::from_pod(&surfaces(rng, w, h), SURFACE),
             BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&variance::KERNEL, w, h, PLANES),
+        groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
     }
 }
 
@@ -473,7 +473,7 @@ fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let params = balance_params(rng, w, h);
     Case {
         name: format!("balance {w}x{h} rpp {}", params.rays_per_pixel),
-        kernel: &balance::KERNEL,
+        kernel: &vrrt_core::kernels::BALANCE,
         buffers: vec![
             BufferSpec::from_pod(&counts, INTS),
             BufferSpec::from_pod(&[balance::Balance::default()], BALANCE),
@@ -504,7 +504,7 @@ fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     Case {
         name: format!("apply {w}x{h}x{PLANES} mode {}", decision.mode),
-        kernel: &apply::KERNEL,
+        kernel: &vrrt_core::kernels::APPLY,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&[decision], BALANCE),
@@ -515,23 +515,23 @@ fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&samples, SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&apply::KERNEL, w, h, 1),
+        groups: groups(&vrrt_core::kernels::APPLY, w, h, 1),
     }
 }
 
 fn fill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let len = w * h + 5;
     let data: Vec<u32> = (0..len + 7).map(|_| rng.random()).collect();
-    let params = clear::FillParams {
+    let params = fill::FillParams {
         len,
         value: rng.random(),
     };
     Case {
         name: format!("fill {len}"),
-        kernel: &clear::KERNEL,
+        kernel: &vrrt_core::kernels::FILL,
         buffers: vec![BufferSpec::from_pod(&data, INTS)],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: [len.div_ceil(clear::GROUP), 1, 1],
+        groups: [len.div_ceil(fill::GROUP), 1, 1],
     }
 }
 

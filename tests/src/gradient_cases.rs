@@ -75,7 +75,7 @@ pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "gradient_project {w}x{h} S{} frame {}",
             p.stratum, p.cur.index
         ),
-        kernel: &gradient::PROJECT_KERNEL,
+        kernel: &vrrt_core::kernels::GRADIENT_PROJECT,
         buffers: vec![
             BufferSpec::from_pod(&surfaces(&p.prev, w, h), SURFACE),
             BufferSpec::from_pod(&surfaces(&p.cur, w, h), SURFACE),
@@ -85,8 +85,8 @@ pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: [
-            gw.div_ceil(gradient::PROJECT_KERNEL.workgroup_size[0]),
-            gh.div_ceil(gradient::PROJECT_KERNEL.workgroup_size[1]),
+            gw.div_ceil(vrrt_core::kernels::GRADIENT_PROJECT.workgroup_size[0]),
+            gh.div_ceil(vrrt_core::kernels::GRADIENT_PROJECT.workgroup_size[1]),
             1,
         ],
     }
@@ -164,7 +164,7 @@ pub fn ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "gradient_ao {w}x{h}x{PLANES} S{} frame {}",
             p.stratum, p.cur.index
         ),
-        kernel: &gradient::AO_KERNEL,
+        kernel: &vrrt_core::kernels::GRADIENT_AO,
         buffers,
         params: bytemuck::bytes_of(&params).to_vec(),
         groups,
@@ -194,7 +194,7 @@ pub fn shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "gradient_shadow {w}x{h}x{PLANES} S{} frame {}",
             p.stratum, p.cur.index
         ),
-        kernel: &gradient::SHADOW_KERNEL,
+        kernel: &vrrt_core::kernels::GRADIENT_SHADOW,
         buffers,
         params: bytemuck::bytes_of(&params).to_vec(),
         groups,
@@ -210,7 +210,7 @@ pub fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             luminance: value(rng).abs(),
         })
         .collect();
-    let params = gradient::AtrousParams {
+    let params = gradient::GradientAtrousParams {
         grid_width: w,
         grid_height: h,
         step: [1, 2, 4, 8][rng.random_range(0..4)],
@@ -218,7 +218,7 @@ pub fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     Case {
         name: format!("gradient_atrous {w}x{h}x{PLANES} step {}", params.step),
-        kernel: &gradient::ATROUS_KERNEL,
+        kernel: &vrrt_core::kernels::GRADIENT_ATROUS,
         buffers: vec![
             BufferSpec::from_pod(&input, FLOATS),
             BufferSpec::from_pod(&vec![GradientSample::default(); n], FLOATS),

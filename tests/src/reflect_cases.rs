@@ -105,7 +105,7 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "raygen_reflect {w}x{h} plane {} frame {} list {}",
             params.plane, frame.index, list.args[0]
         ),
-        kernel: &reflect::RAYGEN_KERNEL,
+        kernel: &vrrt_core::kernels::RAYGEN_REFLECT,
         buffers: vec![
             work,
             args,
@@ -143,7 +143,7 @@ pub fn tiles_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (tw, th) = reflect::tile_grid(w, h);
     Case {
         name: format!("reflect_tiles {w}x{h} frame {}", frame.index),
-        kernel: &reflect::TILES_KERNEL,
+        kernel: &vrrt_core::kernels::REFLECT_TILES,
         buffers: vec![
             BufferSpec::from_pod(&glossy_surfaces(rng, &frame, w, h), SURFACE),
             nodes,
@@ -152,7 +152,7 @@ pub fn tiles_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&vec![0.0f32; (tw * th) as usize], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: crate::trace_cases::groups(&reflect::TILES_KERNEL, tw, th, 1),
+        groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_TILES, tw, th, 1),
     }
 }
 
@@ -175,14 +175,14 @@ pub fn motion_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     Case {
         name: format!("reflect_motion {w}x{h} frame {}", frame.index),
-        kernel: &reflect::MOTION_KERNEL,
+        kernel: &vrrt_core::kernels::REFLECT_MOTION,
         buffers: vec![
             BufferSpec::from_pod(&surfaces, SURFACE),
             BufferSpec::from_pod(&hits(rng, &surfaces, stamp), HIT),
             BufferSpec::from_pod(&vec![[0.0f32; 2]; (w * h) as usize], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: crate::trace_cases::groups(&reflect::MOTION_KERNEL, w, h, 1),
+        groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_MOTION, w, h, 1),
     }
 }
 
@@ -218,13 +218,13 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "reflect_reuse {w}x{h} plane {} radius {}",
             params.plane, params.radius
         ),
-        kernel: &reflect::REUSE_KERNEL,
+        kernel: &vrrt_core::kernels::REFLECT_REUSE,
         buffers: vec![
             BufferSpec::from_pod(&surfaces, SURFACE),
             BufferSpec::from_pod(&hits(rng, &surfaces, stamp), HIT),
             BufferSpec::from_pod(&samples, SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: crate::trace_cases::groups(&reflect::REUSE_KERNEL, w, h, 1),
+        groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_REUSE, w, h, 1),
     }
 }

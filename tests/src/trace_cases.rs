@@ -7,7 +7,7 @@ use rand::Rng;
 use rand_pcg::Pcg32;
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::glam::Vec3;
-use vrrt_core::kernels::gbuffer::{self, surface_at};
+use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_scene::FrameGeometry;
@@ -77,7 +77,7 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let [nodes, tris] = geometry_buffers(&frame);
     Case {
         name: format!("gbuffer {w}x{h} frame {}", frame.index),
-        kernel: &gbuffer::KERNEL,
+        kernel: &vrrt_core::kernels::GBUFFER,
         buffers: vec![
             nodes,
             tris,
@@ -86,7 +86,7 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&vec![Surface::default(); (w * h) as usize], SURFACE),
         ],
         params: bytemuck::bytes_of(&frame.gbuffer_params(w, h)).to_vec(),
-        groups: groups(&gbuffer::KERNEL, w, h, 1),
+        groups: groups(&vrrt_core::kernels::GBUFFER, w, h, 1),
     }
 }
 
@@ -124,7 +124,7 @@ impl WorkList {
             .collect();
         // One group more than the list needs: invocations past the count must do nothing.
         let groups = [
-            count.div_ceil(raygen::AO_KERNEL.workgroup_size[0]) + 1,
+            count.div_ceil(vrrt_core::kernels::RAYGEN_AO.workgroup_size[0]) + 1,
             1,
             1,
         ];
@@ -167,7 +167,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "raygen_ao {w}x{h}x{planes} frame {} list {}",
             frame.index, list.args[0]
         ),
-        kernel: &raygen::AO_KERNEL,
+        kernel: &vrrt_core::kernels::RAYGEN_AO,
         buffers: vec![
             work,
             args,
@@ -212,7 +212,7 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             "raygen_shadow {w}x{h}x{planes} frame {} list {}",
             frame.index, list.args[0]
         ),
-        kernel: &raygen::SHADOW_KERNEL,
+        kernel: &vrrt_core::kernels::RAYGEN_SHADOW,
         buffers: vec![
             work,
             args,

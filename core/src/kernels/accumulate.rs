@@ -111,11 +111,3 @@ pub fn accumulate(
     out[i] = payload::store(prev, curr, merged, p.storage);
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`accumulate`]: bindings `history`, `samples`, `out`, `counters`
-    /// (`payload::COUNTERS_LEN` words, incremented atomically).
-    KERNEL = "accumulate", accumulate, threads(8, 8, 1),
-    params: AccumulateParams,
-    bindings: [history: Read Payload, samples: Read Sample, out: ReadWrite Payload, counters: ReadWrite u32]
-);

@@ -90,19 +90,3 @@ pub fn apply(
     }
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`apply`]: bindings `requests`, `decision`, `noise`, `rays`,
-    /// `work`, `args`, `samples`.
-    KERNEL = "apply", apply, threads(8, 8, 1),
-    params: ApplyParams,
-    bindings: [
-        requests: Read u32,
-        decision: Read Balance,
-        noise: Read f32,
-        rays: ReadWrite u32,
-        work: ReadWrite u32,
-        args: ReadWrite u32,
-        samples: ReadWrite Sample,
-    ]
-);

@@ -164,16 +164,3 @@ pub fn atrous(
     };
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`atrous`]: bindings `input`, `surfaces`, `tiles` (iterations each
-    /// tile needs, `classify`), `out`.
-    KERNEL = "atrous", atrous, threads(8, 8, 1),
-    params: AtrousParams,
-    bindings: [
-        input: Read Filtered,
-        surfaces: Read Surface,
-        tiles: Read u32,
-        out: ReadWrite Filtered,
-    ]
-);

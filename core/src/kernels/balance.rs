@@ -244,14 +244,6 @@ pub fn balance(
     }
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`balance`]: bindings `counts` (`buckets::COUNTS_LEN` u32), `out`
-    /// (one [`Balance`]), `args` (`apply::ARGS_LEN` u32); dispatch one workgroup.
-    KERNEL = "balance", balance, threads(1, 1, 1),
-    params: BalanceParams,
-    bindings: [counts: Read u32, out: ReadWrite Balance, args: ReadWrite u32]
-);
 
 #[cfg(test)]
 mod tests {

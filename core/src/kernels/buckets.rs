@@ -5,10 +5,9 @@
 //! Workgroups are 16×16 and ring tiles 32×16, so every pixel of a workgroup is in the same ring:
 //! the per-ring histogram costs nothing beyond the per-bucket one.
 
-use super::pixel_index;
+use super::{pixel_index, WorkgroupIds};
 use crate::atomic;
 use bytemuck::{Pod, Zeroable};
-use glam::UVec3;
 
 /// `1 / MIN_RATE_DIVISOR` is the lowest fractional ray rate (1/64).
 pub const MIN_RATE_DIVISOR: u32 = 64;
@@ -102,20 +101,28 @@ pub struct BucketParams {
 
 /// Phase 1: invocations `0..BUCKET_COUNT` zero the workgroup histogram.
 #[inline]
-pub fn clear(local_index: u32, local: &mut [u32; BUCKET_COUNT as usize]) {
-    if local_index < BUCKET_COUNT {
-        local[local_index as usize] = 0;
+pub fn clear(
+    ids: WorkgroupIds,
+    _p: &BucketParams,
+    _requests: &[u32],
+    _counts: &mut [u32],
+    local: &mut [u32; BUCKET_COUNT as usize],
+) {
+    if ids.local_index < BUCKET_COUNT {
+        local[ids.local_index as usize] = 0;
     }
 }
 
 /// Phase 2: each pixel adds itself to its bucket in workgroup memory.
 #[inline]
 pub fn count(
-    id: UVec3,
+    ids: WorkgroupIds,
     p: &BucketParams,
     requests: &[u32],
+    _counts: &mut [u32],
     local: &mut [u32; BUCKET_COUNT as usize],
 ) {
+    let id = ids.global;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -129,12 +136,13 @@ pub fn count(
 /// its ring's row: one global atomic per bucket per workgroup, not one per pixel.
 #[inline]
 pub fn flush(
-    local_index: u32,
-    group: UVec3,
+    ids: WorkgroupIds,
     p: &BucketParams,
-    local: &[u32; BUCKET_COUNT as usize],
+    _requests: &[u32],
     counts: &mut [u32],
+    local: &mut [u32; BUCKET_COUNT as usize],
 ) {
+    let (local_index, group) = (ids.local_index, ids.group);
     if local_index >= BUCKET_COUNT {
         return;
     }
@@ -149,45 +157,6 @@ pub fn flush(
         n,
     );
 }
-
-#[cfg(not(target_arch = "spirv"))]
-/// Native entry: the three phases one after another over the workgroup (the barriers of the
-/// SPIR-V entry separate the same phases).
-unsafe fn count_cpu(group: UVec3, b: &crate::plan::CpuBindings<'_>) {
-    let p: BucketParams = b.params();
-    // SAFETY: bindings are (requests: [u32], counts: [u32]) per `KERNEL`.
-    let (requests, counts) = unsafe { (b.read::<u32>(0), b.write::<u32>(1)) };
-    let mut local = [0u32; BUCKET_COUNT as usize];
-    let n = b.workgroup_len();
-    (0..n).for_each(|lid| clear(lid, &mut local));
-    b.invocations(group)
-        .for_each(|id| count(id, &p, requests, &mut local));
-    (0..n).for_each(|lid| flush(lid, group, &p, &local, counts));
-}
-
-/// Kernel description of the bucket counter: bindings `requests` (bucket per pixel, or
-/// [`NO_RAYS`]) and `counts` (`COUNTS_LEN` u32, accumulated into: clear it first).
-#[cfg(not(target_arch = "spirv"))]
-pub static KERNEL: crate::plan::KernelDesc = crate::plan::KernelDesc {
-    entry: "count_buckets",
-    workgroup_size: [GROUP, GROUP, 1],
-    bindings: &[
-        crate::plan::Binding {
-            name: "requests",
-            ty: "u32",
-            elem_size: 4,
-            access: crate::plan::Access::Read,
-        },
-        crate::plan::Binding {
-            name: "counts",
-            ty: "u32",
-            elem_size: 4,
-            access: crate::plan::Access::Atomic,
-        },
-    ],
-    params_size: core::mem::size_of::<BucketParams>() as u32,
-    cpu: count_cpu,
-};
 
 #[cfg(test)]
 mod tests {

@@ -129,20 +129,6 @@ pub fn classify(
     atomic::add(&mut histogram[slot as usize], 1);
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`classify`]: bindings `surfaces`, `filtered` (the variance pass's
-    /// output), `tiles` (one u32 per tile), `histogram` ([`HISTOGRAM_LEN`] u32); dispatch one
-    /// invocation per tile.
-    KERNEL = "classify", classify, threads(8, 8, 1),
-    params: ClassifyParams,
-    bindings: [
-        surfaces: Read Surface,
-        filtered: Read Filtered,
-        tiles: ReadWrite u32,
-        histogram: ReadWrite u32,
-    ]
-);
 
 #[cfg(test)]
 mod tests {

@@ -239,17 +239,3 @@ pub fn gbuffer(
         surface_at(id.x, id.y, p, nodes, tris, normals, instances);
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`gbuffer`]: bindings `nodes`, `triangles`, `normals`, `instances`,
-    /// `out` (one [`Surface`] per pixel).
-    KERNEL = "gbuffer", gbuffer, threads(8, 8, 1),
-    params: GbufferParams,
-    bindings: [
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        normals: Read TriangleNormals,
-        instances: Read InstanceData,
-        out: ReadWrite Surface,
-    ]
-);

@@ -119,7 +119,7 @@ pub struct RetraceParams {
 /// Push constants of [`atrous`].
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct AtrousParams {
+pub struct GradientAtrousParams {
     /// Gradient cells per row.
     pub grid_width: u32,
     /// Gradient cell rows.
@@ -386,7 +386,7 @@ const TAPS: [f32; 5] = [1.0 / 16.0, 0.25, 0.375, 0.25, 1.0 / 16.0];
 
 /// One invocation per cell and plane (`id.z`): one à-trous iteration over both channels with no
 /// edge-stopping weights, normalized by the weights of the taps inside the grid.
-pub fn atrous(id: UVec3, p: &AtrousParams, input: &[GradientSample], out: &mut [GradientSample]) {
+pub fn atrous(id: UVec3, p: &GradientAtrousParams, input: &[GradientSample], out: &mut [GradientSample]) {
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
     }
@@ -414,68 +414,9 @@ pub fn atrous(id: UVec3, p: &AtrousParams, input: &[GradientSample], out: &mut [
     };
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`project`]: bindings `prev_surfaces`, `surfaces`, `rays` (last
-    /// frame's), `next` (previous→current instance maps), `keys`; dispatch over the strata.
-    PROJECT_KERNEL = "gradient_project", project, threads(8, 8, 1),
-    params: ProjectParams,
-    bindings: [
-        prev_surfaces: Read Surface,
-        surfaces: Read Surface,
-        rays: Read u32,
-        next: Read InstanceData,
-        keys: ReadWrite u32,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`retrace_ao`]: bindings `keys`, `prev_surfaces`, `next`,
-    /// `prev_payload`, `prev_samples`, `nodes`, `triangles`, `out`; dispatch over the cells.
-    AO_KERNEL = "gradient_ao", retrace_ao, threads(8, 8, 1),
-    params: RetraceParams,
-    bindings: [
-        keys: Read u32,
-        prev_surfaces: Read Surface,
-        next: Read InstanceData,
-        prev_payload: Read Payload,
-        prev_samples: Read Sample,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        out: ReadWrite GradientSample,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`retrace_shadow`]: bindings as [`AO_KERNEL`] plus `lights` before
-    /// `out`.
-    SHADOW_KERNEL = "gradient_shadow", retrace_shadow, threads(8, 8, 1),
-    params: RetraceParams,
-    bindings: [
-        keys: Read u32,
-        prev_surfaces: Read Surface,
-        next: Read InstanceData,
-        prev_payload: Read Payload,
-        prev_samples: Read Sample,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        lights: Read AreaLight,
-        out: ReadWrite GradientSample,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`atrous`]: bindings `input`, `out`; dispatch over cells × planes.
-    ATROUS_KERNEL = "gradient_atrous", atrous, threads(8, 8, 1),
-    params: AtrousParams,
-    bindings: [
-        input: Read GradientSample,
-        out: ReadWrite GradientSample,
-    ]
-);
 
 #[cfg(test)]
 mod tests {

@@ -1,5 +1,7 @@
-//! One module per pass. Each exposes plain functions over one invocation id plus its bindings, the
-//! push-constant struct, and (on the host) its [`KernelDesc`](crate::plan::KernelDesc).
+//! One module per pass. Each exposes plain functions over one invocation id plus its bindings and
+//! the push-constant struct; [`table`] declares every kernel once, and from it come the
+//! [`KernelDesc`](crate::plan::KernelDesc)s (`ATROUS`, `REPROJECT`, …), the named bindings structs
+//! (`AtrousBindings`, …), [`ALL`] and the SPIR-V entry points.
 
 pub mod accumulate;
 pub mod apply;
@@ -7,13 +9,16 @@ pub mod atrous;
 pub mod balance;
 pub mod buckets;
 pub mod classify;
-pub mod clear;
+pub mod fill;
 pub mod gbuffer;
 pub mod gradient;
 pub mod raygen;
 pub mod reflect;
 pub mod reproject;
+mod table;
 pub mod variance;
+
+pub use table::*;
 
 use glam::UVec3;
 
@@ -29,27 +34,32 @@ pub fn pixel_index(x: u32, y: u32, width: u32) -> usize {
     (y * width + x) as usize
 }
 
-/// Every kernel, for backends that build all pipelines up front and for the equivalence tests.
-#[cfg(not(target_arch = "spirv"))]
-pub static ALL: &[&crate::plan::KernelDesc] = &[
-    &accumulate::KERNEL,
-    &atrous::KERNEL,
-    &buckets::KERNEL,
-    &gbuffer::KERNEL,
-    &raygen::AO_KERNEL,
-    &raygen::SHADOW_KERNEL,
-    &reproject::KERNEL,
-    &variance::KERNEL,
-    &balance::KERNEL,
-    &apply::KERNEL,
-    &clear::KERNEL,
-    &classify::KERNEL,
-    &gradient::PROJECT_KERNEL,
-    &gradient::AO_KERNEL,
-    &gradient::SHADOW_KERNEL,
-    &gradient::ATROUS_KERNEL,
-    &reflect::RAYGEN_KERNEL,
-    &reflect::TILES_KERNEL,
-    &reflect::MOTION_KERNEL,
-    &reflect::REUSE_KERNEL,
-];
+/// The ids a workgroup kernel's phase gets (see [`crate::declare`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct WorkgroupIds {
+    /// Global invocation id.
+    pub global: UVec3,
+    /// Workgroup id.
+    pub group: UVec3,
+    /// Index of the invocation within its workgroup, x fastest.
+    pub local_index: u32,
+}
+
+/// Every name the kernel table uses, so that the generated SPIR-V entry points resolve them at
+/// the shader crate's root.
+#[doc(hidden)]
+pub mod names {
+    pub use super::atrous::Filtered;
+    pub use super::balance::Balance;
+    pub use super::gbuffer::InstanceData;
+    pub use super::gradient::GradientSample;
+    pub use super::raygen::AreaLight;
+    pub use super::reflect::RayHit;
+    pub use super::{
+        accumulate, apply, atrous, balance, buckets, classify, fill, gbuffer, gradient, raygen,
+        reflect, reproject, variance,
+    };
+    pub use crate::gbuffer::Surface;
+    pub use crate::payload::{Payload, Sample};
+    pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
+}

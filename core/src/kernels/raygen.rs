@@ -386,40 +386,4 @@ pub fn raygen_shadow(
     }
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`raygen_ao`]: bindings `work`, `args`, `rays`, `surfaces`,
-    /// `history` (reprojected), `nodes`, `triangles`, `out`; dispatch indirectly from `args` at
-    /// byte offset 4.
-    AO_KERNEL = "raygen_ao", raygen_ao, threads(64, 1, 1),
-    params: AoParams,
-    bindings: [
-        work: Read u32,
-        args: Read u32,
-        rays: Read u32,
-        surfaces: Read Surface,
-        history: Read Payload,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        out: ReadWrite Sample,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`raygen_shadow`]: bindings as [`AO_KERNEL`] plus `lights` before
-    /// `out`.
-    SHADOW_KERNEL = "raygen_shadow", raygen_shadow, threads(64, 1, 1),
-    params: ShadowParams,
-    bindings: [
-        work: Read u32,
-        args: Read u32,
-        rays: Read u32,
-        surfaces: Read Surface,
-        history: Read Payload,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        lights: Read AreaLight,
-        out: ReadWrite Sample,
-    ]
-);

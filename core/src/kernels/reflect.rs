@@ -680,67 +680,9 @@ pub fn reflect_reuse(
     }
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`raygen_reflect`]: bindings `work`, `args`, `rays`, `surfaces`,
-    /// `history` (reprojected), `nodes`, `triangles`, `lights`, `out`, `hits`; dispatch indirectly
-    /// from `args` at byte offset 4.
-    RAYGEN_KERNEL = "raygen_reflect", raygen_reflect, threads(64, 1, 1),
-    params: RaygenParams,
-    bindings: [
-        work: Read u32,
-        args: Read u32,
-        rays: Read u32,
-        surfaces: Read Surface,
-        history: Read Payload,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        lights: Read AreaLight,
-        out: ReadWrite Sample,
-        hits: ReadWrite RayHit,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`reflect_tiles`]: bindings `surfaces`, `nodes`, `triangles`,
-    /// `lights`, `importance`; one invocation per tile of [`tile_grid`].
-    TILES_KERNEL = "reflect_tiles", reflect_tiles, threads(8, 8, 1),
-    params: TileParams,
-    bindings: [
-        surfaces: Read Surface,
-        nodes: Read BvhNode,
-        tris: Read Triangle,
-        lights: Read AreaLight,
-        importance: ReadWrite f32,
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`reflect_motion`]: bindings `surfaces`, `hits` (last frame's),
-    /// `motion`; one invocation per pixel.
-    MOTION_KERNEL = "reflect_motion", reflect_motion, threads(8, 8, 1),
-    params: MotionParams,
-    bindings: [
-        surfaces: Read Surface,
-        hits: Read RayHit,
-        motion: ReadWrite [f32; 2],
-    ]
-);
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`reflect_reuse`]: bindings `surfaces`, `hits` (this frame's),
-    /// `samples` (rewritten in place, plane `plane` only); one invocation per pixel.
-    REUSE_KERNEL = "reflect_reuse", reflect_reuse, threads(8, 8, 1),
-    params: ReuseParams,
-    bindings: [
-        surfaces: Read Surface,
-        hits: Read RayHit,
-        samples: ReadWrite Sample,
-    ]
-);
 
 #[cfg(all(test, feature = "std"))]
 mod tests {

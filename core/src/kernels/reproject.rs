@@ -346,23 +346,3 @@ pub fn reproject(
     };
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`reproject`]: bindings `surfaces`, `prev_surfaces`, `history`,
-    /// `mask`, `gradient` (reconstructed, cell resolution), `out`, `flags`, `requests`; dispatch
-    /// over `width × height` (planes are looped inside).
-    KERNEL = "reproject", reproject, threads(8, 8, 1),
-    params: ReprojectParams,
-    bindings: [
-        surfaces: Read Surface,
-        prev_surfaces: Read Surface,
-        history: Read Payload,
-        mask: Read u32,
-        gradient: Read GradientSample,
-        importance: Read f32,
-        parallax: Read [f32; 2],
-        out: ReadWrite Payload,
-        flags: ReadWrite u32,
-        requests: ReadWrite u32,
-    ]
-);

@@ -123,10 +123,3 @@ pub fn variance(
     };
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`variance`]: bindings `payload`, `surfaces`, `out`.
-    KERNEL = "variance", variance, threads(8, 8, 1),
-    params: VarianceParams,
-    bindings: [payload: Read Payload, surfaces: Read Surface, out: ReadWrite Filtered]
-);

@@ -24,10 +24,3 @@ pub fn fill(id: UVec3, p: &FillParams, buf: &mut [u32]) {
     }
 }
 
-#[cfg(not(target_arch = "spirv"))]
-crate::per_invocation_kernel!(
-    /// Kernel description of [`fill`]: binding `buf`; dispatch `len.div_ceil(GROUP)` groups.
-    KERNEL = "fill", fill, threads(64, 1, 1),
-    params: FillParams,
-    bindings: [buf: ReadWrite u32]
-);

@@ -1,0 +1,250 @@
+//! The one declaration per kernel, and everything derived from it.
+//!
+//! [`kernel_table!`](crate::kernel_table) is invoked once, in `kernels::table`, with one entry per
+//! kernel: its SPIR-V entry name, the function in core, workgroup size, push-constant type and
+//! its bindings (name, access, element type). From each entry come
+//! - the [`KernelDesc`](crate::plan::KernelDesc) static the backends read (bindings with names,
+//!   element types and sizes, access),
+//! - the CPU runner inside it (the native counterpart of the SPIR-V entry),
+//! - a named bindings struct the plan code fills (`AtrousBindings { input, surfaces, .. }`) and
+//!   turns into a [`Pass`](crate::plan::Pass),
+//! - the `#[spirv(compute)]` entry point, emitted by the exported `spirv_entries!()` macro that
+//!   `vrrt-shaders` expands once at its crate root,
+//! - `kernels::ALL`, the list of every kernel.
+//!
+//! Two kinds of kernel are declared:
+//! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
+//! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
+//!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
+//!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
+
+/// Declares every kernel once; see the [module docs](crate::declare). Invoked only by
+/// `kernels::table`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! kernel_table {
+    // ---- one entry at a time: normalise, then number the bindings ----
+    (@kernels [$($done:tt)*]) => { $crate::kernel_table!(@emit $($done)*); };
+    (@kernels [$($done:tt)*]
+        $(#[$doc:meta])*
+        $entry:ident => $desc:ident, $binds:ident: fn $($kfn:ident)::+,
+        threads($x:tt, $y:tt, $z:tt), params $params:ty
+        { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
+        $($rest:tt)*
+    ) => {
+        $crate::kernel_table!(@bind [$($done)*]
+            [[$(#[$doc])*] $entry $desc $binds [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
+            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+    };
+    (@kernels [$($done:tt)*]
+        $(#[$doc:meta])*
+        $entry:ident => $desc:ident, $binds:ident: workgroup $wg:ty,
+        phases [$($($phase:ident)::+),+], threads($x:tt, $y:tt, $z:tt), params $params:ty
+        { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
+        $($rest:tt)*
+    ) => {
+        $crate::kernel_table!(@bind [$($done)*]
+            [[$(#[$doc])*] $entry $desc $binds [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
+                [$params]]
+            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+    };
+    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: read $bt:ty, $($more:tt)*]
+        $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Read read [&] $bt)] [$($ns)*]
+            [$($more)*] $($rest)*);
+    };
+    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: write $bt:ty, $($more:tt)*]
+        $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [&mut] $bt)]
+            [$($ns)*] [$($more)*] $($rest)*);
+    };
+    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: atomic $bt:ty, $($more:tt)*]
+        $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [&mut] $bt)]
+            [$($ns)*] [$($more)*] $($rest)*);
+    };
+    (@bind [$($done:tt)*] [$($head:tt)*] [$($z:tt)*] $ns:tt [] $($rest:tt)*) => {
+        $crate::kernel_table!(@kernels [$($done)* {$($head)* [$($z)*]}] $($rest)*);
+    };
+
+    // ---- everything derived from the normalised entries ----
+    (@emit $({
+        [$($doc:tt)*] $entry:ident $desc:ident $binds:ident [$($kind:tt)*] ($x:tt, $y:tt, $z:tt)
+        [$params:ty] [$(($n:tt $bn:ident $acc:ident $method:ident [$($ref:tt)*] $bt:ty))*]
+    })*) => {
+        $(
+            $($doc)*
+            #[cfg(not(target_arch = "spirv"))]
+            pub static $desc: $crate::plan::KernelDesc = $crate::plan::KernelDesc {
+                entry: stringify!($entry),
+                workgroup_size: [$x, $y, $z],
+                bindings: &[$($crate::plan::Binding {
+                    name: stringify!($bn),
+                    ty: stringify!($bt),
+                    elem_size: core::mem::size_of::<$bt>() as u32,
+                    access: $crate::plan::Access::$acc,
+                }),*],
+                params_size: core::mem::size_of::<$params>() as u32,
+                cpu: $crate::kernel_table!(@cpu [$($kind)*] [$params]
+                    [$(($n $bn $method $bt))*]),
+            };
+
+            #[doc = concat!("The buffers of one `", stringify!($entry), "` pass, by binding name.")]
+            #[cfg(not(target_arch = "spirv"))]
+            #[repr(C)]
+            #[derive(Copy, Clone, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+            pub struct $binds {
+                $(
+                    #[doc = concat!("Binding ", stringify!($n), ": `", stringify!($bt), "` elements, ",
+                        stringify!($acc), ".")]
+                    pub $bn: $crate::plan::BufferId,
+                )*
+            }
+
+            #[cfg(not(target_arch = "spirv"))]
+            impl $binds {
+                /// The kernel these bindings are for.
+                pub const KERNEL: &'static $crate::plan::KernelDesc = &$desc;
+
+                /// The buffers in binding order.
+                pub fn buffers(&self) -> &[$crate::plan::BufferId] {
+                    bytemuck::cast_slice(core::slice::from_ref(self))
+                }
+
+                /// A pass launching `groups` workgroups.
+                pub fn pass<'a>(
+                    &'a self,
+                    params: &'a $params,
+                    groups: $crate::plan::Groups,
+                ) -> $crate::plan::Pass<'a> {
+                    $crate::plan::Pass {
+                        kernel: &$desc,
+                        buffers: self.buffers(),
+                        params: bytemuck::bytes_of(params),
+                        groups,
+                    }
+                }
+
+                /// A pass with one invocation per element of a `width × height × planes` grid.
+                pub fn over_grid<'a>(
+                    &'a self,
+                    params: &'a $params,
+                    width: u32,
+                    height: u32,
+                    planes: u32,
+                ) -> $crate::plan::Pass<'a> {
+                    $crate::plan::Pass::over_grid(
+                        &$desc,
+                        self.buffers(),
+                        bytemuck::bytes_of(params),
+                        width,
+                        height,
+                        planes,
+                    )
+                }
+            }
+        )*
+
+        /// Every kernel, for backends that build all pipelines up front and for the tests.
+        #[cfg(not(target_arch = "spirv"))]
+        pub static ALL: &[&$crate::plan::KernelDesc] = &[$(&$desc),*];
+
+        /// The `#[spirv(compute)]` entry point of every kernel, for the crate root of the shader
+        /// crate (entry names are the function names only at the root).
+        #[macro_export]
+        macro_rules! spirv_entries {
+            () => {
+                #[allow(unused_imports)]
+                use $crate::kernels::names::*;
+                $(
+                    $crate::kernel_table!(@entry [$($kind)*] $entry ($x, $y, $z) [$params]
+                        [$(($n $bn [$($ref)*] $bt))*]);
+                )*
+            };
+        }
+    };
+
+    // ---- the native runner of one workgroup ----
+    (@cpu [fn ($kfn:path)] [$params:ty] [$(($n:tt $bn:ident $method:ident $bt:ty))*]) => {{
+        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            let params: $params = b.params();
+            // SAFETY: the executor laid the buffers out as declared (the caller's contract).
+            $(let $bn = unsafe { b.$method::<$bt>($n) };)*
+            for id in b.invocations(group) {
+                $kfn(id, &params, $($bn),*);
+            }
+        }
+        run
+    }};
+    (@cpu [phases [$wg:ty] $(($phase:path))+] [$params:ty]
+        [$(($n:tt $bn:ident $method:ident $bt:ty))*]) => {{
+        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            let params: $params = b.params();
+            // SAFETY: the executor laid the buffers out as declared (the caller's contract).
+            $(let $bn = unsafe { b.$method::<$bt>($n) };)*
+            let mut local: $wg = bytemuck::Zeroable::zeroed();
+            $crate::kernel_table!(@cpu_phases b group params local [$($bn)*] $(($phase))+);
+        }
+        run
+    }};
+
+    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($bn:ident)*]) => {};
+    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($bn:ident)*] ($phase:path)
+        $($rest:tt)*) => {
+        for (i, id) in $b.invocations($group).enumerate() {
+            let ids = $crate::kernels::WorkgroupIds {
+                global: id,
+                group: $group,
+                local_index: i as u32,
+            };
+            $phase(ids, &$p, $($bn,)* &mut $local);
+        }
+        $crate::kernel_table!(@cpu_phases $b $group $p $local [$($bn)*] $($rest)*);
+    };
+
+    // ---- the SPIR-V entry point ----
+    (@entry [fn ($kfn:path)] $entry:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
+        [$(($n:tt $bn:ident [$($ref:tt)*] $bt:ty))*]) => {
+        #[spirv(compute(threads($x, $y, $z)))]
+        pub fn $entry(
+            #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
+            #[spirv(push_constant)] params: &$params,
+            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: $($ref)* [$bt],)*
+        ) {
+            $kfn(id, params, $($bn),*);
+        }
+    };
+    (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
+        [$(($n:tt $bn:ident [$($ref:tt)*] $bt:ty))*]) => {
+        #[spirv(compute(threads($x, $y, $z)))]
+        pub fn $entry(
+            #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
+            #[spirv(workgroup_id)] group: $crate::glam::UVec3,
+            #[spirv(local_invocation_index)] local_index: u32,
+            #[spirv(push_constant)] params: &$params,
+            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: $($ref)* [$bt],)*
+            #[spirv(workgroup)] local: &mut $wg,
+        ) {
+            let ids = $crate::kernels::WorkgroupIds {
+                global: id,
+                group,
+                local_index,
+            };
+            $crate::kernel_table!(@phases ids params [$($bn)*] local $(($phase))+);
+        }
+    };
+    (@phases $ids:ident $p:ident [$($bn:ident)*] $local:ident ($first:path) $($rest:tt)*) => {
+        $first($ids, $p, $($bn,)* $local);
+        $crate::kernel_table!(@barrier_phases $ids $p [$($bn)*] $local $($rest)*);
+    };
+    (@barrier_phases $ids:ident $p:ident [$($bn:ident)*] $local:ident) => {};
+    (@barrier_phases $ids:ident $p:ident [$($bn:ident)*] $local:ident ($phase:path)
+        $($rest:tt)*) => {
+        $crate::atomic::workgroup_barrier();
+        $phase($ids, $p, $($bn,)* $local);
+        $crate::kernel_table!(@barrier_phases $ids $p [$($bn)*] $local $($rest)*);
+    };
+
+    // ---- the table itself ----
+    ($($table:tt)*) => { $crate::kernel_table!(@kernels [] $($table)*); };
+}

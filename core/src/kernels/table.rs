@@ -1,0 +1,224 @@
+//! The declaration of every kernel: the one place, besides its function and its equivalence case,
+//! where a kernel is written. See [`crate::declare`] for what is derived from each entry.
+//!
+//! An entry reads `entry => DESC, Bindings: fn module::function, threads(x, y, z), params Type
+//! { name: read|write|atomic ElementType, .. }`. Bindings are numbered in order; `write` means each
+//! invocation writes only elements it owns, `atomic` that invocations contend through
+//! `crate::atomic`. Names used here must be in [`super::names`].
+
+use super::names::*;
+
+crate::kernel_table! {
+    /// [`accumulate::accumulate`]: temporal accumulation of the new samples into the reprojected
+    /// history; `counters` has `payload::COUNTERS_LEN` words.
+    accumulate => ACCUMULATE, AccumulateBindings: fn accumulate::accumulate,
+    threads(8, 8, 1), params accumulate::AccumulateParams {
+        history: read Payload,
+        samples: read Sample,
+        out: write Payload,
+        counters: atomic u32,
+    }
+
+    /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
+    atrous => ATROUS, AtrousBindings: fn atrous::atrous,
+    threads(8, 8, 1), params atrous::AtrousParams {
+        input: read Filtered,
+        surfaces: read Surface,
+        tiles: read u32,
+        out: write Filtered,
+    }
+
+    /// [`classify::classify`]: iterations per 8×8 tile and their histogram; one invocation per
+    /// tile.
+    classify => CLASSIFY, ClassifyBindings: fn classify::classify,
+    threads(8, 8, 1), params classify::ClassifyParams {
+        surfaces: read Surface,
+        filtered: read Filtered,
+        tiles: write u32,
+        histogram: atomic u32,
+    }
+
+    /// The bucket histogram of the ray requests ([`buckets::clear`], [`buckets::count`],
+    /// [`buckets::flush`]); `counts` has `buckets::COUNTS_LEN` words, added to (fill it first).
+    count_buckets => COUNT_BUCKETS, CountBucketsBindings: workgroup [u32; buckets::BUCKET_COUNT as usize],
+    phases [buckets::clear, buckets::count, buckets::flush],
+    threads(16, 16, 1), params buckets::BucketParams {
+        requests: read u32,
+        counts: atomic u32,
+    }
+
+    /// [`gbuffer::gbuffer`]: the built-in renderer's primary rays, one `Surface` per pixel.
+    gbuffer => GBUFFER, GbufferBindings: fn gbuffer::gbuffer,
+    threads(8, 8, 1), params gbuffer::GbufferParams {
+        nodes: read BvhNode,
+        tris: read Triangle,
+        normals: read TriangleNormals,
+        instances: read InstanceData,
+        out: write Surface,
+    }
+
+    /// [`raygen::raygen_ao`]: AO rays of the compacted work list; dispatch indirectly from `args`
+    /// at byte offset 4.
+    raygen_ao => RAYGEN_AO, RaygenAoBindings: fn raygen::raygen_ao,
+    threads(64, 1, 1), params raygen::AoParams {
+        work: read u32,
+        args: read u32,
+        rays: read u32,
+        surfaces: read Surface,
+        history: read Payload,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        out: write Sample,
+    }
+
+    /// [`raygen::raygen_shadow`]: shadow rays toward each area light; dispatch as `raygen_ao`.
+    raygen_shadow => RAYGEN_SHADOW, RaygenShadowBindings: fn raygen::raygen_shadow,
+    threads(64, 1, 1), params raygen::ShadowParams {
+        work: read u32,
+        args: read u32,
+        rays: read u32,
+        surfaces: read Surface,
+        history: read Payload,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        lights: read AreaLight,
+        out: write Sample,
+    }
+
+    /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
+    /// pixel (planes are looped inside).
+    reproject => REPROJECT, ReprojectBindings: fn reproject::reproject,
+    threads(8, 8, 1), params reproject::ReprojectParams {
+        surfaces: read Surface,
+        prev_surfaces: read Surface,
+        history: read Payload,
+        mask: read u32,
+        gradient: read GradientSample,
+        importance: read f32,
+        parallax: read [f32; 2],
+        out: write Payload,
+        flags: write u32,
+        requests: write u32,
+    }
+
+    /// [`variance::variance`]: temporal variance, or the spatial estimate for young history.
+    variance => VARIANCE, VarianceBindings: fn variance::variance,
+    threads(8, 8, 1), params variance::VarianceParams {
+        payload: read Payload,
+        surfaces: read Surface,
+        out: write Filtered,
+    }
+
+    /// [`balance::balance`]: the load balancer; `counts` from `count_buckets`, one workgroup.
+    balance => BALANCE, BalanceBindings: fn balance::balance,
+    threads(1, 1, 1), params balance::BalanceParams {
+        counts: read u32,
+        out: write Balance,
+        args: write u32,
+    }
+
+    /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
+    apply => APPLY, ApplyBindings: fn apply::apply,
+    threads(8, 8, 1), params apply::ApplyParams {
+        requests: read u32,
+        decision: read Balance,
+        noise: read f32,
+        rays: write u32,
+        work: write u32,
+        args: atomic u32,
+        samples: write Sample,
+    }
+
+    /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.
+    fill => FILL, FillBindings: fn fill::fill,
+    threads(64, 1, 1), params fill::FillParams {
+        buf: write u32,
+    }
+
+    /// [`gradient::project`]: forward projection of one previous sample per stratum.
+    gradient_project => GRADIENT_PROJECT, GradientProjectBindings: fn gradient::project,
+    threads(8, 8, 1), params gradient::ProjectParams {
+        prev_surfaces: read Surface,
+        surfaces: read Surface,
+        rays: read u32,
+        next: read InstanceData,
+        keys: atomic u32,
+    }
+
+    /// [`gradient::retrace_ao`]: re-trace of the projected AO samples; one invocation per cell.
+    gradient_ao => GRADIENT_AO, GradientAoBindings: fn gradient::retrace_ao,
+    threads(8, 8, 1), params gradient::RetraceParams {
+        keys: read u32,
+        prev_surfaces: read Surface,
+        next: read InstanceData,
+        prev_payload: read Payload,
+        prev_samples: read Sample,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        out: write GradientSample,
+    }
+
+    /// [`gradient::retrace_shadow`]: as `gradient_ao`, toward the lights.
+    gradient_shadow => GRADIENT_SHADOW, GradientShadowBindings: fn gradient::retrace_shadow,
+    threads(8, 8, 1), params gradient::RetraceParams {
+        keys: read u32,
+        prev_surfaces: read Surface,
+        next: read InstanceData,
+        prev_payload: read Payload,
+        prev_samples: read Sample,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        lights: read AreaLight,
+        out: write GradientSample,
+    }
+
+    /// [`gradient::atrous`]: one iteration of the gradient reconstruction; cells × planes.
+    gradient_atrous => GRADIENT_ATROUS, GradientAtrousBindings: fn gradient::atrous,
+    threads(8, 8, 1), params gradient::GradientAtrousParams {
+        input: read GradientSample,
+        out: write GradientSample,
+    }
+
+    /// [`reflect::raygen_reflect`]: GGX reflection rays with direct light at the hits; dispatch
+    /// as `raygen_ao`.
+    raygen_reflect => RAYGEN_REFLECT, RaygenReflectBindings: fn reflect::raygen_reflect,
+    threads(64, 1, 1), params reflect::RaygenParams {
+        work: read u32,
+        args: read u32,
+        rays: read u32,
+        surfaces: read Surface,
+        history: read Payload,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        lights: read AreaLight,
+        out: write Sample,
+        hits: write RayHit,
+    }
+
+    /// [`reflect::reflect_tiles`]: reflection importance per tile of `reflect::tile_grid`.
+    reflect_tiles => REFLECT_TILES, ReflectTilesBindings: fn reflect::reflect_tiles,
+    threads(8, 8, 1), params reflect::TileParams {
+        surfaces: read Surface,
+        nodes: read BvhNode,
+        tris: read Triangle,
+        lights: read AreaLight,
+        importance: write f32,
+    }
+
+    /// [`reflect::reflect_motion`]: parallax motion of the reflected image.
+    reflect_motion => REFLECT_MOTION, ReflectMotionBindings: fn reflect::reflect_motion,
+    threads(8, 8, 1), params reflect::MotionParams {
+        surfaces: read Surface,
+        hits: read RayHit,
+        motion: write [f32; 2],
+    }
+
+    /// [`reflect::reflect_reuse`]: ray reuse between neighbours (rewrites plane `plane` of
+    /// `samples`).
+    reflect_reuse => REFLECT_REUSE, ReflectReuseBindings: fn reflect::reflect_reuse,
+    threads(8, 8, 1), params reflect::ReuseParams {
+        surfaces: read Surface,
+        hits: read RayHit,
+        samples: write Sample,
+    }
+}
