@@ -27,40 +27,40 @@ macro_rules! kernel_table {
     (@kernels [$($done:tt)*]) => { $crate::kernel_table!(@emit $($done)*); };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
-        $entry:ident => $desc:ident, $binds:ident: fn $($kfn:ident)::+,
+        $entry:ident => $desc:ident, $binds:ident, $io:ident: fn $($kfn:ident)::+,
         threads($x:tt, $y:tt, $z:tt), params $params:ty
         { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
         $($rest:tt)*
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
+            [[$(#[$doc])*] $entry $desc $binds $io [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
-        $entry:ident => $desc:ident, $binds:ident: workgroup $wg:ty,
+        $entry:ident => $desc:ident, $binds:ident, $io:ident: workgroup $wg:ty,
         phases [$($($phase:ident)::+),+], threads($x:tt, $y:tt, $z:tt), params $params:ty
         { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
         $($rest:tt)*
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
+            [[$(#[$doc])*] $entry $desc $binds $io [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
                 [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: read $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Read read [&] $bt)] [$($ns)*]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Read read [] $bt)] [$($ns)*]
             [$($more)*] $($rest)*);
     };
     (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: write $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [&mut] $bt)]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [mut] $bt)]
             [$($ns)*] [$($more)*] $($rest)*);
     };
     (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: atomic $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [&mut] $bt)]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [mut] $bt)]
             [$($ns)*] [$($more)*] $($rest)*);
     };
     (@bind [$($done:tt)*] [$($head:tt)*] [$($z:tt)*] $ns:tt [] $($rest:tt)*) => {
@@ -69,10 +69,20 @@ macro_rules! kernel_table {
 
     // ---- everything derived from the normalised entries ----
     (@emit $({
-        [$($doc:tt)*] $entry:ident $desc:ident $binds:ident [$($kind:tt)*] ($x:tt, $y:tt, $z:tt)
-        [$params:ty] [$(($n:tt $bn:ident $acc:ident $method:ident [$($ref:tt)*] $bt:ty))*]
+        [$($doc:tt)*] $entry:ident $desc:ident $binds:ident $io:ident [$($kind:tt)*]
+        ($x:tt, $y:tt, $z:tt) [$params:ty]
+        [$(($n:tt $bn:ident $acc:ident $method:ident [$($m:tt)?] $bt:ty))*]
     })*) => {
         $(
+            #[doc = concat!("The storage buffers of `", stringify!($entry),
+                "` as the kernel function sees them.")]
+            pub struct $io<'a> {
+                $(
+                    #[doc = concat!("Binding `", stringify!($bn), "` (", stringify!($acc), ").")]
+                    pub $bn: &'a $($m)? [$bt],
+                )*
+            }
+
             $($doc)*
             #[cfg(not(target_arch = "spirv"))]
             pub static $desc: $crate::plan::KernelDesc = $crate::plan::KernelDesc {
@@ -85,8 +95,8 @@ macro_rules! kernel_table {
                     access: $crate::plan::Access::$acc,
                 }),*],
                 params_size: core::mem::size_of::<$params>() as u32,
-                cpu: $crate::kernel_table!(@cpu [$($kind)*] [$params]
-                    [$(($n $bn $method $bt))*]),
+                cpu: $crate::kernel_table!(@cpu [$($kind)*] $io [$params]
+                    [$(($n $bn $method [$($m)?] $bt))*]),
             };
 
             #[doc = concat!("The buffers of one `", stringify!($entry), "` pass, by binding name.")]
@@ -157,39 +167,41 @@ macro_rules! kernel_table {
                 #[allow(unused_imports)]
                 use $crate::kernels::names::*;
                 $(
-                    $crate::kernel_table!(@entry [$($kind)*] $entry ($x, $y, $z) [$params]
-                        [$(($n $bn [$($ref)*] $bt))*]);
+                    $crate::kernel_table!(@entry [$($kind)*] $entry $io ($x, $y, $z) [$params]
+                        [$(($n $bn [$($m)?] $bt))*]);
                 )*
             };
         }
     };
 
     // ---- the native runner of one workgroup ----
-    (@cpu [fn ($kfn:path)] [$params:ty] [$(($n:tt $bn:ident $method:ident $bt:ty))*]) => {{
+    (@cpu [fn ($kfn:path)] $io:ident [$params:ty]
+        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             for id in b.invocations(group) {
-                $kfn(id, &params, $($bn),*);
+                $kfn(id, &params, $io { $($bn: &$($m)? *$bn),* });
             }
         }
         run
     }};
-    (@cpu [phases [$wg:ty] $(($phase:path))+] [$params:ty]
-        [$(($n:tt $bn:ident $method:ident $bt:ty))*]) => {{
+    (@cpu [phases [$wg:ty] $(($phase:path))+] $io:ident [$params:ty]
+        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             let mut local: $wg = bytemuck::Zeroable::zeroed();
-            $crate::kernel_table!(@cpu_phases b group params local [$($bn)*] $(($phase))+);
+            $crate::kernel_table!(@cpu_phases b group params local
+                [$io { $($bn: &$($m)? *$bn),* }] $(($phase))+);
         }
         run
     }};
 
-    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($bn:ident)*]) => {};
-    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($bn:ident)*] ($phase:path)
+    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*]) => {};
+    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*] ($phase:path)
         $($rest:tt)*) => {
         for (i, id) in $b.invocations($group).enumerate() {
             let ids = $crate::kernels::WorkgroupIds {
@@ -197,32 +209,38 @@ macro_rules! kernel_table {
                 group: $group,
                 local_index: i as u32,
             };
-            $phase(ids, &$p, $($bn,)* &mut $local);
+            $phase(ids, &$p, $($io)*, &mut $local);
         }
-        $crate::kernel_table!(@cpu_phases $b $group $p $local [$($bn)*] $($rest)*);
+        $crate::kernel_table!(@cpu_phases $b $group $p $local [$($io)*] $($rest)*);
     };
 
     // ---- the SPIR-V entry point ----
-    (@entry [fn ($kfn:path)] $entry:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
-        [$(($n:tt $bn:ident [$($ref:tt)*] $bt:ty))*]) => {
+    (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
+        [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        // The SPIR-V ABI takes one parameter per binding; the kernel function gets them as one
+        // struct.
+        #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
             #[spirv(push_constant)] params: &$params,
-            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: $($ref)* [$bt],)*
+            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
         ) {
-            $kfn(id, params, $($bn),*);
+            $kfn(id, params, $crate::kernels::$io { $($bn),* });
         }
     };
-    (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
-        [$(($n:tt $bn:ident [$($ref:tt)*] $bt:ty))*]) => {
+    (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
+        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        // The SPIR-V ABI takes one parameter per binding; the kernel function gets them as one
+        // struct.
+        #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
             #[spirv(workgroup_id)] group: $crate::glam::UVec3,
             #[spirv(local_invocation_index)] local_index: u32,
             #[spirv(push_constant)] params: &$params,
-            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: $($ref)* [$bt],)*
+            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
             #[spirv(workgroup)] local: &mut $wg,
         ) {
             let ids = $crate::kernels::WorkgroupIds {
@@ -230,19 +248,20 @@ macro_rules! kernel_table {
                 group,
                 local_index,
             };
-            $crate::kernel_table!(@phases ids params [$($bn)*] local $(($phase))+);
+            $crate::kernel_table!(@phases ids params
+                [$crate::kernels::$io { $($bn: &$($m)? *$bn),* }] local $(($phase))+);
         }
     };
-    (@phases $ids:ident $p:ident [$($bn:ident)*] $local:ident ($first:path) $($rest:tt)*) => {
-        $first($ids, $p, $($bn,)* $local);
-        $crate::kernel_table!(@barrier_phases $ids $p [$($bn)*] $local $($rest)*);
+    (@phases $ids:ident $p:ident [$($io:tt)*] $local:ident ($first:path) $($rest:tt)*) => {
+        $first($ids, $p, $($io)*, $local);
+        $crate::kernel_table!(@barrier_phases $ids $p [$($io)*] $local $($rest)*);
     };
-    (@barrier_phases $ids:ident $p:ident [$($bn:ident)*] $local:ident) => {};
-    (@barrier_phases $ids:ident $p:ident [$($bn:ident)*] $local:ident ($phase:path)
+    (@barrier_phases $ids:ident $p:ident [$($io:tt)*] $local:ident) => {};
+    (@barrier_phases $ids:ident $p:ident [$($io:tt)*] $local:ident ($phase:path)
         $($rest:tt)*) => {
         $crate::atomic::workgroup_barrier();
-        $phase($ids, $p, $($bn,)* $local);
-        $crate::kernel_table!(@barrier_phases $ids $p [$($bn)*] $local $($rest)*);
+        $phase($ids, $p, $($io)*, $local);
+        $crate::kernel_table!(@barrier_phases $ids $p [$($io)*] $local $($rest)*);
     };
 
     // ---- the table itself ----

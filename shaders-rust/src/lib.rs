@@ -3,8 +3,6 @@
 //! drift from what the backends read. Built by `shaders-builder` into `shaders/vrrt.spv`.
 #![cfg_attr(target_arch = "spirv", no_std)]
 #![allow(missing_docs)]
-// An entry point takes one argument per binding, as the table declares them.
-#![allow(clippy::too_many_arguments)]
 
 use spirv_std::spirv;
 

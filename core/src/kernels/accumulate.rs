@@ -10,6 +10,7 @@
 //! precision with the stuck correction ([`payload::store`]).
 
 use super::plane_index;
+use super::AccumulateIo;
 use crate::payload::{self, Payload, Sample};
 use crate::{atomic, math, quantize};
 use bytemuck::{Pod, Zeroable};
@@ -80,14 +81,13 @@ fn clamp_history(id: UVec3, p: &AccumulateParams, samples: &[Sample], prev: Payl
 }
 
 /// One invocation per pixel and signal plane: `out = merge(history, samples)`.
-pub fn accumulate(
-    id: UVec3,
-    p: &AccumulateParams,
-    history: &[Payload],
-    samples: &[Sample],
-    out: &mut [Payload],
-    counters: &mut [u32],
-) {
+pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
+    let AccumulateIo {
+        history,
+        samples,
+        out,
+        counters,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -110,4 +110,3 @@ pub fn accumulate(
     let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
     out[i] = payload::store(prev, curr, merged, p.storage);
 }
-

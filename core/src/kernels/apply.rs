@@ -9,6 +9,7 @@
 use super::balance::{granted_rate, Balance};
 use super::buckets::{ring_id, BUCKET_COUNT};
 use super::pixel_index;
+use super::ApplyIo;
 use crate::atomic;
 use crate::blue_noise::blue_noise;
 use crate::math;
@@ -57,18 +58,16 @@ pub fn resolve_rays(
 /// One invocation per pixel. Writes `rays[pixel]`, appends tracing pixels to `work` and counts
 /// them in `args[0]`; `args[1]` ends as the number of [`LIST_GROUP`]-wide groups (the balancer
 /// reset `args` to `[0, 0, 1, 1]` before this pass).
-#[allow(clippy::too_many_arguments)]
-pub fn apply(
-    id: UVec3,
-    p: &ApplyParams,
-    requests: &[u32],
-    decision: &[Balance],
-    noise: &[f32],
-    rays: &mut [u32],
-    work: &mut [u32],
-    args: &mut [u32],
-    samples: &mut [Sample],
-) {
+pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
+    let ApplyIo {
+        requests,
+        decision,
+        noise,
+        rays,
+        work,
+        args,
+        samples,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -89,4 +88,3 @@ pub fn apply(
         atomic::max(&mut args[1], slot / LIST_GROUP + 1);
     }
 }
-

@@ -10,8 +10,9 @@
 //! (a copy, uniform per workgroup): converged regions skip the wide late iterations.
 
 use super::classify::tile_index;
+use super::AtrousIo;
 use super::{pixel_index, plane_index};
-use crate::gbuffer::{self, Surface};
+use crate::gbuffer::{self};
 use crate::math;
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, UVec3};
@@ -98,14 +99,13 @@ fn blurred_variance(input: &[Filtered], x: u32, y: u32, plane: u32, p: &AtrousPa
 }
 
 /// One invocation per pixel and signal plane.
-pub fn atrous(
-    id: UVec3,
-    p: &AtrousParams,
-    input: &[Filtered],
-    surfaces: &[Surface],
-    tiles: &[u32],
-    out: &mut [Filtered],
-) {
+pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
+    let AtrousIo {
+        input,
+        surfaces,
+        tiles,
+        out,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -163,4 +163,3 @@ pub fn atrous(
         variance: sum_var / (sum_w * sum_w),
     };
 }
-

@@ -25,6 +25,7 @@
 //! budget as VRRT.
 
 use super::buckets::{bucket_to_rate, BUCKET_COUNT};
+use super::BalanceIo;
 use crate::math;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -228,13 +229,8 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
 
 /// One invocation: writes [`solve`]'s decision to `out[0]` and resets the apply pass's work-list
 /// arguments to `[0, 0, 1, 1]` (count, groups x, y, z).
-pub fn balance(
-    id: UVec3,
-    p: &BalanceParams,
-    counts: &[u32],
-    out: &mut [Balance],
-    args: &mut [u32],
-) {
+pub fn balance(id: UVec3, p: &BalanceParams, io: BalanceIo<'_>) {
+    let BalanceIo { counts, out, args } = io;
     if id.x == 0 && id.y == 0 && id.z == 0 {
         out[0] = solve(counts, p);
         args[0] = 0;
@@ -243,7 +239,6 @@ pub fn balance(
         args[3] = 1;
     }
 }
-
 
 #[cfg(test)]
 mod tests {

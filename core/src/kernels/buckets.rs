@@ -5,6 +5,7 @@
 //! Workgroups are 16×16 and ring tiles 32×16, so every pixel of a workgroup is in the same ring:
 //! the per-ring histogram costs nothing beyond the per-bucket one.
 
+use super::CountBucketsIo;
 use super::{pixel_index, WorkgroupIds};
 use crate::atomic;
 use bytemuck::{Pod, Zeroable};
@@ -104,8 +105,7 @@ pub struct BucketParams {
 pub fn clear(
     ids: WorkgroupIds,
     _p: &BucketParams,
-    _requests: &[u32],
-    _counts: &mut [u32],
+    _io: CountBucketsIo<'_>,
     local: &mut [u32; BUCKET_COUNT as usize],
 ) {
     if ids.local_index < BUCKET_COUNT {
@@ -118,10 +118,10 @@ pub fn clear(
 pub fn count(
     ids: WorkgroupIds,
     p: &BucketParams,
-    requests: &[u32],
-    _counts: &mut [u32],
+    io: CountBucketsIo<'_>,
     local: &mut [u32; BUCKET_COUNT as usize],
 ) {
+    let CountBucketsIo { requests, .. } = io;
     let id = ids.global;
     if id.x >= p.width || id.y >= p.height {
         return;
@@ -138,10 +138,10 @@ pub fn count(
 pub fn flush(
     ids: WorkgroupIds,
     p: &BucketParams,
-    _requests: &[u32],
-    counts: &mut [u32],
+    io: CountBucketsIo<'_>,
     local: &mut [u32; BUCKET_COUNT as usize],
 ) {
+    let CountBucketsIo { counts, .. } = io;
     let (local_index, group) = (ids.local_index, ids.group);
     if local_index >= BUCKET_COUNT {
         return;

@@ -13,9 +13,8 @@
 //! The tile is the à-trous workgroup (8×8), so on a GPU the skip is uniform per workgroup.
 
 use super::pixel_index;
+use super::ClassifyIo;
 use crate::atomic;
-use crate::gbuffer::Surface;
-use crate::kernels::atrous::Filtered;
 use crate::math;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -77,14 +76,13 @@ pub fn iterations_needed(variance: f32, p: &ClassifyParams) -> u32 {
 /// One invocation per tile: writes the iterations the tile needs to `tiles` (0 for a tile without
 /// geometry: invalid pixels are passed through by every iteration anyway) and counts the tile in
 /// `histogram` (cleared by the host before).
-pub fn classify(
-    id: UVec3,
-    p: &ClassifyParams,
-    surfaces: &[Surface],
-    filtered: &[Filtered],
-    tiles: &mut [u32],
-    histogram: &mut [u32],
-) {
+pub fn classify(id: UVec3, p: &ClassifyParams, io: ClassifyIo<'_>) {
+    let ClassifyIo {
+        surfaces,
+        filtered,
+        tiles,
+        histogram,
+    } = io;
     let (tw, th) = tile_grid(p.width, p.height);
     if id.x >= tw || id.y >= th {
         return;
@@ -128,7 +126,6 @@ pub fn classify(
     tiles[(id.y * tw + id.x) as usize] = level;
     atomic::add(&mut histogram[slot as usize], 1);
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -1,6 +1,7 @@
 //! Fills a `u32` buffer with a value: resets counters (the bucket histogram) on the GPU timeline,
 //! so a frame needs no host writes between passes and records into one command buffer.
 
+use super::FillIo;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -18,9 +19,9 @@ pub struct FillParams {
 }
 
 /// One invocation per word.
-pub fn fill(id: UVec3, p: &FillParams, buf: &mut [u32]) {
+pub fn fill(id: UVec3, p: &FillParams, io: FillIo<'_>) {
+    let FillIo { buf } = io;
     if id.x < p.len {
         buf[id.x as usize] = p.value;
     }
 }
-

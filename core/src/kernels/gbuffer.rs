@@ -13,6 +13,7 @@
 //!   view direction under the previous camera's rotation.
 
 use super::pixel_index;
+use super::GbufferIo;
 use crate::camera::Camera;
 use crate::gbuffer::{Surface, NO_INSTANCE};
 use crate::math;
@@ -223,19 +224,17 @@ pub fn surface_at(
 }
 
 /// One invocation per pixel (`id.z` must be 0): `out[pixel] = surface_at(pixel)`.
-pub fn gbuffer(
-    id: UVec3,
-    p: &GbufferParams,
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    normals: &[TriangleNormals],
-    instances: &[InstanceData],
-    out: &mut [Surface],
-) {
+pub fn gbuffer(id: UVec3, p: &GbufferParams, io: GbufferIo<'_>) {
+    let GbufferIo {
+        nodes,
+        tris,
+        normals,
+        instances,
+        out,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
     out[pixel_index(id.x, id.y, p.width)] =
         surface_at(id.x, id.y, p, nodes, tris, normals, instances);
 }
-

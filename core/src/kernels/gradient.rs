@@ -30,14 +30,17 @@
 
 use super::gbuffer::InstanceData;
 use super::pixel_index;
-use super::raygen::{ao_ray, shadow_ray, AreaLight};
+use super::raygen::{ao_ray, shadow_ray};
+use super::GradientAoIo;
+use super::GradientAtrousIo;
+use super::GradientProjectIo;
+use super::GradientShadowIo;
 use crate::atomic;
 use crate::camera::Camera;
 use crate::gbuffer::Surface;
 use crate::math;
 use crate::payload::{Payload, Sample};
 use crate::sampling::{pcg_hash, pixel_seed};
-use crate::trace::{BvhNode, Triangle};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -181,16 +184,14 @@ pub fn visible(c: &Surface, m: &Surface, p: &ProjectParams) -> bool {
 /// One invocation per stratum (`id.xy`): choose, move, test and splat one previous-frame sample.
 /// `rays` is last frame's per-pixel ray count; `keys` one `u32` per cell, filled with
 /// [`EMPTY_KEY`] before.
-#[allow(clippy::too_many_arguments)]
-pub fn project(
-    id: UVec3,
-    p: &ProjectParams,
-    prev_surfaces: &[Surface],
-    surfaces: &[Surface],
-    rays: &[u32],
-    next: &[InstanceData],
-    keys: &mut [u32],
-) {
+pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
+    let GradientProjectIo {
+        prev_surfaces,
+        surfaces,
+        rays,
+        next,
+        keys,
+    } = io;
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
     }
@@ -280,22 +281,34 @@ pub fn cell_index(x: u32, y: u32, z: u32, grid_width: u32, grid_height: u32) -> 
     ((z * grid_height + y) * grid_width + x) as usize
 }
 
+/// What a re-trace reads of the previous frame: the chosen sample per cell, its surfaces and
+/// payloads, the instance maps to this frame, and the samples it traced.
+struct LastFrame<'a> {
+    keys: &'a [u32],
+    prev_surfaces: &'a [Surface],
+    next: &'a [InstanceData],
+    prev_payload: &'a [Payload],
+    prev_samples: &'a [Sample],
+}
+
 /// The loop both re-traces share. For every plane whose pixel traced last frame, `trace(surface,
 /// plane, seed, index)` re-creates that plane's 0th ray against this frame's scene (`None`: the
 /// plane has no ray to re-create) and the gradient against last frame's value is stored.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn retrace(
     id: UVec3,
     p: &RetraceParams,
-    keys: &[u32],
-    prev_surfaces: &[Surface],
-    next: &[InstanceData],
-    prev_payload: &[Payload],
-    prev_samples: &[Sample],
+    last: LastFrame<'_>,
     out: &mut [GradientSample],
     trace: impl Fn(&Surface, u32, u32, u32) -> Option<f32>,
 ) {
+    let LastFrame {
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+    } = last;
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
     }
@@ -321,64 +334,56 @@ fn retrace(
 /// One invocation per cell: re-trace last frame's 0th AO ray of the cell's sample in every plane.
 /// `prev_payload` is last frame's reprojected history (its `rng_index` is the 0th ray's index),
 /// `prev_samples` last frame's raygen output.
-#[allow(clippy::too_many_arguments)]
-pub fn retrace_ao(
-    id: UVec3,
-    p: &RetraceParams,
-    keys: &[u32],
-    prev_surfaces: &[Surface],
-    next: &[InstanceData],
-    prev_payload: &[Payload],
-    prev_samples: &[Sample],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    out: &mut [GradientSample],
-) {
-    retrace(
-        id,
-        p,
+pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
+    let GradientAoIo {
         keys,
         prev_surfaces,
         next,
         prev_payload,
         prev_samples,
+        nodes,
+        tris,
         out,
-        |s, _, seed, index| Some(ao_ray(s, seed, index, p.max_distance, nodes, tris)),
-    );
+    } = io;
+    let last = LastFrame {
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+    };
+    retrace(id, p, last, out, |s, _, seed, index| {
+        Some(ao_ray(s, seed, index, p.max_distance, nodes, tris))
+    });
 }
 
 /// As [`retrace_ao`] for the shadow of `lights[z]` in plane `z` (the lights of *this* frame).
-#[allow(clippy::too_many_arguments)]
-pub fn retrace_shadow(
-    id: UVec3,
-    p: &RetraceParams,
-    keys: &[u32],
-    prev_surfaces: &[Surface],
-    next: &[InstanceData],
-    prev_payload: &[Payload],
-    prev_samples: &[Sample],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    out: &mut [GradientSample],
-) {
-    retrace(
-        id,
-        p,
+pub fn retrace_shadow(id: UVec3, p: &RetraceParams, io: GradientShadowIo<'_>) {
+    let GradientShadowIo {
         keys,
         prev_surfaces,
         next,
         prev_payload,
         prev_samples,
+        nodes,
+        tris,
+        lights,
         out,
-        |s, z, seed, index| {
-            if (z as usize) < lights.len() {
-                Some(shadow_ray(s, &lights[z as usize], seed, index, nodes, tris))
-            } else {
-                None
-            }
-        },
-    );
+    } = io;
+    let last = LastFrame {
+        keys,
+        prev_surfaces,
+        next,
+        prev_payload,
+        prev_samples,
+    };
+    retrace(id, p, last, out, |s, z, seed, index| {
+        if (z as usize) < lights.len() {
+            Some(shadow_ray(s, &lights[z as usize], seed, index, nodes, tris))
+        } else {
+            None
+        }
+    });
 }
 
 /// B3-spline taps of the à-trous kernel (`[1, 4, 6, 4, 1] / 16`).
@@ -386,7 +391,8 @@ const TAPS: [f32; 5] = [1.0 / 16.0, 0.25, 0.375, 0.25, 1.0 / 16.0];
 
 /// One invocation per cell and plane (`id.z`): one à-trous iteration over both channels with no
 /// edge-stopping weights, normalized by the weights of the taps inside the grid.
-pub fn atrous(id: UVec3, p: &GradientAtrousParams, input: &[GradientSample], out: &mut [GradientSample]) {
+pub fn atrous(id: UVec3, p: &GradientAtrousParams, io: GradientAtrousIo<'_>) {
+    let GradientAtrousIo { input, out } = io;
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
     }
@@ -413,10 +419,6 @@ pub fn atrous(id: UVec3, p: &GradientAtrousParams, input: &[GradientSample], out
         luminance: luminance / sum_w,
     };
 }
-
-
-
-
 
 #[cfg(test)]
 mod tests {

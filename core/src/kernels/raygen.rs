@@ -35,9 +35,11 @@
 //! of the light's area visible from the point (from above its geometric surface). Light geometry
 //! is never in the BVH.
 
+use super::RaygenAoIo;
+use super::RaygenShadowIo;
 use crate::gbuffer::{Surface, NO_INSTANCE};
 use crate::math;
-use crate::payload::{Payload, Sample};
+use crate::payload::Sample;
 use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
@@ -303,19 +305,17 @@ fn work_item(id: UVec3, work: &[u32], args: &[u32], rays: &[u32]) -> Option<(usi
 }
 
 /// One invocation per work-list entry: AO samples of every plane of that pixel.
-#[allow(clippy::too_many_arguments)]
-pub fn raygen_ao(
-    id: UVec3,
-    p: &AoParams,
-    work: &[u32],
-    args: &[u32],
-    rays: &[u32],
-    surfaces: &[Surface],
-    history: &[Payload],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    out: &mut [Sample],
-) {
+pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
+    let RaygenAoIo {
+        work,
+        args,
+        rays,
+        surfaces,
+        history,
+        nodes,
+        tris,
+        out,
+    } = io;
     let Some((pix, n)) = work_item(id, work, args, rays) else {
         return;
     };
@@ -339,20 +339,18 @@ pub fn raygen_ao(
 }
 
 /// One invocation per work-list entry: shadow samples of every light (plane) of that pixel.
-#[allow(clippy::too_many_arguments)]
-pub fn raygen_shadow(
-    id: UVec3,
-    p: &ShadowParams,
-    work: &[u32],
-    args: &[u32],
-    rays: &[u32],
-    surfaces: &[Surface],
-    history: &[Payload],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    out: &mut [Sample],
-) {
+pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
+    let RaygenShadowIo {
+        work,
+        args,
+        rays,
+        surfaces,
+        history,
+        nodes,
+        tris,
+        lights,
+        out,
+    } = io;
     let Some((pix, n)) = work_item(id, work, args, rays) else {
         return;
     };
@@ -385,5 +383,3 @@ pub fn raygen_shadow(
         z += 1;
     }
 }
-
-

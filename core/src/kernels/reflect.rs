@@ -30,10 +30,14 @@
 
 use super::pixel_index;
 use super::raygen::{ray_origin, AreaLight, SHADOW_T_SHRINK};
+use super::RaygenReflectIo;
+use super::ReflectMotionIo;
+use super::ReflectReuseIo;
+use super::ReflectTilesIo;
 use crate::camera::Camera;
 use crate::gbuffer::{plane_distance, Surface};
 use crate::math;
-use crate::payload::{Payload, Sample};
+use crate::payload::Sample;
 use crate::sampling::{
     ggx_reflection_pdf, ggx_vndf, low_discrepancy, parallelogram_point, pixel_seed, rand, reflect,
     MIN_ALPHA,
@@ -187,19 +191,28 @@ pub fn light_distance(l: &AreaLight, ray: &Ray, t_max: f32) -> f32 {
     }
 }
 
+/// What reflection rays hit and light: the BVH and the first `light_count` area lights.
+#[derive(Copy, Clone)]
+pub struct HitScene<'a> {
+    /// BVH nodes.
+    pub nodes: &'a [BvhNode],
+    /// BVH triangles.
+    pub tris: &'a [Triangle],
+    /// Area lights.
+    pub lights: &'a [AreaLight],
+    /// Lights in use.
+    pub light_count: u32,
+}
+
 /// Radiance along `ray` and the distance it travelled (hit-radiance rules in the module docs);
 /// light samples use dimensions `8 + 2l, 9 + 2l` of `(seed, index)`.
-#[allow(clippy::too_many_arguments)]
-pub fn radiance(
-    ray: &Ray,
-    sh: &Shading,
-    seed: u32,
-    index: u32,
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    light_count: u32,
-) -> (f32, f32) {
+pub fn radiance(ray: &Ray, sh: &Shading, seed: u32, index: u32, scene: HitScene<'_>) -> (f32, f32) {
+    let HitScene {
+        nodes,
+        tris,
+        lights,
+        light_count,
+    } = scene;
     let hit = trace::closest_hit(nodes, tris, ray, MISS_DISTANCE);
     let mut t_light = MISS_DISTANCE;
     let mut l = 0;
@@ -284,16 +297,12 @@ pub fn sample_direction(
 
 /// Reflection ray `index` of surface `s`: its record (radiance, pdf, hit point, distance).
 /// `pdf == 0` when the surface reflects nothing or no direction above it was found.
-#[allow(clippy::too_many_arguments)]
 pub fn reflection_ray(
     s: &Surface,
     sh: &Shading,
     seed: u32,
     index: u32,
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    light_count: u32,
+    scene: HitScene<'_>,
 ) -> RayHit {
     let Some((n, wo, alpha)) = lobe(s, sh) else {
         return RayHit::default();
@@ -305,7 +314,7 @@ pub fn reflection_ray(
         origin: ray_origin(s),
         dir,
     };
-    let (value, t) = radiance(&ray, sh, seed, index, nodes, tris, lights, light_count);
+    let (value, t) = radiance(&ray, sh, seed, index, scene);
     let hit = ray.origin + dir * t;
     RayHit {
         hx: hit.x,
@@ -343,21 +352,25 @@ pub struct RaygenParams {
 /// from the rng index the reprojected history carries, their [`Sample`] in plane `plane`, and the
 /// 0th ray's record in `hits` (stamped with `frame`). A surface that reflects nothing gets value 0
 /// for its rays without tracing, so its history fills like any other plane's.
-#[allow(clippy::too_many_arguments)]
-pub fn raygen_reflect(
-    id: UVec3,
-    p: &RaygenParams,
-    work: &[u32],
-    args: &[u32],
-    rays: &[u32],
-    surfaces: &[Surface],
-    history: &[Payload],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    out: &mut [Sample],
-    hits: &mut [RayHit],
-) {
+pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
+    let RaygenReflectIo {
+        work,
+        args,
+        rays,
+        surfaces,
+        history,
+        nodes,
+        tris,
+        lights,
+        out,
+        hits,
+    } = io;
+    let scene = HitScene {
+        nodes,
+        tris,
+        lights,
+        light_count: p.lights,
+    };
     if id.x >= args[0] {
         return;
     }
@@ -372,16 +385,7 @@ pub fn raygen_reflect(
     let mut record = RayHit::default();
     let mut k = 0u32;
     while k < n && s.is_valid() {
-        let r = reflection_ray(
-            &s,
-            &p.shading,
-            seed,
-            first_index.wrapping_add(k),
-            nodes,
-            tris,
-            lights,
-            p.lights,
-        );
+        let r = reflection_ray(&s, &p.shading, seed, first_index.wrapping_add(k), scene);
         let v = if r.pdf > 0.0 { r.radiance } else { 0.0 };
         if k == 0 {
             first = v;
@@ -447,16 +451,20 @@ pub fn tile_index(x: u32, y: u32, width: u32) -> usize {
 /// surface or hit anything but sky gets `min_rate`; otherwise the rate grows linearly with the
 /// standard deviation, reaching `max_rate` at `sigma`. The result scales the ray rate VRRT's
 /// reprojection requests in the tile ("allocate ray count per tile, between user min and max").
-#[allow(clippy::too_many_arguments)]
-pub fn reflect_tiles(
-    id: UVec3,
-    p: &TileParams,
-    surfaces: &[Surface],
-    nodes: &[BvhNode],
-    tris: &[Triangle],
-    lights: &[AreaLight],
-    importance: &mut [f32],
-) {
+pub fn reflect_tiles(id: UVec3, p: &TileParams, io: ReflectTilesIo<'_>) {
+    let ReflectTilesIo {
+        surfaces,
+        nodes,
+        tris,
+        lights,
+        importance,
+    } = io;
+    let scene = HitScene {
+        nodes,
+        tris,
+        lights,
+        light_count: p.lights,
+    };
     let (tw, th) = tile_grid(p.width, p.height);
     if id.x >= tw || id.y >= th {
         return;
@@ -479,10 +487,7 @@ pub fn reflect_tiles(
                 &p.shading,
                 pixel_seed(x, y, TRACER_PLANE),
                 p.frame,
-                nodes,
-                tris,
-                lights,
-                p.lights,
+                scene,
             );
             if r.pdf > 0.0 {
                 let v = r.radiance / (1.0 + r.radiance);
@@ -535,13 +540,12 @@ pub struct MotionParams {
 /// That virtual point, carried by the surface's own motion, projected with last frame's camera is
 /// where the reflection was: `motion[pixel] = (x, y)` in last frame's pixels. Pixels without a
 /// reflecting surface or a nearby record keep the surface motion.
-pub fn reflect_motion(
-    id: UVec3,
-    p: &MotionParams,
-    surfaces: &[Surface],
-    hits: &[RayHit],
-    motion: &mut [[f32; 2]],
-) {
+pub fn reflect_motion(id: UVec3, p: &MotionParams, io: ReflectMotionIo<'_>) {
+    let ReflectMotionIo {
+        surfaces,
+        hits,
+        motion,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -614,13 +618,12 @@ pub struct ReuseParams {
 /// importance sampling with the neighbours as proposal distributions. A pixel that traced nothing
 /// but receives neighbours' rays counts them as one ray, so sparse tracing still yields a full
 /// resolution estimate.
-pub fn reflect_reuse(
-    id: UVec3,
-    p: &ReuseParams,
-    surfaces: &[Surface],
-    hits: &[RayHit],
-    samples: &mut [Sample],
-) {
+pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
+    let ReflectReuseIo {
+        surfaces,
+        hits,
+        samples,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -680,13 +683,18 @@ pub fn reflect_reuse(
     }
 }
 
-
-
-
-
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
+
+    fn empty_scene(lights: &[AreaLight], light_count: u32) -> HitScene<'_> {
+        HitScene {
+            nodes: &[],
+            tris: &[],
+            lights,
+            light_count,
+        }
+    }
 
     fn floor_surface(roughness: f32) -> Surface {
         Surface {
@@ -741,7 +749,7 @@ mod tests {
         // Grazing view, alpha 0.3: retries find a direction above the floor almost always.
         assert!(found > 1990, "{found}");
         assert!(lobe(&floor_surface(0.9), &sh).is_none());
-        let lone = reflection_ray(&floor_surface(0.9), &sh, seed, 0, &[], &[], &[], 0);
+        let lone = reflection_ray(&floor_surface(0.9), &sh, seed, 0, empty_scene(&[], 0));
         assert_eq!(lone.pdf, 0.0);
     }
 
@@ -760,10 +768,10 @@ mod tests {
             Vec3::Z * 55.0,
         );
         let seed = pixel_seed(0, 0, 0);
-        let sky = reflection_ray(&s, &sh, seed, 3, &[], &[], &[light], 0);
+        let sky = reflection_ray(&s, &sh, seed, 3, empty_scene(&[light], 0));
         assert_eq!((sky.radiance, sky.distance), (sh.sky, MISS_DISTANCE));
         // The mirror direction from (0,2,2) off the origin points up and away (−z): the light.
-        let lit = reflection_ray(&s, &sh, seed, 3, &[], &[], &[light], 1);
+        let lit = reflection_ray(&s, &sh, seed, 3, empty_scene(&[light], 1));
         assert_eq!(lit.radiance, sh.light_radiance);
         assert!((lit.point().y - 10.0).abs() < 1e-3);
     }

@@ -22,7 +22,7 @@
 //! variance clamping.
 
 use super::buckets::rate_to_bucket;
-use super::gradient::GradientSample;
+use super::ReprojectIo;
 use super::{pixel_index, plane_index};
 use crate::gbuffer::Surface;
 use crate::math;
@@ -219,21 +219,19 @@ fn footprint(
 /// One invocation per pixel; loops over the signal planes so the geometric tests run once.
 /// Writes the reprojected history of every plane to `out`, the pixel's flags to `flags` and its
 /// ray request (a bucket) to `requests`.
-#[allow(clippy::too_many_arguments)]
-pub fn reproject(
-    id: UVec3,
-    p: &ReprojectParams,
-    surfaces: &[Surface],
-    prev_surfaces: &[Surface],
-    history: &[Payload],
-    mask: &[u32],
-    gradient: &[GradientSample],
-    importance: &[f32],
-    parallax: &[[f32; 2]],
-    out: &mut [Payload],
-    flags: &mut [u32],
-    requests: &mut [u32],
-) {
+pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
+    let ReprojectIo {
+        surfaces,
+        prev_surfaces,
+        history,
+        mask,
+        gradient,
+        importance,
+        parallax,
+        out,
+        flags,
+        requests,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -345,4 +343,3 @@ pub fn reproject(
         0
     };
 }
-

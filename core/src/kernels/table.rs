@@ -1,7 +1,7 @@
 //! The declaration of every kernel: the one place, besides its function and its equivalence case,
 //! where a kernel is written. See [`crate::declare`] for what is derived from each entry.
 //!
-//! An entry reads `entry => DESC, Bindings: fn module::function, threads(x, y, z), params Type
+//! An entry reads `entry => DESC, Bindings, Io: fn module::function, threads(x, y, z), params Type
 //! { name: read|write|atomic ElementType, .. }`. Bindings are numbered in order; `write` means each
 //! invocation writes only elements it owns, `atomic` that invocations contend through
 //! `crate::atomic`. Names used here must be in [`super::names`].
@@ -11,7 +11,7 @@ use super::names::*;
 crate::kernel_table! {
     /// [`accumulate::accumulate`]: temporal accumulation of the new samples into the reprojected
     /// history; `counters` has `payload::COUNTERS_LEN` words.
-    accumulate => ACCUMULATE, AccumulateBindings: fn accumulate::accumulate,
+    accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
         history: read Payload,
         samples: read Sample,
@@ -20,7 +20,7 @@ crate::kernel_table! {
     }
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
-    atrous => ATROUS, AtrousBindings: fn atrous::atrous,
+    atrous => ATROUS, AtrousBindings, AtrousIo: fn atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read Filtered,
         surfaces: read Surface,
@@ -30,7 +30,7 @@ crate::kernel_table! {
 
     /// [`classify::classify`]: iterations per 8×8 tile and their histogram; one invocation per
     /// tile.
-    classify => CLASSIFY, ClassifyBindings: fn classify::classify,
+    classify => CLASSIFY, ClassifyBindings, ClassifyIo: fn classify::classify,
     threads(8, 8, 1), params classify::ClassifyParams {
         surfaces: read Surface,
         filtered: read Filtered,
@@ -40,7 +40,7 @@ crate::kernel_table! {
 
     /// The bucket histogram of the ray requests ([`buckets::clear`], [`buckets::count`],
     /// [`buckets::flush`]); `counts` has `buckets::COUNTS_LEN` words, added to (fill it first).
-    count_buckets => COUNT_BUCKETS, CountBucketsBindings: workgroup [u32; buckets::BUCKET_COUNT as usize],
+    count_buckets => COUNT_BUCKETS, CountBucketsBindings, CountBucketsIo: workgroup [u32; buckets::BUCKET_COUNT as usize],
     phases [buckets::clear, buckets::count, buckets::flush],
     threads(16, 16, 1), params buckets::BucketParams {
         requests: read u32,
@@ -48,7 +48,7 @@ crate::kernel_table! {
     }
 
     /// [`gbuffer::gbuffer`]: the built-in renderer's primary rays, one `Surface` per pixel.
-    gbuffer => GBUFFER, GbufferBindings: fn gbuffer::gbuffer,
+    gbuffer => GBUFFER, GbufferBindings, GbufferIo: fn gbuffer::gbuffer,
     threads(8, 8, 1), params gbuffer::GbufferParams {
         nodes: read BvhNode,
         tris: read Triangle,
@@ -59,7 +59,7 @@ crate::kernel_table! {
 
     /// [`raygen::raygen_ao`]: AO rays of the compacted work list; dispatch indirectly from `args`
     /// at byte offset 4.
-    raygen_ao => RAYGEN_AO, RaygenAoBindings: fn raygen::raygen_ao,
+    raygen_ao => RAYGEN_AO, RaygenAoBindings, RaygenAoIo: fn raygen::raygen_ao,
     threads(64, 1, 1), params raygen::AoParams {
         work: read u32,
         args: read u32,
@@ -72,7 +72,7 @@ crate::kernel_table! {
     }
 
     /// [`raygen::raygen_shadow`]: shadow rays toward each area light; dispatch as `raygen_ao`.
-    raygen_shadow => RAYGEN_SHADOW, RaygenShadowBindings: fn raygen::raygen_shadow,
+    raygen_shadow => RAYGEN_SHADOW, RaygenShadowBindings, RaygenShadowIo: fn raygen::raygen_shadow,
     threads(64, 1, 1), params raygen::ShadowParams {
         work: read u32,
         args: read u32,
@@ -87,7 +87,7 @@ crate::kernel_table! {
 
     /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
     /// pixel (planes are looped inside).
-    reproject => REPROJECT, ReprojectBindings: fn reproject::reproject,
+    reproject => REPROJECT, ReprojectBindings, ReprojectIo: fn reproject::reproject,
     threads(8, 8, 1), params reproject::ReprojectParams {
         surfaces: read Surface,
         prev_surfaces: read Surface,
@@ -102,7 +102,7 @@ crate::kernel_table! {
     }
 
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history.
-    variance => VARIANCE, VarianceBindings: fn variance::variance,
+    variance => VARIANCE, VarianceBindings, VarianceIo: fn variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read Payload,
         surfaces: read Surface,
@@ -110,7 +110,7 @@ crate::kernel_table! {
     }
 
     /// [`balance::balance`]: the load balancer; `counts` from `count_buckets`, one workgroup.
-    balance => BALANCE, BalanceBindings: fn balance::balance,
+    balance => BALANCE, BalanceBindings, BalanceIo: fn balance::balance,
     threads(1, 1, 1), params balance::BalanceParams {
         counts: read u32,
         out: write Balance,
@@ -118,7 +118,7 @@ crate::kernel_table! {
     }
 
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
-    apply => APPLY, ApplyBindings: fn apply::apply,
+    apply => APPLY, ApplyBindings, ApplyIo: fn apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
         requests: read u32,
         decision: read Balance,
@@ -130,13 +130,13 @@ crate::kernel_table! {
     }
 
     /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.
-    fill => FILL, FillBindings: fn fill::fill,
+    fill => FILL, FillBindings, FillIo: fn fill::fill,
     threads(64, 1, 1), params fill::FillParams {
         buf: write u32,
     }
 
     /// [`gradient::project`]: forward projection of one previous sample per stratum.
-    gradient_project => GRADIENT_PROJECT, GradientProjectBindings: fn gradient::project,
+    gradient_project => GRADIENT_PROJECT, GradientProjectBindings, GradientProjectIo: fn gradient::project,
     threads(8, 8, 1), params gradient::ProjectParams {
         prev_surfaces: read Surface,
         surfaces: read Surface,
@@ -146,7 +146,7 @@ crate::kernel_table! {
     }
 
     /// [`gradient::retrace_ao`]: re-trace of the projected AO samples; one invocation per cell.
-    gradient_ao => GRADIENT_AO, GradientAoBindings: fn gradient::retrace_ao,
+    gradient_ao => GRADIENT_AO, GradientAoBindings, GradientAoIo: fn gradient::retrace_ao,
     threads(8, 8, 1), params gradient::RetraceParams {
         keys: read u32,
         prev_surfaces: read Surface,
@@ -159,7 +159,7 @@ crate::kernel_table! {
     }
 
     /// [`gradient::retrace_shadow`]: as `gradient_ao`, toward the lights.
-    gradient_shadow => GRADIENT_SHADOW, GradientShadowBindings: fn gradient::retrace_shadow,
+    gradient_shadow => GRADIENT_SHADOW, GradientShadowBindings, GradientShadowIo: fn gradient::retrace_shadow,
     threads(8, 8, 1), params gradient::RetraceParams {
         keys: read u32,
         prev_surfaces: read Surface,
@@ -173,7 +173,7 @@ crate::kernel_table! {
     }
 
     /// [`gradient::atrous`]: one iteration of the gradient reconstruction; cells × planes.
-    gradient_atrous => GRADIENT_ATROUS, GradientAtrousBindings: fn gradient::atrous,
+    gradient_atrous => GRADIENT_ATROUS, GradientAtrousBindings, GradientAtrousIo: fn gradient::atrous,
     threads(8, 8, 1), params gradient::GradientAtrousParams {
         input: read GradientSample,
         out: write GradientSample,
@@ -181,7 +181,7 @@ crate::kernel_table! {
 
     /// [`reflect::raygen_reflect`]: GGX reflection rays with direct light at the hits; dispatch
     /// as `raygen_ao`.
-    raygen_reflect => RAYGEN_REFLECT, RaygenReflectBindings: fn reflect::raygen_reflect,
+    raygen_reflect => RAYGEN_REFLECT, RaygenReflectBindings, RaygenReflectIo: fn reflect::raygen_reflect,
     threads(64, 1, 1), params reflect::RaygenParams {
         work: read u32,
         args: read u32,
@@ -196,7 +196,7 @@ crate::kernel_table! {
     }
 
     /// [`reflect::reflect_tiles`]: reflection importance per tile of `reflect::tile_grid`.
-    reflect_tiles => REFLECT_TILES, ReflectTilesBindings: fn reflect::reflect_tiles,
+    reflect_tiles => REFLECT_TILES, ReflectTilesBindings, ReflectTilesIo: fn reflect::reflect_tiles,
     threads(8, 8, 1), params reflect::TileParams {
         surfaces: read Surface,
         nodes: read BvhNode,
@@ -206,7 +206,7 @@ crate::kernel_table! {
     }
 
     /// [`reflect::reflect_motion`]: parallax motion of the reflected image.
-    reflect_motion => REFLECT_MOTION, ReflectMotionBindings: fn reflect::reflect_motion,
+    reflect_motion => REFLECT_MOTION, ReflectMotionBindings, ReflectMotionIo: fn reflect::reflect_motion,
     threads(8, 8, 1), params reflect::MotionParams {
         surfaces: read Surface,
         hits: read RayHit,
@@ -215,7 +215,7 @@ crate::kernel_table! {
 
     /// [`reflect::reflect_reuse`]: ray reuse between neighbours (rewrites plane `plane` of
     /// `samples`).
-    reflect_reuse => REFLECT_REUSE, ReflectReuseBindings: fn reflect::reflect_reuse,
+    reflect_reuse => REFLECT_REUSE, ReflectReuseBindings, ReflectReuseIo: fn reflect::reflect_reuse,
     threads(8, 8, 1), params reflect::ReuseParams {
         surfaces: read Surface,
         hits: read RayHit,

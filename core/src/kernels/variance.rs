@@ -15,12 +15,11 @@
 //! (`count = 0`) therefore takes the spatial estimate entirely — this is also how undersampled
 //! pixels get a value without feeding it back into history.
 
+use super::VarianceIo;
 use super::{pixel_index, plane_index};
 use crate::gbuffer::geometry_weight;
-use crate::gbuffer::Surface;
 use crate::kernels::atrous::Filtered;
 use crate::math;
-use crate::payload::Payload;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -62,13 +61,12 @@ impl Default for VarianceParams {
 }
 
 /// One invocation per pixel and signal plane.
-pub fn variance(
-    id: UVec3,
-    p: &VarianceParams,
-    payload: &[Payload],
-    surfaces: &[Surface],
-    out: &mut [Filtered],
-) {
+pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
+    let VarianceIo {
+        payload,
+        surfaces,
+        out,
+    } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
@@ -122,4 +120,3 @@ pub fn variance(
         variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
     };
 }
-
