@@ -172,7 +172,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
             "{} at {} rpp, signal {}",
             args.denoiser.name(),
             args.rpp,
-            opts.signal.name()
+            opts.signal.to_string()
         ),
     );
     row(

@@ -27,6 +27,8 @@ pub mod blue_noise;
 pub mod camera;
 pub mod declare;
 #[cfg(not(target_arch = "spirv"))]
+pub mod frame;
+#[cfg(not(target_arch = "spirv"))]
 pub mod denoiser;
 pub mod gbuffer;
 pub mod kernels;
@@ -38,6 +40,8 @@ pub mod quantize;
 #[cfg(not(target_arch = "spirv"))]
 pub mod reflections;
 pub mod sampling;
+#[cfg(not(target_arch = "spirv"))]
+pub mod settings;
 pub mod trace;
 
 pub use glam;

@@ -4,20 +4,22 @@
 //! Per frame, with the reflections in plane `plane` of a [`Denoiser`]:
 //!
 //! ```text
-//! begin_frame(use_importance) ─► Reflections::prepare ─► Denoiser::plan_rays ─► Reflections::trace ─► Denoiser::resolve
-//!                                 tiles → importance                            raygen → samples, hits
-//!                                 motion → parallax                             reuse  → samples
+//! begin_frame(use_importance) ─► Reflections::prepare ─► Denoiser::plan_rays ─► Reflections::raygen ─► Reflections::reuse ─► Denoiser::resolve
+//!                                 tiles → importance                            → samples, hits         → samples
+//!                                 motion → parallax
 //! ```
 //!
-//! The other planes (AO, shadows) are traced by their own raygen between `plan_rays` and
-//! `resolve`: all planes share the reprojection, the one ray request per pixel and the one load
+//! `crate::frame` runs this order; the other planes (AO, shadows) are traced by their own raygen
+//! between `plan_rays` and `resolve`: all planes share the reprojection, the one ray request per pixel and the one load
 //! balancer, so the ray budget is spent across signals.
 
 use crate::camera::Camera;
-use crate::denoiser::{check, Denoiser, SettingsError};
-use crate::kernels::reflect::{self, RayHit, Shading};
+use crate::denoiser::Denoiser;
+use crate::settings::{check, SettingsError};
 use crate::kernels;
-use crate::plan::{BufferId, Executor, Groups};
+use crate::kernels::reflect::{self, RayHit, Shading};
+use crate::frame::RaygenTarget;
+use crate::plan::{BufferId, Executor};
 
 /// Tunables of the reflection passes, with documented defaults and ranges.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -302,20 +304,19 @@ impl Reflections {
         exec.dispatch(&pass.pass(&p, target.groups()))
     }
 
-    /// After [`Denoiser::plan_rays`]: the reflection rays over the denoiser's work list into its
-    /// samples, then ray reuse.
-    pub fn trace<E: Executor>(
+    /// After the reflection rays of [`Self::raygen`] over the denoiser's work list: ray reuse
+    /// between neighbours, in place in the denoiser's samples.
+    pub fn reuse<E: Executor>(
         &self,
         exec: &mut E,
         denoiser: &Denoiser,
         scene: &ReflectionScene,
     ) -> Result<(), E::Error> {
-        let (w, h) = denoiser.size();
-        let frame = denoiser.frame().index;
-        self.raygen(exec, scene, &RaygenTarget::of(denoiser))?;
         if self.settings.reuse_radius == 0 {
             return Ok(());
         }
+        let (w, h) = denoiser.size();
+        let frame = denoiser.frame().index;
         let reuse = reflect::ReuseParams {
             width: w,
             height: h,
@@ -332,53 +333,6 @@ impl Reflections {
             samples: denoiser.samples(),
         };
         exec.dispatch(&pass.over_grid(&reuse, w, h, 1))
-    }
-}
-
-/// What a raygen pass traces and where it writes, besides the scene: a compacted work list
-/// (dispatched indirectly from `args` at byte offset 4), the surfaces, the history whose rng
-/// indices seed the rays, and the `Sample`s of a `size` image.
-#[derive(Copy, Clone, Debug)]
-pub struct RaygenTarget {
-    /// Image width and height in pixels.
-    pub size: (u32, u32),
-    /// Compacted work list (`apply`).
-    pub work: BufferId,
-    /// Indirect dispatch arguments of the work list.
-    pub args: BufferId,
-    /// Rays per pixel.
-    pub rays: BufferId,
-    /// The G-buffer.
-    pub surfaces: BufferId,
-    /// Payloads whose rng indices seed the rays.
-    pub history: BufferId,
-    /// Samples written.
-    pub out: BufferId,
-    /// Frame stamp of the ray records.
-    pub frame: u32,
-}
-
-impl RaygenTarget {
-    /// The denoiser's own work list, reprojected history and samples this frame.
-    pub fn of(denoiser: &Denoiser) -> Self {
-        RaygenTarget {
-            size: denoiser.size(),
-            work: denoiser.work(),
-            args: denoiser.args(),
-            rays: denoiser.rays(),
-            surfaces: denoiser.surfaces(),
-            history: denoiser.reprojected(),
-            out: denoiser.samples(),
-            frame: denoiser.frame().index,
-        }
-    }
-
-    /// The indirect dispatch of the work list.
-    pub fn groups(&self) -> Groups {
-        Groups::Indirect {
-            buffer: self.args,
-            offset: 4,
-        }
     }
 }
 

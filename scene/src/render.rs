@@ -1,126 +1,22 @@
-//! Renders a scene's frames through any executor: the G-buffer pass, the denoiser's plan, and
-//! raygen of the chosen signal; and converged references traced with the very same estimator.
+//! Renders a scene's frames through any executor: what a renderer supplies to
+//! `vrrt_core::frame::Frame` (the scene on the executor and its G-buffer pass), the readback of
+//! each frame's outputs, and converged references traced with the very same estimator.
 
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
-use vrrt_core::denoiser::{
-    Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene, Settings, SettingsError,
-};
+use vrrt_core::denoiser::{Denoiser, DenoiserError};
+use vrrt_core::frame::{trace_planes, Frame, FrameScene, RaygenTarget};
+pub use vrrt_core::frame::{PlaneLayout, Signal};
 use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{self, classify, gbuffer, raygen};
+use vrrt_core::kernels::{self, classify};
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
-use vrrt_core::reflections::{RaygenTarget, ReflectionScene, ReflectionSettings, Reflections};
-
-/// The ray-traced signal being denoised.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum Signal {
-    /// Ambient occlusion with a maximum distance (one plane).
-    Ao {
-        /// Occluders beyond this distance do not count.
-        max_distance: f32,
-    },
-    /// Area-light shadows: one plane per light of the scene (up to 4).
-    Shadows,
-    /// Glossy reflections (`vrrt_core::reflections`, one plane).
-    Reflections(ReflectionSettings),
-    /// AO, the shadows of every light and reflections in one frame: planes AO, shadows…,
-    /// reflections, sharing reprojection and one ray budget.
-    All {
-        /// AO radius.
-        max_distance: f32,
-        /// The reflections' settings.
-        reflections: ReflectionSettings,
-    },
-}
-
-/// Where each signal of a [`Signal`] lives among the denoiser's planes.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
-pub struct PlaneLayout {
-    /// The AO plane.
-    pub ao: Option<u32>,
-    /// First shadow plane and how many (one per light).
-    pub shadows: Option<(u32, u32)>,
-    /// The reflection plane.
-    pub reflections: Option<u32>,
-    /// Planes in all.
-    pub planes: u32,
-}
-
-impl Signal {
-    /// The planes of each signal for a frame with `lights` lights.
-    pub fn layout(&self, lights: usize) -> PlaneLayout {
-        let shadows = lights.clamp(1, 4) as u32;
-        match self {
-            Signal::Ao { .. } => PlaneLayout {
-                ao: Some(0),
-                planes: 1,
-                ..PlaneLayout::default()
-            },
-            Signal::Shadows => PlaneLayout {
-                shadows: Some((0, shadows)),
-                planes: shadows,
-                ..PlaneLayout::default()
-            },
-            Signal::Reflections(_) => PlaneLayout {
-                reflections: Some(0),
-                planes: 1,
-                ..PlaneLayout::default()
-            },
-            Signal::All { .. } => PlaneLayout {
-                ao: Some(0),
-                shadows: Some((1, shadows)),
-                reflections: Some(1 + shadows),
-                planes: 2 + shadows,
-            },
-        }
-    }
-
-    /// Signal planes for a frame with `lights` lights.
-    pub fn planes(&self, lights: usize) -> u32 {
-        self.layout(lights).planes
-    }
-
-    /// The AO radius, when the signal has AO.
-    fn ao_distance(&self) -> Option<f32> {
-        match *self {
-            Signal::Ao { max_distance } | Signal::All { max_distance, .. } => Some(max_distance),
-            _ => None,
-        }
-    }
-
-    /// The reflections' settings, when the signal has reflections.
-    pub fn reflections(&self) -> Option<ReflectionSettings> {
-        match *self {
-            Signal::Reflections(r) | Signal::All { reflections: r, .. } => Some(r),
-            _ => None,
-        }
-    }
-
-    /// Short name, used in file names and cache keys: it names everything the estimator
-    /// depends on (reflections: roughness cut-off and hit lighting, not reuse or tiles).
-    pub fn name(&self) -> String {
-        let reflect = |r: &ReflectionSettings| {
-            format!(
-                "reflect{}-{}-{}-{}-{}",
-                r.max_roughness, r.light_radiance, r.albedo, r.sky, r.ambient
-            )
-        };
-        match self {
-            Signal::Ao { max_distance } => format!("ao{max_distance}"),
-            Signal::Shadows => "shadows".into(),
-            Signal::Reflections(r) => reflect(r),
-            Signal::All {
-                max_distance,
-                reflections,
-            } => format!("all-ao{max_distance}-{}", reflect(reflections)),
-        }
-    }
-}
+use vrrt_core::reflections::Reflections;
+use vrrt_core::settings::Settings;
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -211,34 +107,19 @@ impl GpuScene {
         ]
     }
 
-    /// What the denoiser's temporal-gradient prepass re-traces against for `signal` in frame `f`;
-    /// `None` for signals it cannot re-trace (reflections).
-    pub fn gradient_scene(&self, f: &FrameGeometry, signal: Signal) -> Option<GradientScene> {
+    /// The scene of frame `f` as the frame pipeline reads it.
+    pub fn frame_scene<'a>(&self, f: &'a FrameGeometry) -> FrameScene<'a> {
         let [nodes, tris, _, _, lights] = self.ids();
-        let rays = match signal {
-            Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
-            Signal::Shadows => GradientRays::Shadows { lights },
-            Signal::Reflections(_) | Signal::All { .. } => return None,
-        };
-        Some(GradientScene {
-            nodes,
-            tris,
-            next: self.next.expect("GpuScene::upload first").id,
-            camera: f.camera,
-            rays,
-        })
-    }
-
-    /// What the reflection passes trace against in frame `f`.
-    pub fn reflection_scene(&self, f: &FrameGeometry) -> ReflectionScene {
-        let [nodes, tris, _, _, lights] = self.ids();
-        ReflectionScene {
+        FrameScene {
             nodes,
             tris,
             lights,
-            light_count: f.lights.len() as u32,
+            next: self.next.expect("GpuScene::upload first").id,
+            light_list: &f.lights,
+            instances: &f.instances,
             camera: f.camera,
             prev_camera: f.prev_camera,
+            camera_cut: f.camera_cut,
         }
     }
 
@@ -261,60 +142,6 @@ impl GpuScene {
             out: surfaces,
         };
         exec.dispatch(&pass.over_grid(&p, width, height, 1))
-    }
-
-    /// Records raygen of the AO and shadow planes of `signal` over `target`'s work list;
-    /// reflections are traced by [`Reflections`].
-    pub fn raygen<E: Executor>(
-        &self,
-        exec: &mut E,
-        signal: Signal,
-        lights: usize,
-        target: &RaygenTarget,
-    ) -> Result<(), E::Error> {
-        let [nodes, tris, _, _, light_buffer] = self.ids();
-        let (width, height) = target.size;
-        let layout = signal.layout(lights);
-        let ao = kernels::RaygenAoBindings {
-            work: target.work,
-            args: target.args,
-            rays: target.rays,
-            surfaces: target.surfaces,
-            history: target.history,
-            nodes,
-            tris,
-            out: target.out,
-        };
-        if let Some(max_distance) = signal.ao_distance() {
-            let p = raygen::AoParams {
-                width,
-                height,
-                planes: 1,
-                max_distance,
-            };
-            exec.dispatch(&ao.pass(&p, target.groups()))?;
-        }
-        if let Some((first_plane, planes)) = layout.shadows {
-            let p = raygen::ShadowParams {
-                width,
-                height,
-                planes,
-                first_plane,
-            };
-            let shadow = kernels::RaygenShadowBindings {
-                work: ao.work,
-                args: ao.args,
-                rays: ao.rays,
-                surfaces: ao.surfaces,
-                history: ao.history,
-                nodes,
-                tris,
-                lights: light_buffer,
-                out: ao.out,
-            };
-            exec.dispatch(&shadow.pass(&p, target.groups()))?;
-        }
-        Ok(())
     }
 }
 
@@ -379,74 +206,41 @@ impl FrameOutput {
     }
 }
 
-/// Runs a scene frame by frame through the denoiser.
+/// Runs a scene frame by frame through core's frame pipeline and reads the outputs back.
 pub struct Renderer {
     width: u32,
     height: u32,
-    signal: Signal,
-    planes: u32,
-    lights: usize,
-    denoiser: Denoiser,
-    reflections: Option<Reflections>,
+    frame: Frame,
     gpu: GpuScene,
-    frames: u32,
-    prev_lights: Vec<raygen::AreaLight>,
-    /// The last frame ran no passes (its signal was absent): history is stale.
-    resume: bool,
 }
 
 impl Renderer {
-    /// A renderer for `width × height` with denoiser `settings` (its `planes` and
-    /// `parallax_plane` are set from the signal and the number of lights). Reflections cannot be
-    /// re-traced by the temporal-gradient prepass, so with them `gradient_stratum` must be 0.
+    /// A renderer for `width × height` with denoiser `settings` (see `Frame::new`: the plane
+    /// count and parallax plane come from the signal and the number of lights).
     pub fn new<E: Executor>(
         exec: &mut E,
         width: u32,
         height: u32,
         signal: Signal,
         lights: usize,
-        mut settings: Settings,
+        settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
-        let layout = signal.layout(lights);
-        settings.planes = layout.planes;
-        settings.parallax_plane = layout
-            .reflections
-            .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
-        if layout.reflections.is_some() && settings.gradient_stratum != 0 {
-            return Err(DenoiserError::Settings(SettingsError::OutOfRange {
-                field: "gradient_stratum",
-                value: settings.gradient_stratum as f32,
-                range: "0 with reflections (the prepass has no reflection re-trace)",
-            }));
-        }
-        let denoiser = Denoiser::new(exec, width, height, settings)?;
-        let reflections = match (layout.reflections, signal.reflections()) {
-            (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
-            _ => None,
-        };
         Ok(Renderer {
             width,
             height,
-            signal,
-            planes: settings.planes,
-            lights,
-            denoiser,
-            reflections,
+            frame: Frame::new(exec, width, height, signal, lights, settings)?,
             gpu: GpuScene::default(),
-            frames: 0,
-            prev_lights: Vec::new(),
-            resume: false,
         })
     }
 
     /// The reflection effect, when the signal has reflections.
     pub fn reflections(&self) -> Option<&Reflections> {
-        self.reflections.as_ref()
+        self.frame.reflections()
     }
 
     /// The denoiser (buffers, settings).
     pub fn denoiser(&self) -> &Denoiser {
-        &self.denoiser
+        self.frame.denoiser()
     }
 
     /// Renders one frame and reads back its outputs.
@@ -456,11 +250,14 @@ impl Renderer {
         f: &FrameGeometry,
         readback: Readback,
     ) -> Result<FrameOutput, E::Error> {
-        let (w, h, planes) = (self.width, self.height, self.planes);
-        if self.signal == Signal::Shadows && f.lights.is_empty() {
-            // A signal the scene lacks costs zero passes.
-            self.resume = true;
-            self.prev_lights.clear();
+        let (w, h) = (self.width, self.height);
+        let planes = self.frame.layout().planes;
+        self.gpu.upload(exec, f)?;
+        let gpu = &self.gpu;
+        let report = self.frame.render(exec, &gpu.frame_scene(f), |exec, surfaces| {
+            gpu.gbuffer(exec, f, w, h, surfaces)
+        })?;
+        if report.absent {
             return Ok(FrameOutput {
                 denoised: vec![1.0; (w * h * planes) as usize],
                 raw: vec![1.0; (w * h * planes) as usize],
@@ -469,44 +266,11 @@ impl Renderer {
                 ..FrameOutput::default()
             });
         }
-        let d = &mut self.denoiser;
-        // Nothing moved: same camera, every instance map the identity, same lights. Then the
-        // gradient prepass is skipped (every re-trace would repeat last frame's ray exactly).
-        let identity = gbuffer::InstanceData::default();
-        let still = |i: &gbuffer::InstanceData| {
-            *i == gbuffer::InstanceData {
-                roughness: i.roughness,
-                ..identity
-            }
-        };
-        let moved = f.camera != f.prev_camera
-            || !f.instances.iter().all(still)
-            || f.lights != self.prev_lights;
-        self.prev_lights = f.lights.clone();
-        d.begin_frame(FrameInfo {
-            index: self.frames,
-            reset: self.frames == 0 || f.camera_cut || self.resume,
-            pixel_angle: 2.0 * f.camera.tan_half_fov_y / h as f32,
-            use_mask: false,
-            moved,
-            use_importance: self.reflections.is_some(),
-        });
-        self.frames += 1;
-        self.resume = false;
-        self.gpu.upload(exec, f)?;
-        self.gpu.gbuffer(exec, f, w, h, d.surfaces())?;
-        let gradient_ran = match self.gpu.gradient_scene(f, self.signal) {
-            Some(scene) => d.temporal_gradients(exec, &scene)?,
-            None => false,
-        };
-        let reflection_scene = self.gpu.reflection_scene(f);
-        if let Some(r) = &self.reflections {
-            r.prepare(exec, d, &reflection_scene)?;
-        }
+        let d = self.frame.denoiser();
         let mut gradient_rays = 0;
         let gradient_size = d.gradient_size();
         let mut gradient_overlays = (Vec::new(), Vec::new());
-        if gradient_ran {
+        if report.gradient_ran {
             let cells = (gradient_size.0 * gradient_size.1) as usize;
             let keys: Vec<u32> = read(exec, d.gradient_keys(), cells)?;
             gradient_rays = keys.iter().filter(|&&k| k != EMPTY_KEY).count() as u64 * planes as u64;
@@ -519,21 +283,6 @@ impl Renderer {
                 );
             }
         }
-        d.plan_rays(exec)?;
-        self.gpu
-            .raygen(exec, self.signal, self.lights, &RaygenTarget::of(d))?;
-        if let Some(r) = &self.reflections {
-            r.trace(exec, d, &reflection_scene)?;
-        }
-        let overlays_before = if readback.overlays {
-            Some((
-                read::<u32, E>(exec, d.requests(), (w * h) as usize)?,
-                read::<Payload, E>(exec, d.reprojected(), (w * h) as usize)?,
-            ))
-        } else {
-            None
-        };
-        d.resolve(exec)?;
         let n = (w * h * planes) as usize;
         let denoised: Vec<Filtered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = read(exec, d.samples(), n)?;
@@ -551,7 +300,7 @@ impl Renderer {
             rays,
             decision: decision[0],
             flags,
-            gradient_ran,
+            gradient_ran: report.gradient_ran,
             gradient_rays,
             gradient_size,
             gradient_raw: gradient_overlays.0,
@@ -559,8 +308,12 @@ impl Renderer {
             tiles: tiles.try_into().expect("histogram length"),
             ..FrameOutput::default()
         };
-        if let Some((requests, reprojected)) = overlays_before {
-            let history: Vec<Payload> = read(exec, d.history(), (w * h) as usize)?;
+        if readback.overlays {
+            // Resolve writes neither the requests nor the reprojected history.
+            let pixels = (w * h) as usize;
+            let requests: Vec<u32> = read(exec, d.requests(), pixels)?;
+            let reprojected: Vec<Payload> = read(exec, d.reprojected(), pixels)?;
+            let history: Vec<Payload> = read(exec, d.history(), pixels)?;
             out.requests = requests;
             out.history_reprojected = reprojected.iter().map(|p| p.count).collect();
             out.history_accumulated = history.iter().map(|p| p.count).collect();
@@ -642,10 +395,8 @@ pub fn reference<E: Executor>(
             out,
             frame: 0,
         };
-        gpu.raygen(exec, signal, f.lights.len(), &target)?;
-        if let Some(r) = &reflections {
-            r.raygen(exec, &gpu.reflection_scene(f), &target)?;
-        }
+        let scene = gpu.frame_scene(f);
+        trace_planes(exec, signal, &layout, &scene, reflections.as_ref(), &target)?;
         let samples: Vec<Sample> = read(exec, out, n)?;
         for (i, s) in samples.iter().enumerate() {
             sum[i] += s.m1 as f64 * s.rays as f64;

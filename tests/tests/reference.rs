@@ -29,7 +29,7 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
                 .count();
             println!(
                 "{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}",
-                signal.name()
+                signal.to_string()
             );
             if let Some(prev) = previous {
                 let ratio = prev / mean_se;

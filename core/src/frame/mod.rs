@@ -1,0 +1,273 @@
+//! The whole frame, for every signal: which passes run, in which order, on which planes.
+//!
+//! A renderer (the `vrrt-scene` crate, or an engine) supplies what only it has — the G-buffer, the
+//! scene on the executor ([`FrameScene`]) — and calls [`Frame::render`]; everything else is
+//! decided here, so an engine gets the same frame that `vrrt run` measures:
+//!
+//! ```text
+//! absent? ─► temporal ─► G-buffer ─► gradients ─► reflections.prepare ─► rates ─► raygen ─► reuse ─► resolve
+//! (no pass)  reset/moved  (renderer)  (A-SVGF)     tiles, parallax        reproject,        (reflections) accumulate,
+//!                                                                         balance, apply              variance, filter
+//! ```
+//!
+//! Rules that live here and nowhere else:
+//! - **Absent signal**: shadows in a frame without a light run no pass at all; the next frame with
+//!   a light starts with fresh history.
+//! - **Reset**: the first frame, a camera cut, and the frame after an absent one discard history.
+//! - **Still frame**: nothing moved (same camera, every instance map the identity, same lights):
+//!   the temporal-gradient prepass is skipped (every re-trace would repeat last frame's ray) and
+//!   the adaptive plan may drop converged pixels to the floor rate (`Denoiser::plan_rays`).
+//! - **Plane layout** ([`Signal::layout`]) and which raygen traces which plane
+//!   ([`trace_planes`]).
+
+mod raygen;
+mod signal;
+
+pub use raygen::{trace_planes, RaygenTarget};
+pub use signal::{PlaneLayout, Signal};
+
+use crate::camera::Camera;
+use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
+use crate::kernels::gbuffer::InstanceData;
+use crate::kernels::raygen::AreaLight;
+use crate::plan::{BufferId, Executor};
+use crate::reflections::{ReflectionScene, Reflections};
+use crate::settings::{Settings, SettingsError};
+
+/// What a renderer supplies each frame besides the G-buffer: its scene on the executor, the
+/// cameras, and the host copies of what can move (for the still-frame rule).
+#[derive(Copy, Clone, Debug)]
+pub struct FrameScene<'a> {
+    /// BVH nodes of this frame's geometry.
+    pub nodes: BufferId,
+    /// Triangles of this frame's geometry.
+    pub tris: BufferId,
+    /// This frame's lights (`AreaLight`s).
+    pub lights: BufferId,
+    /// Per-instance previous→current maps (`InstanceData`, the inverse of the G-buffer's).
+    pub next: BufferId,
+    /// This frame's lights, on the host.
+    pub light_list: &'a [AreaLight],
+    /// This frame's instance maps (`InstanceData`), on the host.
+    pub instances: &'a [InstanceData],
+    /// This frame's camera.
+    pub camera: Camera,
+    /// Last frame's camera.
+    pub prev_camera: Camera,
+    /// The camera jumped: history is worthless.
+    pub camera_cut: bool,
+}
+
+impl FrameScene<'_> {
+    /// What the reflection passes trace against.
+    pub fn reflection_scene(&self) -> ReflectionScene {
+        ReflectionScene {
+            nodes: self.nodes,
+            tris: self.tris,
+            lights: self.lights,
+            light_count: self.light_list.len() as u32,
+            camera: self.camera,
+            prev_camera: self.prev_camera,
+        }
+    }
+
+    /// What the temporal-gradient prepass re-traces against for `signal`; `None` for signals it
+    /// cannot re-trace (reflections, and so the multi-signal frame).
+    pub fn gradient_scene(&self, signal: Signal) -> Option<GradientScene> {
+        let rays = match signal {
+            Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
+            Signal::Shadows => GradientRays::Shadows {
+                lights: self.lights,
+            },
+            Signal::Reflections(_) | Signal::All { .. } => return None,
+        };
+        Some(GradientScene {
+            nodes: self.nodes,
+            tris: self.tris,
+            next: self.next,
+            camera: self.camera,
+            rays,
+        })
+    }
+
+    /// Whether anything that changes a ray moved since a frame whose lights hashed to
+    /// `prev_lights`.
+    fn moved(&self, prev_lights: u64) -> bool {
+        let identity = InstanceData::default();
+        let still = |i: &InstanceData| {
+            *i == InstanceData {
+                roughness: i.roughness,
+                ..identity
+            }
+        };
+        self.camera != self.prev_camera
+            || !self.instances.iter().all(still)
+            || lights_hash(self.light_list) != prev_lights
+    }
+}
+
+/// FNV-1a over the lights' bytes: the still-frame rule compares lights without keeping a copy.
+fn lights_hash(lights: &[AreaLight]) -> u64 {
+    bytemuck::cast_slice::<AreaLight, u8>(lights)
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+            (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+        })
+}
+
+/// What [`Frame::render`] decided.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct FrameReport {
+    /// The signal had no source (shadows without a light): no pass ran.
+    pub absent: bool,
+    /// History was discarded (first frame, camera cut, or after an absent frame).
+    pub reset: bool,
+    /// Something moved since the last frame.
+    pub moved: bool,
+    /// The temporal-gradient prepass ran.
+    pub gradient_ran: bool,
+}
+
+/// One signal's denoiser and effects, and the frame sequence over them.
+pub struct Frame {
+    signal: Signal,
+    layout: PlaneLayout,
+    denoiser: Denoiser,
+    reflections: Option<Reflections>,
+    frames: u32,
+    prev_lights: u64,
+    /// The last frame ran no passes (its signal was absent): history is stale.
+    resume: bool,
+}
+
+impl Frame {
+    /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
+    /// plane count and the parallax plane of `settings` are set from the layout. Reflections
+    /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
+    /// must be 0.
+    pub fn new<E: Executor>(
+        exec: &mut E,
+        width: u32,
+        height: u32,
+        signal: Signal,
+        lights: usize,
+        mut settings: Settings,
+    ) -> Result<Self, DenoiserError<E::Error>> {
+        let layout = signal.layout(lights);
+        settings.planes = layout.planes;
+        settings.parallax_plane = layout
+            .reflections
+            .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
+        if layout.reflections.is_some() && settings.gradient.stratum != 0 {
+            return Err(DenoiserError::Settings(SettingsError::OutOfRange {
+                field: "gradient.stratum",
+                value: settings.gradient.stratum as f32,
+                range: "0 with reflections (the prepass has no reflection re-trace)",
+            }));
+        }
+        let denoiser = Denoiser::new(exec, width, height, settings)?;
+        let reflections = match (layout.reflections, signal.reflections()) {
+            (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
+            _ => None,
+        };
+        Ok(Frame {
+            signal,
+            layout,
+            denoiser,
+            reflections,
+            frames: 0,
+            prev_lights: lights_hash(&[]),
+            resume: false,
+        })
+    }
+
+    /// The signal.
+    pub fn signal(&self) -> Signal {
+        self.signal
+    }
+
+    /// Where each signal lives among the planes.
+    pub fn layout(&self) -> PlaneLayout {
+        self.layout
+    }
+
+    /// The denoiser (buffers, settings).
+    pub fn denoiser(&self) -> &Denoiser {
+        &self.denoiser
+    }
+
+    /// The reflection effect, when the signal has reflections.
+    pub fn reflections(&self) -> Option<&Reflections> {
+        self.reflections.as_ref()
+    }
+
+    /// Records one frame. `gbuffer(exec, surfaces)` records the renderer's G-buffer into the
+    /// denoiser's surface buffer; it is not called when the signal is absent.
+    pub fn render<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        scene: &FrameScene<'_>,
+        gbuffer: impl FnOnce(&mut E, BufferId) -> Result<(), E::Error>,
+    ) -> Result<FrameReport, E::Error> {
+        if self.signal.needs_lights() && scene.light_list.is_empty() {
+            self.resume = true;
+            self.prev_lights = lights_hash(&[]);
+            return Ok(FrameReport {
+                absent: true,
+                ..FrameReport::default()
+            });
+        }
+        let info = self.temporal(scene);
+        gbuffer(exec, self.denoiser.surfaces())?;
+        let gradient_ran = self.gradients(exec, scene)?;
+        let reflection_scene = scene.reflection_scene();
+        if let Some(r) = &self.reflections {
+            r.prepare(exec, &self.denoiser, &reflection_scene)?;
+        }
+        self.denoiser.plan_rays(exec)?;
+        let target = RaygenTarget::of(&self.denoiser);
+        let reflections = self.reflections.as_ref();
+        trace_planes(exec, self.signal, &self.layout, scene, reflections, &target)?;
+        if let Some(r) = reflections {
+            r.reuse(exec, &self.denoiser, &reflection_scene)?;
+        }
+        self.denoiser.resolve(exec)?;
+        Ok(FrameReport {
+            absent: false,
+            reset: info.reset,
+            moved: info.moved,
+            gradient_ran,
+        })
+    }
+
+    /// The temporal stage: the reset and still-frame rules, then the denoiser's frame begins.
+    fn temporal(&mut self, scene: &FrameScene<'_>) -> FrameInfo {
+        let moved = scene.moved(self.prev_lights);
+        self.prev_lights = lights_hash(scene.light_list);
+        let (_, height) = self.denoiser.size();
+        let info = FrameInfo {
+            index: self.frames,
+            reset: self.frames == 0 || scene.camera_cut || self.resume,
+            pixel_angle: 2.0 * scene.camera.tan_half_fov_y / height as f32,
+            use_mask: false,
+            moved,
+            use_importance: self.reflections.is_some(),
+        };
+        self.denoiser.begin_frame(info);
+        self.frames += 1;
+        self.resume = false;
+        info
+    }
+
+    /// The gradient stage: the A-SVGF prepass where the signal can be re-traced.
+    fn gradients<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        scene: &FrameScene<'_>,
+    ) -> Result<bool, E::Error> {
+        match scene.gradient_scene(self.signal) {
+            Some(g) => self.denoiser.temporal_gradients(exec, &g),
+            None => Ok(false),
+        }
+    }
+}

@@ -1,0 +1,121 @@
+//! Which signals a frame denoises and where each lives among the denoiser's planes.
+
+use crate::reflections::ReflectionSettings;
+use core::fmt;
+
+/// The ray-traced signal being denoised.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Signal {
+    /// Ambient occlusion with a maximum distance (one plane).
+    Ao {
+        /// Occluders beyond this distance do not count.
+        max_distance: f32,
+    },
+    /// Area-light shadows: one plane per light of the scene (up to 4).
+    Shadows,
+    /// Glossy reflections (`crate::reflections`, one plane).
+    Reflections(ReflectionSettings),
+    /// AO, the shadows of every light and reflections in one frame: planes AO, shadows…,
+    /// reflections, sharing reprojection and one ray budget.
+    All {
+        /// AO radius.
+        max_distance: f32,
+        /// The reflections' settings.
+        reflections: ReflectionSettings,
+    },
+}
+
+/// Where each signal of a [`Signal`] lives among the denoiser's planes.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct PlaneLayout {
+    /// The AO plane.
+    pub ao: Option<u32>,
+    /// First shadow plane and how many (one per light).
+    pub shadows: Option<(u32, u32)>,
+    /// The reflection plane.
+    pub reflections: Option<u32>,
+    /// Planes in all.
+    pub planes: u32,
+}
+
+impl Signal {
+    /// The planes of each signal for a frame with `lights` lights.
+    pub fn layout(&self, lights: usize) -> PlaneLayout {
+        let shadows = lights.clamp(1, 4) as u32;
+        match self {
+            Signal::Ao { .. } => PlaneLayout {
+                ao: Some(0),
+                planes: 1,
+                ..PlaneLayout::default()
+            },
+            Signal::Shadows => PlaneLayout {
+                shadows: Some((0, shadows)),
+                planes: shadows,
+                ..PlaneLayout::default()
+            },
+            Signal::Reflections(_) => PlaneLayout {
+                reflections: Some(0),
+                planes: 1,
+                ..PlaneLayout::default()
+            },
+            Signal::All { .. } => PlaneLayout {
+                ao: Some(0),
+                shadows: Some((1, shadows)),
+                reflections: Some(1 + shadows),
+                planes: 2 + shadows,
+            },
+        }
+    }
+
+    /// Signal planes for a frame with `lights` lights.
+    pub fn planes(&self, lights: usize) -> u32 {
+        self.layout(lights).planes
+    }
+
+    /// The AO radius, when the signal has AO.
+    pub fn ao_distance(&self) -> Option<f32> {
+        match *self {
+            Signal::Ao { max_distance } | Signal::All { max_distance, .. } => Some(max_distance),
+            _ => None,
+        }
+    }
+
+    /// The reflections' settings, when the signal has reflections.
+    pub fn reflections(&self) -> Option<ReflectionSettings> {
+        match *self {
+            Signal::Reflections(r) | Signal::All { reflections: r, .. } => Some(r),
+            _ => None,
+        }
+    }
+
+    /// Whether the signal is only shadows, which a frame without lights lacks entirely.
+    pub fn needs_lights(&self) -> bool {
+        *self == Signal::Shadows
+    }
+}
+
+/// Short name, used in file names and cache keys: it names everything the estimator depends on
+/// (reflections: roughness cut-off and hit lighting, not reuse or tiles).
+impl fmt::Display for Signal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let reflect = |f: &mut fmt::Formatter<'_>, r: &ReflectionSettings| {
+            write!(
+                f,
+                "reflect{}-{}-{}-{}-{}",
+                r.max_roughness, r.light_radiance, r.albedo, r.sky, r.ambient
+            )
+        };
+        match self {
+            Signal::Ao { max_distance } => write!(f, "ao{max_distance}"),
+            Signal::Shadows => f.write_str("shadows"),
+            Signal::Reflections(r) => reflect(f, r),
+            Signal::All {
+                max_distance,
+                reflections,
+            } => {
+                write!(f, "all-ao{max_distance}-")?;
+                reflect(f, reflections)
+            }
+        }
+    }
+}
