@@ -148,6 +148,17 @@ pub fn store(prev: Payload, curr: Sample, merged: Payload, storage: u32) -> Payl
     }
 }
 
+/// A filtered signal value and its variance: what the variance pass and each à-trous iteration
+/// write, and the denoised output.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Filtered {
+    /// Signal estimate.
+    pub value: f32,
+    /// Variance of the estimate.
+    pub variance: f32,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,9 +8,9 @@
 //!   this build also proves the whole dependency tree is `no_std`.
 #![no_std]
 
-use vrrt_core::gbuffer::{self, Surface};
 use vrrt_core::glam::UVec3;
 use vrrt_core::payload::{self, Payload, Sample};
+use vrrt_core::surface::{self, Surface};
 
 /// Push constants of the `resolve` entry point.
 #[repr(C)]
@@ -51,7 +51,7 @@ pub struct BlurParams {
 }
 
 /// The `blur` kernel: a 3×3 blur of a row-major image that stops at geometric edges with
-/// VRRT's G-buffer weights ([`gbuffer::geometry_weight`]), one invocation per pixel.
+/// VRRT's G-buffer weights ([`surface::geometry_weight`]), one invocation per pixel.
 pub fn blur(id: UVec3, p: &BlurParams, input: &[f32], surfaces: &[Surface], out: &mut [f32]) {
     if id.x >= p.width || id.y >= p.height {
         return;
@@ -67,7 +67,7 @@ pub fn blur(id: UVec3, p: &BlurParams, input: &[f32], surfaces: &[Surface], out:
             if x >= 0 && y >= 0 && x < p.width as i32 && y < p.height as i32 {
                 let j = (y as u32 * p.width + x as u32) as usize;
                 let offset = if dx == 0 && dy == 0 { 1.0 } else { 1.5 };
-                let w = gbuffer::geometry_weight(
+                let w = surface::geometry_weight(
                     &c,
                     &surfaces[j],
                     offset,

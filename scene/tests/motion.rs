@@ -1,11 +1,11 @@
 //! Motion vectors and ray generation on the built-in scenes, through the same kernel functions the
 //! GPU runs.
 
-use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{ao_pixel, shadow_pixel, AreaLight};
 use vrrt_core::sampling::pixel_seed;
+use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_scene::builtin::{builtin, room_ids};
 use vrrt_scene::{FrameGeometry, Scene};
 

@@ -12,20 +12,11 @@
 use super::classify::tile_index;
 use super::AtrousIo;
 use super::{pixel_index, plane_index};
-use crate::gbuffer::{self};
 use crate::math;
+use crate::payload::Filtered;
+use crate::surface::{self};
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, UVec3};
-
-/// A filtered signal value and its variance.
-#[repr(C)]
-#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Filtered {
-    /// Signal estimate.
-    pub value: f32,
-    /// Variance of the estimate.
-    pub variance: f32,
-}
 
 /// Push constants of [`atrous`].
 #[repr(C)]
@@ -135,10 +126,10 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 if s.is_valid() {
                     let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
                     let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
-                    let w_n = gbuffer::normal_weight(c.normal(), s.normal(), p.normal_power);
+                    let w_n = surface::normal_weight(c.normal(), s.normal(), p.normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
                     // exponents (the exp was most of the filter's time on the CPU).
-                    let e = gbuffer::plane_distance(
+                    let e = surface::plane_distance(
                         c.position(),
                         c.normal(),
                         s.position(),

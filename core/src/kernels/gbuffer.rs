@@ -15,8 +15,8 @@
 use super::pixel_index;
 use super::GbufferIo;
 use crate::camera::Camera;
-use crate::gbuffer::{Surface, NO_INSTANCE};
 use crate::math;
+use crate::surface::{Surface, NO_INSTANCE};
 use crate::trace::{self, normalize, BvhNode, Triangle, TriangleNormals};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};

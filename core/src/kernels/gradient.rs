@@ -37,10 +37,10 @@ use super::GradientProjectIo;
 use super::GradientShadowIo;
 use crate::atomic;
 use crate::camera::Camera;
-use crate::gbuffer::Surface;
 use crate::math;
 use crate::payload::{Payload, Sample};
 use crate::sampling::{pcg_hash, pixel_seed};
+use crate::surface::Surface;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 

@@ -49,7 +49,6 @@ pub struct WorkgroupIds {
 /// the shader crate's root.
 #[doc(hidden)]
 pub mod names {
-    pub use super::atrous::Filtered;
     pub use super::balance::Balance;
     pub use super::gbuffer::InstanceData;
     pub use super::gradient::GradientSample;
@@ -59,7 +58,8 @@ pub mod names {
         accumulate, apply, atrous, balance, buckets, classify, fill, gbuffer, gradient, raygen,
         reflect, reproject, variance,
     };
-    pub use crate::gbuffer::Surface;
+    pub use crate::payload::Filtered;
     pub use crate::payload::{Payload, Sample};
+    pub use crate::surface::Surface;
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 }

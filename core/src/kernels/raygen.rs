@@ -37,10 +37,10 @@
 
 use super::RaygenAoIo;
 use super::RaygenShadowIo;
-use crate::gbuffer::{Surface, NO_INSTANCE};
 use crate::math;
 use crate::payload::Sample;
 use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
+use crate::surface::{Surface, NO_INSTANCE};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};

@@ -35,13 +35,13 @@ use super::ReflectMotionIo;
 use super::ReflectReuseIo;
 use super::ReflectTilesIo;
 use crate::camera::Camera;
-use crate::gbuffer::{plane_distance, Surface};
 use crate::math;
 use crate::payload::Sample;
 use crate::sampling::{
     ggx_reflection_pdf, ggx_vndf, low_discrepancy, parallelogram_point, pixel_seed, rand, reflect,
     MIN_ALPHA,
 };
+use crate::surface::{plane_distance, Surface};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};

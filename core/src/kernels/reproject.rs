@@ -24,9 +24,9 @@
 use super::buckets::rate_to_bucket;
 use super::ReprojectIo;
 use super::{pixel_index, plane_index};
-use crate::gbuffer::Surface;
 use crate::math;
 use crate::payload::Payload;
+use crate::surface::Surface;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 

@@ -17,9 +17,9 @@
 
 use super::VarianceIo;
 use super::{pixel_index, plane_index};
-use crate::gbuffer::geometry_weight;
-use crate::kernels::atrous::Filtered;
 use crate::math;
+use crate::payload::Filtered;
+use crate::surface::geometry_weight;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
