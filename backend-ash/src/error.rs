@@ -1,8 +1,10 @@
-//! Errors of the ash backend.
+//! Errors of the ash backend: what only a Vulkan device can report, next to the errors every
+//! backend shares ([`ExecError`]: unknown buffers, ranges, sizes, passes that do not match their
+//! kernel or alias buffers), which come from `vrrt-core` so that all backends report them alike.
 
 use ash::vk;
 use std::fmt;
-use vrrt_core::plan::{BufferId, PlanError};
+use vrrt_core::plan::{BufferId, ExecError, PlanError};
 
 /// Errors of [`AshExecutor`](crate::AshExecutor).
 #[derive(Debug)]
@@ -21,24 +23,10 @@ pub enum AshError {
         /// Its result code.
         result: vk::Result,
     },
-    /// The pass does not match its kernel.
-    Plan(PlanError),
-    /// A buffer id this executor did not create (or already destroyed).
-    UnknownBuffer(BufferId),
-    /// A write, read or indirect-argument access beyond the end of a buffer.
-    OutOfRange {
-        /// The buffer.
-        buffer: BufferId,
-        /// Bytes asked for (end of the access).
-        bytes: u64,
-        /// Bytes the buffer has.
-        size: u64,
-    },
-    /// Buffer sizes must be multiples of 4 bytes.
-    UnalignedSize(u64),
-    /// The same buffer bound twice in one pass, or an indirect-argument buffer that the pass also
-    /// writes.
-    AliasedBinding(BufferId),
+    /// An error every backend reports alike: a pass that does not match its kernel, an unknown
+    /// (or destroyed) buffer, an access out of range, an unaligned size, a buffer bound twice in
+    /// one pass or an indirect-count buffer that the pass also writes.
+    Exec(ExecError),
     /// A buffer is larger than the device's `maxStorageBufferRange`.
     BindingTooLarge {
         /// The buffer.
@@ -81,20 +69,7 @@ impl fmt::Display for AshError {
                 write!(f, "Vulkan validation requested but unavailable: {what}")
             }
             AshError::Vulkan { call, result } => write!(f, "{call} failed: {result}"),
-            AshError::Plan(e) => write!(f, "{e}"),
-            AshError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
-            AshError::OutOfRange {
-                buffer,
-                bytes,
-                size,
-            } => {
-                write!(
-                    f,
-                    "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes"
-                )
-            }
-            AshError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
-            AshError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
+            AshError::Exec(e) => write!(f, "{e}"),
             AshError::BindingTooLarge { buffer, size, max } => write!(
                 f,
                 "buffer {buffer:?} of {size} bytes exceeds maxStorageBufferRange ({max} bytes)"
@@ -118,8 +93,14 @@ impl fmt::Display for AshError {
 
 impl std::error::Error for AshError {}
 
+impl From<ExecError> for AshError {
+    fn from(e: ExecError) -> Self {
+        AshError::Exec(e)
+    }
+}
+
 impl From<PlanError> for AshError {
     fn from(e: PlanError) -> Self {
-        AshError::Plan(e)
+        AshError::Exec(ExecError::Plan(e))
     }
 }

@@ -8,7 +8,7 @@ mod common;
 use common::executor as host;
 use vrrt_ash::ash::vk;
 use vrrt_ash::{AshError, AshExecutor, RawVulkan};
-use vrrt_core::kernels::buckets::{self, BucketParams, BUCKET_COUNT, COUNTS_LEN};
+use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN};
 use vrrt_core::plan::{Executor, Pass};
 use vrrt_cpu::CpuExecutor;
 

@@ -10,14 +10,15 @@ mod common;
 use bytemuck::Pod;
 use common::executor;
 use vrrt_ash::ash::vk;
-use vrrt_ash::{AshError, AshExecutor};
-use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
-use vrrt_core::kernels::accumulate::{self, AccumulateParams};
-use vrrt_core::kernels::atrous::{self, AtrousParams, Filtered};
-use vrrt_core::kernels::buckets::{self, BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
+use vrrt_ash::{AshError, AshExecutor, ExecError};
+use vrrt_core::kernels::accumulate::AccumulateParams;
+use vrrt_core::kernels::atrous::AtrousParams;
+use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
 use vrrt_core::kernels::classify;
+use vrrt_core::payload::Filtered;
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
+use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
 
 const W: u32 = 37;
@@ -131,18 +132,29 @@ fn check_validation(ex: &AshExecutor) {
     );
 }
 
-/// Runs `kernel` over a `w × h × planes` grid, with buffers created from `inputs`, on both
-/// executors; returns (gpu, cpu) contents of buffer `out`.
-#[allow(clippy::too_many_arguments)]
-fn run_both<T: Pod>(
-    ex: &mut AshExecutor,
-    inputs: &[&[u8]],
+/// One kernel launch of [`run_both`].
+struct Launch<'a> {
+    kernel: &'static KernelDesc,
+    /// Contents of the buffers created for the pass, in binding order.
+    inputs: &'a [&'a [u8]],
+    params: &'a [u8],
+    /// `[width, height, planes]`: one invocation per element.
+    grid: [u32; 3],
+    /// Index of the buffer read back, and its length in elements.
     out: usize,
     out_len: usize,
-    kernel: &'static KernelDesc,
-    params: &[u8],
-    [w, h, planes]: [u32; 3],
-) -> (Vec<T>, Vec<T>) {
+}
+
+/// Runs `launch` on both executors; returns (gpu, cpu) contents of its `out` buffer.
+fn run_both<T: Pod>(ex: &mut AshExecutor, launch: &Launch<'_>) -> (Vec<T>, Vec<T>) {
+    let Launch {
+        kernel,
+        inputs,
+        params,
+        grid: [w, h, planes],
+        out,
+        out_len,
+    } = *launch;
     let mut cpu = CpuExecutor::new();
     let gb = upload(ex, inputs);
     let cb = upload(&mut cpu, inputs);
@@ -198,12 +210,14 @@ fn accumulate_matches_cpu() {
     let p = bytemuck::bytes_of(&params);
     let (gpu, cpu) = run_both::<Payload>(
         &mut ex,
-        &inputs,
-        2,
-        n,
-        &vrrt_core::kernels::ACCUMULATE,
-        p,
-        [W, H, PLANES],
+        &Launch {
+            kernel: &vrrt_core::kernels::ACCUMULATE,
+            inputs: &inputs,
+            params: p,
+            grid: [W, H, PLANES],
+            out: 2,
+            out_len: n,
+        },
     );
     assert_bits("accumulate", &gpu, &cpu, true, 0);
     assert!(gpu.iter().any(|p| p.count > 0.0));
@@ -273,8 +287,17 @@ fn atrous_matches_cpu() {
             &out,
         ];
         let p = bytemuck::bytes_of(&params);
-        let (gpu, cpu) =
-            run_both::<Filtered>(&mut ex, &inputs, 3, n, &vrrt_core::kernels::ATROUS, p, [W, H, PLANES]);
+        let (gpu, cpu) = run_both::<Filtered>(
+            &mut ex,
+            &Launch {
+                kernel: &vrrt_core::kernels::ATROUS,
+                inputs: &inputs,
+                params: p,
+                grid: [W, H, PLANES],
+                out: 3,
+                out_len: n,
+            },
+        );
         assert_bits(&format!("atrous step {step}"), &gpu, &cpu, true, ATROUS_ULP);
         assert_ne!(gpu, input, "the filter did nothing");
     }
@@ -306,12 +329,14 @@ fn buckets_match_cpu() {
         let p = bytemuck::bytes_of(&params);
         let (gpu, cpu) = run_both::<u32>(
             &mut ex,
-            &inputs,
-            1,
-            COUNTS_LEN as usize,
-            &vrrt_core::kernels::COUNT_BUCKETS,
-            p,
-            [w, h, 1],
+            &Launch {
+                kernel: &vrrt_core::kernels::COUNT_BUCKETS,
+                inputs: &inputs,
+                params: p,
+                grid: [w, h, 1],
+                out: 1,
+                out_len: COUNTS_LEN as usize,
+            },
         );
         assert_bits("count_buckets", &gpu, &cpu, false, 0);
         let expected = req.iter().filter(|&&r| r < BUCKET_COUNT).count() as u32;
@@ -422,16 +447,16 @@ fn errors_are_reported_not_panicked() {
     let Some(mut ex) = executor() else { return };
     assert!(matches!(
         ex.create_buffer(6),
-        Err(AshError::UnalignedSize(6))
+        Err(AshError::Exec(ExecError::UnalignedSize(6)))
     ));
     let a = ex.create_buffer(16).unwrap();
     assert!(matches!(
         ex.write_buffer(a, &[0; 20]),
-        Err(AshError::OutOfRange { .. })
+        Err(AshError::Exec(ExecError::OutOfRange { .. }))
     ));
     assert!(matches!(
         ex.write_buffer(BufferId(99), &[0; 4]),
-        Err(AshError::UnknownBuffer(_))
+        Err(AshError::Exec(ExecError::UnknownBuffer(_)))
     ));
     let params = BucketParams {
         width: 2,
@@ -448,11 +473,52 @@ fn errors_are_reported_not_panicked() {
     );
     assert!(matches!(
         ex.dispatch(&pass),
-        Err(AshError::AliasedBinding(_))
+        Err(AshError::Exec(ExecError::AliasedBinding(_)))
     ));
     let one = [a];
-    let pass = Pass::over_grid(&vrrt_core::kernels::COUNT_BUCKETS, &one, bytemuck::bytes_of(&params), 2, 2, 1);
-    assert!(matches!(ex.dispatch(&pass), Err(AshError::Plan(_))));
+    let pass = Pass::over_grid(
+        &vrrt_core::kernels::COUNT_BUCKETS,
+        &one,
+        bytemuck::bytes_of(&params),
+        2,
+        2,
+        1,
+    );
+    assert!(matches!(
+        ex.dispatch(&pass),
+        Err(AshError::Exec(ExecError::Plan(_)))
+    ));
+    // Indirect counts in the buffer the pass counts into (`counts`, atomic), or past the end.
+    let counts = ex.create_buffer(COUNTS_LEN as u64 * 4).unwrap();
+    let bufs = [a, counts];
+    let mut pass = Pass::over_grid(
+        &vrrt_core::kernels::COUNT_BUCKETS,
+        &bufs,
+        bytemuck::bytes_of(&params),
+        2,
+        2,
+        1,
+    );
+    pass.groups = Groups::Indirect {
+        buffer: counts,
+        offset: 0,
+    };
+    assert!(matches!(
+        ex.dispatch(&pass),
+        Err(AshError::Exec(ExecError::IndirectWritten(b))) if b == counts
+    ));
+    pass.groups = Groups::Indirect {
+        buffer: a,
+        offset: 8,
+    };
+    assert!(matches!(
+        ex.dispatch(&pass),
+        Err(AshError::Exec(ExecError::OutOfRange {
+            bytes: 20,
+            size: 16,
+            ..
+        }))
+    ));
     // Zero-sized buffers work and read back nothing.
     let z = ex.create_buffer(0).unwrap();
     ex.read_buffer(z, &mut []).unwrap();
@@ -460,7 +526,10 @@ fn errors_are_reported_not_panicked() {
     ex.read_buffer(a, &mut four).unwrap();
     assert_eq!(four, [0; 16], "buffers start zeroed");
     ex.destroy_buffer(a).unwrap();
-    assert!(matches!(ex.raw_buffer(a), Err(AshError::UnknownBuffer(_))));
+    assert!(matches!(
+        ex.raw_buffer(a),
+        Err(AshError::Exec(ExecError::UnknownBuffer(_)))
+    ));
     check_validation(&ex);
 }
 

@@ -6,57 +6,15 @@
 //! Rust program: create buffers, write slices, dispatch, read back.
 
 use rayon::prelude::*;
-use std::fmt;
 use std::time::Instant;
 use vrrt_core::glam::UVec3;
 use vrrt_core::plan::{
-    BufferId, CpuBindings, Executor, Groups, Pass, PassTiming, PlanError, RawBuffer,
+    BufferId, CpuBindings, ExecError, Executor, Groups, Pass, PassTiming, RawBuffer,
 };
 
-/// Errors of the CPU backend.
-#[derive(Debug)]
-pub enum CpuError {
-    /// The pass does not match its kernel.
-    Plan(PlanError),
-    /// A buffer id this executor did not create.
-    UnknownBuffer(BufferId),
-    /// A write or read beyond the end of a buffer.
-    OutOfRange {
-        /// The buffer.
-        buffer: BufferId,
-        /// Bytes asked for.
-        bytes: usize,
-        /// Bytes the buffer has.
-        size: usize,
-    },
-    /// Buffer sizes must be multiples of 4 bytes.
-    UnalignedSize(u64),
-    /// The same buffer bound twice in one pass (kernels get it as disjoint slices).
-    AliasedBinding(BufferId),
-}
-
-impl fmt::Display for CpuError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            CpuError::Plan(e) => write!(f, "{e}"),
-            CpuError::UnknownBuffer(b) => write!(f, "unknown buffer {b:?}"),
-            CpuError::OutOfRange {
-                buffer,
-                bytes,
-                size,
-            } => {
-                write!(
-                    f,
-                    "{bytes} bytes do not fit buffer {buffer:?} of {size} bytes"
-                )
-            }
-            CpuError::UnalignedSize(s) => write!(f, "buffer size {s} is not a multiple of 4"),
-            CpuError::AliasedBinding(b) => write!(f, "buffer {b:?} bound twice in one pass"),
-        }
-    }
-}
-
-impl std::error::Error for CpuError {}
+/// Errors of the CPU backend: only those every backend shares (the CPU has no device that could
+/// fail), so this is [`ExecError`] itself.
+pub type CpuError = ExecError;
 
 /// Runs plans on the CPU.
 #[derive(Default)]
@@ -74,13 +32,13 @@ impl CpuExecutor {
     fn buffer(&self, id: BufferId) -> Result<&Vec<u32>, CpuError> {
         self.buffers
             .get(id.0 as usize)
-            .ok_or(CpuError::UnknownBuffer(id))
+            .ok_or(ExecError::UnknownBuffer(id))
     }
 
     fn buffer_mut(&mut self, id: BufferId) -> Result<&mut Vec<u32>, CpuError> {
         self.buffers
             .get_mut(id.0 as usize)
-            .ok_or(CpuError::UnknownBuffer(id))
+            .ok_or(ExecError::UnknownBuffer(id))
     }
 
     /// Contents of a buffer, without copying.
@@ -88,19 +46,19 @@ impl CpuExecutor {
         Ok(bytemuck::cast_slice(self.buffer(id)?))
     }
 
+    /// Size in bytes of buffer `id`, `None` if unknown.
+    fn size_of(&self, id: BufferId) -> Option<u64> {
+        self.buffers.get(id.0 as usize).map(|b| b.len() as u64 * 4)
+    }
+
+    /// Workgroup counts of a checked pass (indirect counts exist: see [`Pass::check`]).
     fn group_counts(&self, groups: Groups) -> Result<[u32; 3], CpuError> {
         match groups {
             Groups::Direct(g) => Ok(g),
             Groups::Indirect { buffer, offset } => {
-                let b = self.buffer(buffer)?;
                 let i = (offset / 4) as usize;
-                b.get(i..i + 3)
-                    .map(|s| [s[0], s[1], s[2]])
-                    .ok_or(CpuError::OutOfRange {
-                        buffer,
-                        bytes: offset as usize + 12,
-                        size: b.len() * 4,
-                    })
+                let s = &self.buffer(buffer)?[i..i + 3];
+                Ok([s[0], s[1], s[2]])
             }
         }
     }
@@ -114,35 +72,21 @@ impl Executor for CpuExecutor {
     }
 
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, CpuError> {
-        if !size_bytes.is_multiple_of(4) {
-            return Err(CpuError::UnalignedSize(size_bytes));
-        }
+        ExecError::check_size(size_bytes)?;
         self.buffers.push(vec![0u32; (size_bytes / 4) as usize]);
         Ok(BufferId(self.buffers.len() as u32 - 1))
     }
 
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), CpuError> {
         let b = self.buffer_mut(buffer)?;
-        if data.len() > b.len() * 4 {
-            return Err(CpuError::OutOfRange {
-                buffer,
-                bytes: data.len(),
-                size: b.len() * 4,
-            });
-        }
+        ExecError::check_range(buffer, data.len() as u64, b.len() as u64 * 4)?;
         bytemuck::cast_slice_mut::<u32, u8>(b)[..data.len()].copy_from_slice(data);
         Ok(())
     }
 
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), CpuError> {
-        pass.validate().map_err(CpuError::Plan)?;
+        pass.check(|id| self.size_of(id))?;
         let groups = self.group_counts(pass.groups)?;
-        for (i, id) in pass.buffers.iter().enumerate() {
-            self.buffer(*id)?;
-            if pass.buffers[..i].contains(id) {
-                return Err(CpuError::AliasedBinding(*id));
-            }
-        }
         let raw: Vec<RawBuffer> = pass
             .buffers
             .iter()
@@ -179,13 +123,7 @@ impl Executor for CpuExecutor {
 
     fn read_buffer(&mut self, buffer: BufferId, out: &mut [u8]) -> Result<(), CpuError> {
         let bytes = self.contents(buffer)?;
-        if out.len() > bytes.len() {
-            return Err(CpuError::OutOfRange {
-                buffer,
-                bytes: out.len(),
-                size: bytes.len(),
-            });
-        }
+        ExecError::check_range(buffer, out.len() as u64, bytes.len() as u64)?;
         out.copy_from_slice(&bytes[..out.len()]);
         Ok(())
     }

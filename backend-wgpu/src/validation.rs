@@ -20,6 +20,8 @@ use std::ffi::c_void;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
+use crate::{WgpuError, WgpuExecutor};
+
 /// Messages kept for diagnostics; later ones are only counted.
 const MAX_MESSAGES: usize = 64;
 
@@ -87,6 +89,25 @@ fn record(inner: &LogInner, message: String) {
     };
     if m.len() < MAX_MESSAGES {
         m.push(message);
+    }
+}
+
+impl WgpuExecutor {
+    /// Runs `f` inside error scopes; a captured error is logged and returned.
+    pub(crate) fn scoped<T>(&self, f: impl FnOnce() -> T) -> Result<T, WgpuError> {
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let value = f();
+        let errors = [internal.pop(), oom.pop(), validation.pop()].map(pollster::block_on);
+        match errors.into_iter().flatten().next() {
+            None => Ok(value),
+            Some(e) => {
+                let msg = e.to_string();
+                self.log.record(format!("wgpu: {msg}"));
+                Err(WgpuError::Wgpu(msg))
+            }
+        }
     }
 }
 

@@ -5,12 +5,12 @@
 //! `VRRT_REQUIRE_VULKAN=1`. Validation layers are always requested; every test asserts that the
 //! executor saw no validation error.
 
-use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::kernels::{accumulate, atrous, buckets, classify};
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
+use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
-use vrrt_wgpu::{WgpuError, WgpuExecutor, WgpuOptions};
+use vrrt_wgpu::{ExecError, WgpuError, WgpuExecutor, WgpuOptions};
 
 const W: u32 = 37;
 const H: u32 = 19;
@@ -278,8 +278,8 @@ fn surfaces(rng: &mut Rng) -> Vec<Surface> {
 fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
     let mut rng = Rng(2);
     let n = W * H * PLANES;
-    let input: Vec<atrous::Filtered> = (0..n)
-        .map(|_| atrous::Filtered {
+    let input: Vec<vrrt_core::payload::Filtered> = (0..n)
+        .map(|_| vrrt_core::payload::Filtered {
             value: rng.value(),
             variance: rng.unit() * 2.0,
         })
@@ -409,8 +409,15 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
         PLANES,
     ));
     b.write(samples_buf, bytemuck::cast_slice(&samples(&mut rng, n)));
-    let Groups::Direct(groups) =
-        Pass::over_grid(&vrrt_core::kernels::ACCUMULATE, &first, params, W, H, PLANES).groups
+    let Groups::Direct(groups) = Pass::over_grid(
+        &vrrt_core::kernels::ACCUMULATE,
+        &first,
+        params,
+        W,
+        H,
+        PLANES,
+    )
+    .groups
     else {
         unreachable!()
     };
@@ -500,7 +507,10 @@ fn plan_errors_are_reported() {
             1,
         ))
         .unwrap_err();
-    assert!(matches!(err, WgpuError::AliasedBinding(_)), "{err}");
+    assert!(
+        matches!(err, WgpuError::Exec(ExecError::AliasedBinding(_))),
+        "{err}"
+    );
     let err = gpu
         .dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ACCUMULATE,
@@ -511,18 +521,39 @@ fn plan_errors_are_reported() {
             1,
         ))
         .unwrap_err();
-    assert!(matches!(err, WgpuError::Plan(_)), "{err}");
+    assert!(matches!(err, WgpuError::Exec(ExecError::Plan(_))), "{err}");
+    // Indirect counts in a buffer the pass writes (`out`, binding 2).
+    let bufs = [0; 4].map(|_| gpu.create_buffer(64).unwrap());
+    let err = gpu
+        .dispatch(&Pass {
+            kernel: &vrrt_core::kernels::ACCUMULATE,
+            buffers: &bufs,
+            params: bytemuck::bytes_of(&params),
+            groups: Groups::Indirect {
+                buffer: bufs[2],
+                offset: 0,
+            },
+        })
+        .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        ExecError::IndirectWritten(bufs[2]).to_string()
+    );
+    assert!(
+        matches!(err, WgpuError::Exec(ExecError::IndirectWritten(b)) if b == bufs[2]),
+        "{err}"
+    );
     assert!(matches!(
         gpu.create_buffer(6),
-        Err(WgpuError::UnalignedSize(6))
+        Err(WgpuError::Exec(ExecError::UnalignedSize(6)))
     ));
     assert!(matches!(
         gpu.write_buffer(a, &[0; 65]),
-        Err(WgpuError::OutOfRange { .. })
+        Err(WgpuError::Exec(ExecError::OutOfRange { .. }))
     ));
     assert!(matches!(
         gpu.read_buffer(BufferId(99), &mut [0; 4]),
-        Err(WgpuError::UnknownBuffer(_))
+        Err(WgpuError::Exec(ExecError::UnknownBuffer(_)))
     ));
     assert_clean(&gpu);
 }
