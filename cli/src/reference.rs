@@ -3,7 +3,8 @@
 use crate::backend::BackendKind;
 use crate::run::{check_common, clamp_frames};
 use crate::session::{
-    load_scene, open_backend, parse_backend, parse_size, parts, References, SignalKind,
+    load_scene, open_backend, parse_backend, parse_size, parts, ReferenceRequest, References,
+    SignalKind,
 };
 use anyhow::Result;
 
@@ -51,7 +52,16 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     for i in 0..frames {
         let f = scene.scene.frame(i);
         for p in &parts {
-            let r = refs.get(&mut exec, &scene.key, &f, args.size, p.signal, args.spp)?;
+            let r = refs.get(
+                &mut exec,
+                ReferenceRequest {
+                    scene_key: &scene.key,
+                    frame: &f,
+                    size: args.size,
+                    signal: p.signal,
+                    spp: args.spp,
+                },
+            )?;
             total += r.mean_stderr;
             println!(
                 "{i:>5}  {:<11}  {:<6}  {:.6}",

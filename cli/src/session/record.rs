@@ -1,0 +1,170 @@
+//! What a sequence run produces: per-frame records (the rows of `frames.csv`), the images handed
+//! to the caller after each frame, and the whole-sequence results and their averages.
+
+use super::{mean, mean_finite, Part};
+use vrrt_scene::image::Image;
+use vrrt_scene::metrics::{self, SequenceMetrics, SequenceSummary};
+use vrrt_scene::render::FrameOutput;
+
+/// One frame's numbers (a row of `frames.csv`). With several parts, each metric is the mean over
+/// the parts (PSNR: of their mean MSE), so that a signal with many planes does not outweigh one.
+#[derive(Clone, Debug, Default)]
+pub struct FrameRecord {
+    /// Frame index.
+    pub frame: u32,
+    /// Rays traced (per plane).
+    pub rays_traced: u64,
+    /// The load balancer's budget (expected rays).
+    pub budget: f64,
+    /// Expected rays requested.
+    pub requested: f64,
+    /// Expected rays granted.
+    pub granted: f64,
+    /// relMSE of the reported image.
+    pub relmse: f64,
+    /// RMSE.
+    pub rmse: f64,
+    /// PSNR (dB).
+    pub psnr: f64,
+    /// SSIM.
+    pub ssim: f64,
+    /// Mean LDR-FLIP.
+    pub flip: f64,
+    /// Temporal error against the previous frame (NaN on the first).
+    pub temporal: f64,
+    /// relMSE over the moving mask (NaN when the mask is empty).
+    pub moving_relmse: f64,
+    /// relMSE of the raw samples (the denoiser's input).
+    pub raw_relmse: f64,
+    /// relMSE of each part, in the order of [`SequenceResult::parts`].
+    pub part_relmse: Vec<f64>,
+    /// Wall-clock milliseconds of the frame (render and read back).
+    pub ms_frame: f64,
+    /// Milliseconds per pass entry point, summed over dispatches of the frame.
+    pub passes: Vec<(&'static str, f64)>,
+    /// The temporal-gradient prepass ran.
+    pub prepass_ran: bool,
+    /// Share of the à-trous tile-iterations (over tiles with geometry) the adaptive filter
+    /// skipped.
+    pub filter_skipped: f64,
+    /// Share of tiles without geometry (no pass does work there).
+    pub empty_tiles: f64,
+    /// The signal had no source: no pass ran.
+    pub signal_absent: bool,
+}
+
+impl FrameRecord {
+    /// `rays_traced - budget`.
+    pub fn overshoot(&self) -> f64 {
+        self.rays_traced as f64 - self.budget
+    }
+
+    /// Rays of the budget left untraced (0 when over budget).
+    pub fn rays_saved(&self) -> f64 {
+        (self.budget - self.rays_traced as f64).max(0.0)
+    }
+}
+
+/// A frame handed to the caller of [`run_sequence`](super::run_sequence) (for writing images).
+pub struct FrameView<'a> {
+    /// Its numbers.
+    pub record: &'a FrameRecord,
+    /// The renderer's output.
+    pub output: &'a FrameOutput,
+    /// Each part's images.
+    pub parts: &'a [PartFrame],
+}
+
+/// One part's images of a frame.
+pub struct PartFrame {
+    /// The part.
+    pub part: Part,
+    /// The reported image (denoised, or raw for `raw`).
+    pub test: Image,
+    /// The raw samples.
+    pub raw: Image,
+    /// The reference (when measuring).
+    pub reference: Option<Image>,
+    /// Moving-region mask (when measuring).
+    pub moving: Option<Vec<bool>>,
+}
+
+/// One part's sequence metrics.
+pub struct PartMetrics {
+    /// The part.
+    pub part: Part,
+    /// Metrics of the reported image (masked by the moving mask).
+    pub metrics: SequenceMetrics,
+    /// Metrics of the raw input.
+    pub raw_metrics: SequenceMetrics,
+}
+
+/// Sequence-wide results.
+pub struct SequenceResult {
+    /// Per-frame rows.
+    pub records: Vec<FrameRecord>,
+    /// Each part's metrics, in plane order.
+    pub parts: Vec<PartMetrics>,
+    /// Pass entry points in order of first appearance.
+    pub pass_names: Vec<&'static str>,
+}
+
+impl SequenceResult {
+    /// Whole-sequence metrics of the reported image: the one part's, or the means over the
+    /// parts (PSNR: of their mean MSE) with counts summed.
+    pub fn summary(&self) -> SequenceSummary {
+        let s: Vec<SequenceSummary> = self.parts.iter().map(|p| p.metrics.summary()).collect();
+        let avg = |v: fn(&SequenceSummary) -> f64| mean_finite(s.iter().map(v));
+        let avg_some = |v: fn(&SequenceSummary) -> Option<f64>| {
+            Some(mean_finite(s.iter().filter_map(v))).filter(|m| !m.is_nan())
+        };
+        let mean_mse = avg(|s| s.mean_mse);
+        SequenceSummary {
+            frames: s.iter().map(|s| s.frames).max().unwrap_or(0),
+            mean_mse,
+            mean_rmse: avg(|s| s.mean_rmse),
+            mean_rel_mse: avg(|s| s.mean_rel_mse),
+            psnr_of_mean_mse: metrics::psnr_from_mse(mean_mse),
+            mean_ssim: avg(|s| s.mean_ssim),
+            temporal: avg_some(|s| s.temporal),
+            mean_masked_rel_mse: avg_some(|s| s.mean_masked_rel_mse),
+            mean_masked_rmse: avg_some(|s| s.mean_masked_rmse),
+            masked_frames: s.iter().map(|s| s.masked_frames).max().unwrap_or(0),
+            non_finite: s.iter().map(|s| s.non_finite).sum(),
+            reference_non_finite: s.iter().map(|s| s.reference_non_finite).sum(),
+        }
+    }
+
+    /// Mean over the frames of the second half (the converged part) of a per-frame value.
+    pub fn second_half_mean(&self, value: impl Fn(&FrameRecord) -> f64) -> f64 {
+        let n = self.records.len();
+        let v: Vec<f32> = self.records[n / 2..]
+            .iter()
+            .map(|r| value(r) as f32)
+            .collect();
+        mean(&v)
+    }
+
+    /// Mean over all frames of a per-frame value (NaN skipped).
+    pub fn mean_of(&self, value: impl Fn(&FrameRecord) -> f64) -> f64 {
+        mean_finite(self.records.iter().map(value))
+    }
+
+    /// Mean ms per frame of each pass.
+    pub fn pass_means(&self) -> Vec<(&'static str, f64)> {
+        let n = self.records.len().max(1) as f64;
+        self.pass_names
+            .iter()
+            .map(|&name| {
+                let total: f64 = self
+                    .records
+                    .iter()
+                    .flat_map(|r| r.passes.iter())
+                    .filter(|(p, _)| *p == name)
+                    .map(|(_, ms)| ms)
+                    .sum();
+                (name, total / n)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,121 @@
+//! Ground-truth references of a sequence's frames: loaded from the on-disk cache, else traced on
+//! the backend and stored, so that runs and benches trace each reference once.
+
+use super::{mean, planes_to_image};
+use crate::backend::Backend;
+use anyhow::{anyhow, Result};
+use std::path::Path;
+use vrrt_scene::image::Image;
+use vrrt_scene::reference_cache::{ReferenceCache, ReferenceKey, StdErr};
+use vrrt_scene::render::{self, Signal};
+use vrrt_scene::FrameGeometry;
+
+/// Version of the reference cache entries this command writes and reads; bump it when the
+/// renderer's estimator changes so that stale references are not reused.
+pub const REFERENCE_VERSION: u32 = 1;
+
+/// A reference image and its mean standard error over pixels.
+pub struct FrameReference {
+    /// The converged image, interleaved planes.
+    pub image: Image,
+    /// Mean over pixels and planes of the per-pixel standard error.
+    pub mean_stderr: f64,
+    /// True when it came from the cache.
+    pub cached: bool,
+}
+
+/// Which reference [`References::get`] returns: one frame of one scene at one size, signal and
+/// sample count (the fields of its cache key).
+pub struct ReferenceRequest<'a> {
+    /// Name the scene's references are cached under
+    /// ([`LoadedScene::key`](super::LoadedScene::key)).
+    pub scene_key: &'a str,
+    /// The frame.
+    pub frame: &'a FrameGeometry,
+    /// Width and height.
+    pub size: (u32, u32),
+    /// The signal (one part's, see [`parts`](super::parts)).
+    pub signal: Signal,
+    /// Reference samples per pixel.
+    pub spp: u32,
+}
+
+/// Where references come from: the on-disk cache, else traced (and then stored).
+pub struct References {
+    cache: Option<ReferenceCache>,
+    /// Print a progress line while tracing.
+    pub progress: bool,
+}
+
+impl References {
+    /// The cache at [`ReferenceCache::from_env`] (none if no cache directory can be found).
+    pub fn from_env(progress: bool) -> Self {
+        let cache = ReferenceCache::from_env();
+        if cache.is_none() {
+            eprintln!("note: no reference cache directory (set $VRRT_REFERENCE_CACHE or $HOME); references are traced every time");
+        }
+        References { cache, progress }
+    }
+
+    /// The cache directory, if any.
+    pub fn cache_dir(&self) -> Option<&Path> {
+        self.cache.as_ref().map(|c| c.root())
+    }
+
+    /// The reference `request` names: from the cache, or traced on `exec` with `request.spp`
+    /// samples per pixel and stored.
+    pub fn get(&self, exec: &mut Backend, request: ReferenceRequest<'_>) -> Result<FrameReference> {
+        let ReferenceRequest {
+            scene_key,
+            frame: f,
+            size: (width, height),
+            signal,
+            spp,
+        } = request;
+        let key = ReferenceKey {
+            scene: scene_key.to_string(),
+            frame: f.index,
+            width,
+            height,
+            spp: spp as u64,
+            signal: signal.name(),
+            version: REFERENCE_VERSION,
+        };
+        let planes = signal.planes(f.lights.len());
+        if let Some(hit) = self.cache.as_ref().and_then(|c| c.load(&key)) {
+            let mean_stderr = match &hit.stderr {
+                StdErr::Scalar(v) => *v,
+                StdErr::Image(img) => mean(img.data()),
+            };
+            return Ok(FrameReference {
+                image: hit.image,
+                mean_stderr,
+                cached: true,
+            });
+        }
+        let progress = self.progress;
+        let frame = f.index;
+        let r = render::reference(exec, f, width, height, signal, spp, |done, total| {
+            if progress {
+                eprint!(
+                    "\r{:<72}",
+                    format!("reference: frame {frame}, {done}/{total} spp")
+                );
+            }
+        })
+        .map_err(|e| anyhow!("tracing the reference of frame {frame}: {e}"))?;
+        let image = planes_to_image(&r.mean, width, height, planes);
+        let stderr = planes_to_image(&r.stderr, width, height, planes);
+        let mean_stderr = mean(&r.stderr);
+        if let Some(cache) = &self.cache {
+            if let Err(e) = cache.store(&key, image.view(), &StdErr::Image(stderr)) {
+                eprintln!("warning: reference not cached: {e}");
+            }
+        }
+        Ok(FrameReference {
+            image,
+            mean_stderr,
+            cached: false,
+        })
+    }
+}

@@ -1,0 +1,222 @@
+//! The render-and-measure loop over a frame sequence: renders each frame through the denoiser,
+//! measures every part against its reference and collects the timings.
+
+use super::{
+    mean_finite, moving_mask, parts, planes_to_image, Config, FrameRecord, FrameView, LoadedScene,
+    PartFrame, PartMetrics, ReferenceRequest, References, SequenceResult,
+};
+use crate::backend::Backend;
+use anyhow::{anyhow, Context, Result};
+use std::collections::HashMap;
+use std::time::Instant;
+use vrrt_core::plan::Executor;
+use vrrt_scene::image::{Image, ImageRef};
+use vrrt_scene::metrics::{self, SequenceMetrics};
+use vrrt_scene::render::{Readback, Renderer, Signal};
+
+/// What one sequence renders.
+#[derive(Clone, Debug)]
+pub struct SequenceOptions {
+    /// Width and height.
+    pub size: (u32, u32),
+    /// Frames rendered (from frame 0).
+    pub frames: u32,
+    /// Signal.
+    pub signal: Signal,
+    /// Reference samples per pixel.
+    pub spp: u32,
+    /// Denoiser configuration.
+    pub config: Config,
+    /// Ray budget, rays per pixel per frame.
+    pub rpp: f32,
+    /// Read back the debug overlays.
+    pub overlays: bool,
+    /// Compare against references (off: timing only).
+    pub measure: bool,
+}
+
+/// Renders `opts.frames` frames of `scene` on `exec`, measuring each part against its reference
+/// (when `opts.measure`), and calls `on_frame` after each.
+pub fn run_sequence(
+    exec: &mut Backend,
+    scene: &LoadedScene,
+    opts: &SequenceOptions,
+    refs: &References,
+    mut on_frame: impl FnMut(&FrameView<'_>) -> Result<()>,
+) -> Result<SequenceResult> {
+    let (width, height) = opts.size;
+    let pixels = (width * height) as usize;
+    let sc = &scene.scene;
+    let settings = opts.config.settings(opts.rpp, opts.signal);
+    let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
+        .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
+    let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
+        .into_iter()
+        .map(|part| PartMetrics {
+            part,
+            metrics: SequenceMetrics::new(),
+            raw_metrics: SequenceMetrics::new(),
+        })
+        .collect();
+    let mut records = Vec::new();
+    let mut pass_names: Vec<&'static str> = Vec::new();
+    let mut prev_references: Vec<Option<Image>> = vec![None; parts.len()];
+    for i in 0..opts.frames {
+        let f = sc.frame(i);
+        let mut references = Vec::new();
+        for p in &parts {
+            references.push(if opts.measure {
+                Some(refs.get(
+                    exec,
+                    ReferenceRequest {
+                        scene_key: &scene.key,
+                        frame: &f,
+                        size: opts.size,
+                        signal: p.part.signal,
+                        spp: opts.spp,
+                    },
+                )?)
+            } else {
+                None
+            });
+        }
+        exec.clear_timings();
+        let start = Instant::now();
+        let out = renderer
+            .render(
+                exec,
+                &f,
+                Readback {
+                    overlays: opts.overlays,
+                },
+            )
+            .map_err(|e| anyhow!("rendering frame {i}: {e}"))?;
+        let ms_frame = start.elapsed().as_secs_f64() * 1e3;
+        let mut per_pass: HashMap<&'static str, f64> = HashMap::new();
+        let mut order = Vec::new();
+        for t in exec.timings() {
+            if !per_pass.contains_key(t.entry) {
+                order.push(t.entry);
+            }
+            *per_pass.entry(t.entry).or_default() += t.ms;
+            if !pass_names.contains(&t.entry) {
+                pass_names.push(t.entry);
+            }
+        }
+        let d = out.decision;
+        let (run, configured) = out.filter_work(settings.atrous_iterations);
+        let all_tiles: u32 = out.tiles.iter().sum();
+        let mut record = FrameRecord {
+            prepass_ran: out.gradient_ran,
+            filter_skipped: if configured == 0 {
+                0.0
+            } else {
+                1.0 - run as f64 / configured as f64
+            },
+            empty_tiles: if all_tiles == 0 {
+                0.0
+            } else {
+                out.tiles[0] as f64 / all_tiles as f64
+            },
+            signal_absent: out.signal_absent,
+            frame: i,
+            rays_traced: out.rays_traced,
+            budget: d.budget as f64,
+            requested: d.requested as f64,
+            granted: d.granted as f64,
+            ms_frame,
+            passes: order.iter().map(|&p| (p, per_pass[p])).collect(),
+            relmse: f64::NAN,
+            rmse: f64::NAN,
+            psnr: f64::NAN,
+            ssim: f64::NAN,
+            flip: f64::NAN,
+            temporal: f64::NAN,
+            moving_relmse: f64::NAN,
+            raw_relmse: f64::NAN,
+            part_relmse: Vec::new(),
+        };
+        let mut frames = Vec::new();
+        let mut measured: Vec<PartError> = Vec::new();
+        for ((p, reference), prev) in parts.iter_mut().zip(references).zip(&prev_references) {
+            let (first, planes) = p.part.planes;
+            let range = first as usize * pixels..(first + planes) as usize * pixels;
+            let raw = planes_to_image(&out.raw[range.clone()], width, height, planes);
+            let test = if opts.config.reports_raw() {
+                raw.clone()
+            } else {
+                planes_to_image(&out.denoised[range], width, height, planes)
+            };
+            let mut moving = None;
+            if let Some(r) = &reference {
+                let mask = moving_mask(&out.flags, &r.image, prev.as_ref());
+                let fm = p
+                    .metrics
+                    .push(test.view(), r.image.view(), Some(&mask))
+                    .context("metrics")?;
+                let rm = p
+                    .raw_metrics
+                    .push(raw.view(), r.image.view(), None)
+                    .context("metrics")?;
+                measured.push(PartError {
+                    relmse: fm.metrics.rel_mse,
+                    rmse: fm.metrics.rmse,
+                    mse: fm.metrics.mse,
+                    ssim: fm.metrics.ssim,
+                    flip: flip(test.view(), r.image.view()),
+                    temporal: fm.temporal.unwrap_or(f64::NAN),
+                    moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
+                    raw_relmse: rm.metrics.rel_mse,
+                });
+                moving = Some(mask);
+            }
+            frames.push(PartFrame {
+                part: p.part,
+                test,
+                raw,
+                reference: reference.map(|r| r.image),
+                moving,
+            });
+        }
+        if !measured.is_empty() {
+            let avg = |v: fn(&PartError) -> f64| mean_finite(measured.iter().map(v));
+            record.relmse = avg(|e| e.relmse);
+            record.rmse = avg(|e| e.rmse);
+            record.psnr = metrics::psnr_from_mse(avg(|e| e.mse));
+            record.ssim = avg(|e| e.ssim);
+            record.flip = avg(|e| e.flip);
+            record.temporal = avg(|e| e.temporal);
+            record.moving_relmse = avg(|e| e.moving_relmse);
+            record.raw_relmse = avg(|e| e.raw_relmse);
+            record.part_relmse = measured.iter().map(|e| e.relmse).collect();
+        }
+        on_frame(&FrameView {
+            record: &record,
+            output: &out,
+            parts: &frames,
+        })?;
+        records.push(record);
+        prev_references = frames.into_iter().map(|p| p.reference).collect();
+    }
+    Ok(SequenceResult {
+        records,
+        parts,
+        pass_names,
+    })
+}
+
+/// One part's error in one frame, before the means over parts of [`FrameRecord`].
+struct PartError {
+    relmse: f64,
+    rmse: f64,
+    mse: f64,
+    ssim: f64,
+    flip: f64,
+    temporal: f64,
+    moving_relmse: f64,
+    raw_relmse: f64,
+}
+
+fn flip(test: ImageRef<'_>, reference: ImageRef<'_>) -> f64 {
+    metrics::flip(test, reference).unwrap_or(f64::NAN)
+}

@@ -1,0 +1,89 @@
+//! The `--signal` values and how a signal's planes split into parts, each measured against its
+//! own reference.
+
+use vrrt_core::reflections::ReflectionSettings;
+use vrrt_scene::render::Signal;
+
+/// The signal kinds on the command line.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SignalKind {
+    /// Ambient occlusion (one plane), up to `--ao-radius`.
+    Ao,
+    /// Area-light shadows (one plane per light).
+    Shadows,
+    /// Glossy reflections (one plane of HDR radiance; default settings).
+    Reflections,
+    /// AO, shadows and reflections in one frame, sharing one ray budget.
+    All,
+}
+
+impl SignalKind {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SignalKind::Ao => "ao",
+            SignalKind::Shadows => "shadows",
+            SignalKind::Reflections => "reflections",
+            SignalKind::All => "all",
+        }
+    }
+
+    /// The renderer's signal, with the AO distance `ao_radius`.
+    pub fn signal(self, ao_radius: f32) -> Signal {
+        match self {
+            SignalKind::Ao => Signal::Ao {
+                max_distance: ao_radius,
+            },
+            SignalKind::Shadows => Signal::Shadows,
+            SignalKind::Reflections => Signal::Reflections(ReflectionSettings::default()),
+            SignalKind::All => Signal::All {
+                max_distance: ao_radius,
+                reflections: ReflectionSettings::default(),
+            },
+        }
+    }
+}
+
+/// One signal among a frame's planes (`Signal::All` has three). Each part is measured against
+/// its own reference, cached under the part's signal alone, so `all` reuses the references of
+/// `ao`, `shadows` and `reflections`; and its images keep 1, 3 or 4 channels, which PNG, EXR
+/// and the cache need.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Part {
+    /// `ao`, `shadows` or `reflections`: the suffix of its files and columns.
+    pub name: &'static str,
+    /// The signal on its own.
+    pub signal: Signal,
+    /// First plane and how many.
+    pub planes: (u32, u32),
+}
+
+/// The parts of `signal` in plane order, for a scene with `lights` lights.
+pub fn parts(signal: Signal, lights: usize) -> Vec<Part> {
+    let layout = signal.layout(lights);
+    let mut parts = Vec::new();
+    if let (Some(plane), Signal::Ao { max_distance } | Signal::All { max_distance, .. }) =
+        (layout.ao, signal)
+    {
+        parts.push(Part {
+            name: "ao",
+            signal: Signal::Ao { max_distance },
+            planes: (plane, 1),
+        });
+    }
+    if let Some(planes) = layout.shadows {
+        parts.push(Part {
+            name: "shadows",
+            signal: Signal::Shadows,
+            planes,
+        });
+    }
+    if let (Some(plane), Some(r)) = (layout.reflections, signal.reflections()) {
+        parts.push(Part {
+            name: "reflections",
+            signal: Signal::Reflections(r),
+            planes: (plane, 1),
+        });
+    }
+    parts
+}
