@@ -3,7 +3,7 @@
 
 use crate::backend::BackendKind;
 use crate::plot::{self, Curve};
-use crate::run::{check_common, clamp_frames};
+use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
     self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, References,
     SequenceOptions, SignalKind,
@@ -26,7 +26,8 @@ pub struct BenchArgs {
     /// Configurations, comma separated (default all; see `--quick`).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub configs: Vec<Config>,
-    /// Ray budgets in rays per pixel, comma separated (full default 0.25,0.5,1,2,4).
+    /// Ray budgets in rays per pixel, comma separated (full default 0.25,0.5,1,2,4). They win over
+    /// `rates.rays_per_pixel` of `--settings`.
     #[arg(long, value_delimiter = ',', value_parser = parse_rpp)]
     pub budgets: Vec<f32>,
     /// Backends, comma separated (full default: cpu, wgpu and ash where available).
@@ -53,6 +54,12 @@ pub struct BenchArgs {
     /// Output directory.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
+    /// Denoiser settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
+    /// the defaults). Every cell starts from it instead of the defaults; the cell's
+    /// configuration, budget and signal win over it (`rates.rays_per_pixel`, `planes` and
+    /// `parallax_plane` of the file are not used).
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
 }
 
 /// One cell of the matrix.
@@ -140,6 +147,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     } else {
         args.signals.clone()
     };
+    let base = load_settings(args.settings.as_deref())?;
     let loaded = scenes
         .iter()
         .map(|s| load_scene(s))
@@ -187,6 +195,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             frames,
                             signal: kind.signal(args.ao_radius),
                             spp: args.spp,
+                            base,
                             config,
                             rpp: budget,
                             overlays: false,

@@ -1,13 +1,28 @@
-//! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick.
+//! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick; with
+//! `--settings`, the default denoiser settings as TOML.
 
 use crate::backend::{Backend, BackendKind};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
 use vrrt_core::plan::Executor;
+use vrrt_core::settings::Settings;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
+/// Options of `vrrt info`.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct InfoArgs {
+    /// Print the default denoiser settings as a TOML settings file (a template for `vrrt run
+    /// --settings FILE`) instead of the backends.
+    #[arg(long)]
+    pub settings: bool,
+}
+
 /// Runs `vrrt info`.
-pub fn run() -> Result<()> {
+pub fn run(args: &InfoArgs) -> Result<()> {
+    if args.settings {
+        print!("{}", crate::settings::to_toml(&Settings::default()));
+        return Ok(());
+    }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("cpu:  available — native CPU kernels, {threads} threads (wall-clock pass timings)");
 

@@ -8,3 +8,4 @@ pub mod plot;
 pub mod reference;
 pub mod run;
 pub mod session;
+pub mod settings;

@@ -19,8 +19,9 @@ enum Command {
     Run(run::RunArgs),
     /// Trace (and cache) the references of a scene's frames.
     Reference(reference::ReferenceArgs),
-    /// List backends and adapters, and what `auto` would pick.
-    Info,
+    /// List backends and adapters, and what `auto` would pick (or, with `--settings`, print the
+    /// default denoiser settings).
+    Info(info::InfoArgs),
     /// Error-versus-cost matrix over denoiser configurations, budgets, signals, scenes and
     /// backends.
     Bench(bench::BenchArgs),
@@ -31,7 +32,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Run(a) => run::run(a),
         Command::Reference(a) => reference::run(a),
-        Command::Info => info::run(),
+        Command::Info(a) => info::run(a),
         Command::Bench(a) => bench::run(a),
     };
     match result {

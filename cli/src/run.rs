@@ -11,6 +11,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use vrrt_core::kernels::buckets::{bucket_to_rate, NO_RAYS};
+use vrrt_core::settings::Settings;
 use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
 
 /// Options of `vrrt run`.
@@ -31,9 +32,19 @@ pub struct RunArgs {
     /// Denoiser configuration (`raw` reports the raw samples, no denoising).
     #[arg(long, value_enum, default_value = "vrrt")]
     pub denoiser: Config,
-    /// Ray budget in rays per pixel per frame (0 < rpp <= 16).
-    #[arg(long, default_value = "1.0", value_parser = parse_rpp)]
-    pub rpp: f32,
+    /// Ray budget in rays per pixel per frame (0 < rpp <= 16; default `rates.rays_per_pixel` of
+    /// `--settings`, 1 without). Wins over the settings file.
+    #[arg(long, value_parser = parse_rpp)]
+    pub rpp: Option<f32>,
+    /// Denoiser settings file (TOML: `planes`, `parallax_plane`, and the tables `[temporal]`,
+    /// `[rates]`, `[gradient]`, `[filter]`; fields left out keep their defaults, unknown fields
+    /// are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
+    /// the other options start from, and they win over it: `--denoiser` applies its changes on
+    /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
+    /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes` and
+    /// `parallax_plane`.
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.
     #[arg(long, value_enum, default_value = "ao")]
     pub signal: SignalKind,
@@ -79,6 +90,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.every == 0 {
         bail!("--every must be at least 1");
     }
+    let base = load_settings(args.settings.as_deref())?;
+    let rpp = args.rpp.unwrap_or(base.rates.rays_per_pixel);
     let scene = load_scene(&args.scene)?;
     let frames = clamp_frames(args.frames, scene.scene.frame_count);
     let (mut exec, why) = open_backend(args.backend, args.validation)?;
@@ -91,8 +104,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
         frames,
         signal: args.signal.signal(args.ao_radius),
         spp: args.spp,
+        base,
         config: args.denoiser,
-        rpp: args.rpp,
+        rpp,
         overlays: args.overlays,
         measure: true,
     };
@@ -171,10 +185,13 @@ pub fn run(args: &RunArgs) -> Result<()> {
         format!(
             "{} at {} rpp, signal {}",
             args.denoiser.name(),
-            args.rpp,
-            opts.signal.to_string()
+            rpp,
+            opts.signal
         ),
     );
+    if let Some(path) = &args.settings {
+        row(&mut t, "settings file", path.display().to_string());
+    }
     row(
         &mut t,
         "relMSE, 2nd half (output)",
@@ -266,6 +283,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
     row(&mut t, "output", out.display().to_string());
     println!("{t}");
     Ok(())
+}
+
+/// The settings file at `path` (see [`crate::settings`]), or the defaults without one.
+pub fn load_settings(path: Option<&Path>) -> Result<Settings> {
+    path.map_or(Ok(Settings::default()), crate::settings::load)
 }
 
 /// Frames beyond the scene's animation are not rendered.

@@ -153,3 +153,143 @@ fn bad_input_exits_2_with_a_message() {
     assert_usage_error(&["run", "--scene", "/nonexistent/x.obj"], "x.obj");
     assert_usage_error(&["run", "--frames", "0"], "--frames");
 }
+
+/// The columns of `frames.csv` that do not depend on timing (frame … moving_relmse).
+fn deterministic_columns(csv: &str) -> Vec<String> {
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let end = header.iter().position(|h| *h == "moving_relmse").unwrap() + 1;
+    csv.lines()
+        .map(|l| l.split(',').take(end).collect::<Vec<_>>().join(","))
+        .collect()
+}
+
+#[test]
+fn info_prints_default_settings_that_run_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let o = vrrt(&["info", "--settings"], &cache);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let toml = String::from_utf8(o.stdout).unwrap();
+    assert!(toml.contains("[filter]\n") && toml.contains("sigma_luminance = 1.0\n"));
+    let file = dir.path().join("defaults.toml");
+    std::fs::write(&file, &toml).unwrap();
+    // The defaults from a file give the same frames as no file at all.
+    let mut csv = Vec::new();
+    for with_file in [false, true] {
+        let out = dir.path().join(format!("out{with_file}"));
+        let mut args = vec![
+            "run",
+            "--size",
+            "32x18",
+            "--frames",
+            "3",
+            "--spp",
+            "8",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if with_file {
+            args.extend(["--settings", file.to_str().unwrap()]);
+        }
+        let o = vrrt(&args, &cache);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        csv.push(deterministic_columns(
+            &std::fs::read_to_string(out.join("frames.csv")).unwrap(),
+        ));
+    }
+    assert_eq!(csv[0], csv[1]);
+}
+
+#[test]
+fn run_and_bench_take_a_partial_settings_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let file = dir.path().join("s.toml");
+    std::fs::write(
+        &file,
+        "[rates]\nrays_per_pixel = 0.5\n[filter]\natrous_iterations = 2\n",
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    let o = vrrt(
+        &[
+            "run",
+            "--size",
+            "24x16",
+            "--frames",
+            "2",
+            "--spp",
+            "8",
+            "--settings",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &cache,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Without --rpp the file's budget is used.
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("vrrt at 0.5 rpp"), "{stdout}");
+    let out = dir.path().join("bench");
+    let o = vrrt(
+        &[
+            "bench",
+            "--size",
+            "24x16",
+            "--frames",
+            "2",
+            "--spp",
+            "8",
+            "--budgets",
+            "1",
+            "--configs",
+            "vrrt",
+            "--signals",
+            "ao",
+            "--backends",
+            "cpu",
+            "--repeats",
+            "1",
+            "--settings",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &cache,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    assert!(csv.contains("\nroom,ao,vrrt,1,"), "{csv}");
+}
+
+#[test]
+fn bad_settings_files_exit_2_naming_file_and_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "typo.toml",
+            "[filter]\nsigma_luminace = 2.0\n",
+            "unknown field `sigma_luminace`",
+        ),
+        (
+            "range.toml",
+            "[filter]\nsigma_luminance = 0.0\n",
+            "`filter.sigma_luminance` = 0 is out of range",
+        ),
+        ("syntax.toml", "[rates\n", "line 1"),
+    ];
+    for (name, text, problem) in cases {
+        let file = dir.path().join(name);
+        std::fs::write(&file, text).unwrap();
+        for cmd in ["run", "bench"] {
+            let args = [cmd, "--settings", file.to_str().unwrap()];
+            assert_usage_error(&args, name);
+            assert_usage_error(&args, problem);
+        }
+    }
+    assert_usage_error(
+        &["run", "--settings", "/nonexistent/s.toml"],
+        "cannot read settings file /nonexistent/s.toml",
+    );
+}

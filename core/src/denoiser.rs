@@ -15,11 +15,12 @@
 //! fixed-rate SVGF baseline is the same plan with requests off (every pixel asks for
 //! `rays_per_pixel`) and no balancing.
 //!
-//! Temporal gradients (A-SVGF, optional: [`Settings::gradient_stratum`]) run as a prepass between
-//! the G-buffer and reprojection ([`Denoiser::temporal_gradients`]): project last frame's samples
-//! forward, re-trace them against this frame's scene, blur the change at stratum resolution;
-//! reprojection then shortens or drops history where the signal changed, and VRRT supersamples
-//! there. It is skipped when nothing moved (the host says so in [`FrameInfo::moved`]).
+//! Temporal gradients (A-SVGF, optional: [`GradientSettings`](crate::settings::GradientSettings))
+//! run as a prepass between the G-buffer and reprojection ([`Denoiser::temporal_gradients`]):
+//! project last frame's samples forward, re-trace them against this frame's scene, blur the
+//! change at stratum resolution; reprojection then shortens or drops history where the signal
+//! changed, and VRRT supersamples there. It is skipped when nothing moved (the host says so in
+//! [`FrameInfo::moved`]).
 //!
 //! History is ping-ponged explicitly: `history[prev]` is read by reprojection and
 //! `history[cur]` written by accumulation; the spatial filter's output never feeds back into
@@ -33,396 +34,8 @@ use crate::kernels::{
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
-pub use crate::quantize::StoragePrecision;
+use crate::settings::{Settings, SettingsError};
 use core::fmt;
-
-/// Every tunable of the denoiser, with documented defaults and ranges (like NRD's settings).
-/// `Settings::default()` is full VRRT; [`Settings::svgf`] the fixed-rate baseline.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Settings {
-    /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1).
-    pub rays_per_pixel: f32,
-    /// VRRT supersampling: pixels with less history than this many rays ask for the difference
-    /// (up to 16 a frame); 0 turns VRRT off: every pixel traces `rays_per_pixel`, fractions by a
-    /// blue-noise test, and `load_balance` is moot (0 or 1..=max_history; default 16).
-    pub supersample_target: f32,
-    /// Fit requests to the budget with the load balancer (default on). Off: requests are traced
-    /// as asked, whatever they cost.
-    pub load_balance: bool,
-    /// Spend budget left over by raising low requests, inner rings first (default on); off is the
-    /// "save" mode.
-    pub spend_saved_rays: bool,
-    /// VRRT undersampling of converged pixels by variance (default on).
-    pub undersample: bool,
-    /// History length (rays) from which a pixel counts as converged and may undersample
-    /// (1..=max_history; default 16, the supersampling target: a pixel that has refilled its
-    /// history stops asking and may give rays away). The seed waits for full history
-    /// (`max_history`); the shorter wait frees rays sooner for disocclusions (room scene, 96
-    /// frames: relMSE 0.00515 → 0.00455 at 1 ray), at some risk on slowly changing signals, which
-    /// temporal gradients cover.
-    pub undersample_after: f32,
-    /// Undersampling variance thresholds, increasing (default `[1e-4, 1e-3, 1e-2, 0]`).
-    pub variance_threshold: [f32; 4],
-    /// Undersampling rates of those thresholds, in `[1/64, 16]` (default `[1/8, 1/4, 1/2, 1]`),
-    /// relative to the base rate `min(rays_per_pixel, 1)`.
-    pub variance_rate: [f32; 4],
-    /// Scalar signal planes denoised together (1..=4: AO, shadows of up to 4 lights).
-    pub planes: u32,
-    /// History length clamp in rays (1..=65504; default 64).
-    pub max_history: f32,
-    /// Still frames (nothing moved, [`FrameInfo::moved`] false): a pixel with full history
-    /// (`max_history`) whose estimate's standard deviation is below this asks only for the floor,
-    /// `variance_rate[0]`, and other pixels complete their history before any variance-based
-    /// undersampling. With `spend_saved_rays` off the rays stay unspent ("save" mode). Needs
-    /// `undersample` (>= 0; default 0.045: on the static room the error rises 1.8% for 77% of
-    /// the rays saved).
-    pub still_sigma: f32,
-    /// À-trous iterations, strides 1, 2, 4, … (0..=5; default 5).
-    pub atrous_iterations: u32,
-    /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its largest
-    /// standard deviation of the estimate below this (each iteration counted as halving it,
-    /// `kernels::classify`); 0 = every tile runs every iteration (>= 0; default 0.004, below what
-    /// a [0, 1] signal shows on an 8-bit display).
-    pub skip_sigma: f32,
-    /// Luminance edge-stopping σ_l (> 0; default 1: with the variance of the estimate, not of a
-    /// single ray, SVGF's 4 over-blurs contact shadows and disocclusions).
-    pub sigma_luminance: f32,
-    /// Normal edge-stopping exponent (>= 0; default 128).
-    pub normal_power: f32,
-    /// Plane-distance tolerance in pixel footprints (> 0; default 2).
-    pub plane_tolerance: f32,
-    /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
-    pub spatial_until: f32,
-    /// Window radius of the spatial variance estimate (0..=5; default 3, i.e. 7×7).
-    pub spatial_radius: u32,
-    /// Variance clamp of history against this frame's samples: window radius, 0 = off (default
-    /// off; the SVGF baseline turns it on, VRRT does not need it).
-    pub clamp_radius: u32,
-    /// Variance clamp width in standard deviations (> 0; default 1).
-    pub clamp_gamma: f32,
-    /// Firefly clamp of this frame's per-pixel mean; 0 = off (default off).
-    pub firefly_max: f32,
-    /// Reprojection: minimum cosine between normals (default 0.9).
-    pub normal_threshold: f32,
-    /// Reprojection: maximum plane distance as a fraction of view depth (default 0.02).
-    pub plane_threshold: f32,
-    /// Width of the stored rng index (wraps there; 0 = the width that goes with `storage`: 32
-    /// bits for f32, 16 for f16, 8 for unorm8; default 0).
-    pub rng_wrap: u32,
-    /// Storage precision of the history moments (default f32, the reference). f16 and unorm8
-    /// round every stored moment to that format's precision, with the seed's stuck correction, to
-    /// measure what a low-precision history does; buffers keep their f32 layout (packed formats
-    /// are not implemented). Unorm8 is for signals in `[0, 1]` (shadows, AO) only.
-    pub storage: StoragePrecision,
-    /// The seed's stuck correction when storing low-precision history (default on). Off only to
-    /// demonstrate the pixel that never converges without it; no effect with f32 storage.
-    pub stuck_correction: bool,
-    /// Temporal gradients (A-SVGF): stratum size in pixels, one re-traced sample per stratum and
-    /// frame (0 = off, default; 3..=8). Lets history be dropped where the signal changed instead of
-    /// clamped, so VRRT can supersample there.
-    pub gradient_stratum: u32,
-    /// À-trous iterations of the gradient reconstruction at stratum resolution (0..=5; default 3).
-    pub gradient_iterations: u32,
-    /// Gradient `λ` above which history is dropped like a disocclusion (0..=1; default 0.5);
-    /// below it history is shortened to `count · (1 − λ)`.
-    pub gradient_threshold: f32,
-    /// Gain on the reconstructed `λ` (`min(1, scale · λ)`, >= 0; default 1, A-SVGF as published).
-    /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
-    /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
-    pub gradient_scale: f32,
-    /// Plane reprojected along the reflection parallax (`kernels::reflect::reflect_motion`, which
-    /// the caller runs into [`Denoiser::parallax`] before [`Denoiser::plan_rays`]) instead of the
-    /// surface motion; `None` (default) for none.
-    pub parallax_plane: Option<u32>,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            rays_per_pixel: 1.0,
-            supersample_target: 16.0,
-            load_balance: true,
-            spend_saved_rays: true,
-            undersample: true,
-            undersample_after: 16.0,
-            variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
-            variance_rate: [0.125, 0.25, 0.5, 1.0],
-            planes: 1,
-            max_history: 64.0,
-            still_sigma: 0.045,
-            atrous_iterations: 5,
-            skip_sigma: 0.004,
-            sigma_luminance: 1.0,
-            normal_power: 128.0,
-            plane_tolerance: 2.0,
-            spatial_until: 4.0,
-            spatial_radius: 3,
-            clamp_radius: 0,
-            clamp_gamma: 1.0,
-            firefly_max: 0.0,
-            normal_threshold: 0.9,
-            plane_threshold: 0.02,
-            rng_wrap: 0,
-            storage: StoragePrecision::F32,
-            stuck_correction: true,
-            gradient_stratum: 0,
-            gradient_iterations: 3,
-            gradient_threshold: 0.5,
-            gradient_scale: 1.0,
-            parallax_plane: None,
-        }
-    }
-}
-
-/// A setting out of its range.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SettingsError {
-    /// Width or height is zero.
-    Resolution {
-        /// Width asked for.
-        width: u32,
-        /// Height asked for.
-        height: u32,
-    },
-    /// A field outside its documented range.
-    OutOfRange {
-        /// Field name.
-        field: &'static str,
-        /// Value given.
-        value: f32,
-        /// The range, in words.
-        range: &'static str,
-    },
-}
-
-impl fmt::Display for SettingsError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SettingsError::Resolution { width, height } => {
-                write!(
-                    f,
-                    "resolution {width}x{height}: width and height must be at least 1"
-                )
-            }
-            SettingsError::OutOfRange {
-                field,
-                value,
-                range,
-            } => {
-                write!(f, "setting `{field}` = {value} is out of range ({range})")
-            }
-        }
-    }
-}
-
-impl Settings {
-    /// The SVGF baseline VRRT is measured against (every tile filtered fully, as published): every pixel traces `rays_per_pixel`, no
-    /// requests, no balancing.
-    pub fn svgf(rays_per_pixel: f32) -> Self {
-        Settings {
-            rays_per_pixel,
-            supersample_target: 0.0,
-            load_balance: false,
-            undersample: false,
-            skip_sigma: 0.0,
-            ..Settings::default()
-        }
-    }
-
-    /// Checks every field against its documented range.
-    pub fn validate(&self) -> Result<(), SettingsError> {
-        let finite = |v: f32| v.is_finite();
-        check(
-            finite(self.rays_per_pixel) && self.rays_per_pixel > 0.0 && self.rays_per_pixel <= 16.0,
-            "rays_per_pixel",
-            self.rays_per_pixel,
-            "0 < r <= 16",
-        )?;
-        check(
-            finite(self.supersample_target)
-                && (self.supersample_target == 0.0
-                    || (self.supersample_target >= 1.0
-                        && self.supersample_target <= self.max_history)),
-            "supersample_target",
-            self.supersample_target,
-            "0 or 1..=max_history",
-        )?;
-        check(
-            finite(self.undersample_after)
-                && self.undersample_after >= 1.0
-                && self.undersample_after <= self.max_history,
-            "undersample_after",
-            self.undersample_after,
-            "1..=max_history",
-        )?;
-        for i in 0..4 {
-            let t = self.variance_threshold[i];
-            check(
-                finite(t) && t >= 0.0,
-                "variance_threshold",
-                t,
-                ">= 0, finite",
-            )?;
-            if i > 0 && t != 0.0 {
-                let prev = self.variance_threshold[i - 1];
-                check(
-                    t >= prev,
-                    "variance_threshold",
-                    t,
-                    "increasing (0 ends the list)",
-                )?;
-            }
-            let r = self.variance_rate[i];
-            check(
-                finite(r) && (1.0 / 64.0..=16.0).contains(&r),
-                "variance_rate",
-                r,
-                "1/64..=16",
-            )?;
-        }
-        check(
-            (1..=4).contains(&self.planes),
-            "planes",
-            self.planes as f32,
-            "1..=4",
-        )?;
-        check(
-            finite(self.max_history) && self.max_history >= 1.0 && self.max_history <= 65504.0,
-            "max_history",
-            self.max_history,
-            "1..=65504",
-        )?;
-        check(
-            self.atrous_iterations <= 5,
-            "atrous_iterations",
-            self.atrous_iterations as f32,
-            "0..=5",
-        )?;
-        check(
-            finite(self.sigma_luminance) && self.sigma_luminance > 0.0,
-            "sigma_luminance",
-            self.sigma_luminance,
-            "> 0",
-        )?;
-        check(
-            finite(self.normal_power) && self.normal_power >= 0.0,
-            "normal_power",
-            self.normal_power,
-            ">= 0",
-        )?;
-        check(
-            finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
-            "plane_tolerance",
-            self.plane_tolerance,
-            "> 0",
-        )?;
-        check(
-            finite(self.still_sigma) && self.still_sigma >= 0.0,
-            "still_sigma",
-            self.still_sigma,
-            ">= 0",
-        )?;
-        check(
-            finite(self.skip_sigma) && self.skip_sigma >= 0.0,
-            "skip_sigma",
-            self.skip_sigma,
-            ">= 0",
-        )?;
-        check(
-            finite(self.spatial_until) && self.spatial_until >= 0.0,
-            "spatial_until",
-            self.spatial_until,
-            ">= 0",
-        )?;
-        check(
-            self.spatial_radius <= 5,
-            "spatial_radius",
-            self.spatial_radius as f32,
-            "0..=5",
-        )?;
-        check(
-            self.clamp_radius <= 5,
-            "clamp_radius",
-            self.clamp_radius as f32,
-            "0..=5",
-        )?;
-        check(
-            finite(self.clamp_gamma) && self.clamp_gamma > 0.0,
-            "clamp_gamma",
-            self.clamp_gamma,
-            "> 0",
-        )?;
-        check(
-            finite(self.firefly_max) && self.firefly_max >= 0.0,
-            "firefly_max",
-            self.firefly_max,
-            ">= 0",
-        )?;
-        check(
-            finite(self.normal_threshold) && (-1.0..=1.0).contains(&self.normal_threshold),
-            "normal_threshold",
-            self.normal_threshold,
-            "-1..=1",
-        )?;
-        check(
-            finite(self.plane_threshold) && self.plane_threshold > 0.0,
-            "plane_threshold",
-            self.plane_threshold,
-            "> 0",
-        )?;
-        check(
-            self.gradient_stratum == 0 || (3..=8).contains(&self.gradient_stratum),
-            "gradient_stratum",
-            self.gradient_stratum as f32,
-            "0 or 3..=8",
-        )?;
-        check(
-            finite(self.gradient_scale) && self.gradient_scale >= 0.0,
-            "gradient_scale",
-            self.gradient_scale,
-            ">= 0",
-        )?;
-        check(
-            self.gradient_iterations <= 5,
-            "gradient_iterations",
-            self.gradient_iterations as f32,
-            "0..=5",
-        )?;
-        check(
-            finite(self.gradient_threshold) && (0.0..=1.0).contains(&self.gradient_threshold),
-            "gradient_threshold",
-            self.gradient_threshold,
-            "0..=1",
-        )?;
-        if let Some(z) = self.parallax_plane {
-            check(
-                z < self.planes,
-                "parallax_plane",
-                z as f32,
-                "a plane (< planes)",
-            )?;
-        }
-        Ok(())
-    }
-}
-
-/// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
-pub(crate) fn check(
-    ok: bool,
-    field: &'static str,
-    value: f32,
-    range: &'static str,
-) -> Result<(), SettingsError> {
-    if ok {
-        Ok(())
-    } else {
-        Err(SettingsError::OutOfRange {
-            field,
-            value,
-            range,
-        })
-    }
-}
 
 /// A denoiser failure: bad settings or a backend error.
 #[derive(Debug)]
@@ -441,8 +54,6 @@ impl<E: fmt::Display> fmt::Display for DenoiserError<E> {
         }
     }
 }
-
-impl core::error::Error for SettingsError {}
 
 impl<E: fmt::Debug + fmt::Display> core::error::Error for DenoiserError<E> {}
 
@@ -538,10 +149,10 @@ pub struct Denoiser {
 }
 
 /// Bytes of one element of each buffer kind.
-const SURFACE_BYTES: u64 = core::mem::size_of::<crate::gbuffer::Surface>() as u64;
+const SURFACE_BYTES: u64 = core::mem::size_of::<crate::surface::Surface>() as u64;
 const PAYLOAD_BYTES: u64 = core::mem::size_of::<crate::payload::Payload>() as u64;
 const SAMPLE_BYTES: u64 = core::mem::size_of::<crate::payload::Sample>() as u64;
-const FILTERED_BYTES: u64 = core::mem::size_of::<atrous::Filtered>() as u64;
+const FILTERED_BYTES: u64 = core::mem::size_of::<crate::payload::Filtered>() as u64;
 const GRADIENT_BYTES: u64 = core::mem::size_of::<GradientSample>() as u64;
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
@@ -571,7 +182,7 @@ impl Denoiser {
         let pixels = width as u64 * height as u64;
         let planes = pixels * settings.planes as u64;
         let noise = exec.create_buffer(blue_noise::LEN as u64 * 4)?;
-        let (gw, gh) = grid_size(width, height, settings.gradient_stratum);
+        let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
         let cells = gw as u64 * gh as u64;
         let gradient_bytes = cells * settings.planes as u64 * GRADIENT_BYTES;
         exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
@@ -753,18 +364,19 @@ impl Denoiser {
         self.counters
     }
 
-    /// The rng wrap accumulation uses: [`Settings::rng_wrap`], or the storage format's width.
+    /// The rng wrap accumulation uses: `temporal.rng_wrap`
+    /// ([`TemporalSettings`](crate::settings::TemporalSettings)), or the storage format's width.
     pub fn rng_wrap(&self) -> u32 {
-        if self.settings.rng_wrap != 0 {
-            self.settings.rng_wrap
+        if self.settings.temporal.rng_wrap != 0 {
+            self.settings.temporal.rng_wrap
         } else {
-            self.settings.storage.rng_wrap()
+            self.settings.temporal.storage.rng_wrap()
         }
     }
 
     /// Gradient cells across and down ([`grid_size`] of the settings).
     pub fn gradient_size(&self) -> (u32, u32) {
-        grid_size(self.width, self.height, self.settings.gradient_stratum)
+        grid_size(self.width, self.height, self.settings.gradient.stratum)
     }
 
     /// Raw temporal gradient of this frame (`GradientSample` per cell and plane, plane-stacked;
@@ -777,7 +389,7 @@ impl Denoiser {
     /// Reconstructed (blurred) temporal gradient, the one reprojection reads; same layout as
     /// [`Self::gradient_raw`].
     pub fn gradient(&self) -> BufferId {
-        if self.settings.gradient_iterations == 0 {
+        if self.settings.gradient.iterations == 0 {
             self.gradient_raw
         } else {
             self.gradient[self.gradient_out]
@@ -816,7 +428,7 @@ impl Denoiser {
     ) -> Result<bool, E::Error> {
         let s = self.settings;
         self.gradient_ran = false;
-        if s.gradient_stratum == 0 || self.frame.reset || !self.frame.moved {
+        if s.gradient.stratum == 0 || self.frame.reset || !self.frame.moved {
             return Ok(false);
         }
         let (w, h) = (self.width, self.height);
@@ -833,13 +445,13 @@ impl Denoiser {
         let proj = gradient::ProjectParams {
             width: w,
             height: h,
-            stratum: s.gradient_stratum,
+            stratum: s.gradient.stratum,
             grid_width: gw,
             grid_height: gh,
             frame_index: self.frame.index,
             index_mask,
-            normal_threshold: s.normal_threshold,
-            plane_threshold: s.plane_threshold,
+            normal_threshold: s.temporal.normal_threshold,
+            plane_threshold: s.temporal.plane_threshold,
             camera: scene.camera,
         };
         let project = kernels::GradientProjectBindings {
@@ -893,7 +505,7 @@ impl Denoiser {
             }
         }
         let mut input = self.gradient_raw;
-        for i in 0..s.gradient_iterations {
+        for i in 0..s.gradient.iterations {
             let p = gradient::GradientAtrousParams {
                 grid_width: gw,
                 grid_height: gh,
@@ -915,51 +527,51 @@ impl Denoiser {
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h) = (self.width, self.height);
-        let vrrt = s.supersample_target > 0.0;
+        let vrrt = s.rates.supersample_target > 0.0;
         let (gw, gh) = self.gradient_size();
         // Below one ray per pixel the budget's rate is the base request (seed: "can use global
         // ray rate < 1") and undersampling rates scale with it: with a base of 1 every request
         // would exceed a 1/2-ray budget and water filling would level refills down to the base.
-        let still = s.undersample && !self.frame.moved && !self.frame.reset;
+        let still = s.rates.undersample && !self.frame.moved && !self.frame.reset;
         let base_rate = if vrrt {
-            s.rays_per_pixel.min(1.0)
+            s.rates.rays_per_pixel.min(1.0)
         } else {
-            s.rays_per_pixel
+            s.rates.rays_per_pixel
         };
         let params = reproject::ReprojectParams {
             width: w,
             height: h,
             planes: s.planes,
             reset: self.frame.reset as u32,
-            normal_threshold: s.normal_threshold,
-            plane_threshold: s.plane_threshold,
+            normal_threshold: s.temporal.normal_threshold,
+            plane_threshold: s.temporal.plane_threshold,
             frame_index: self.frame.index,
-            supersample_target: s.supersample_target,
+            supersample_target: s.rates.supersample_target,
             // On a still frame history stays valid, so it is completed before any undersampling.
             full_history: if still {
-                s.max_history
+                s.temporal.max_history
             } else {
-                s.undersample_after
+                s.rates.undersample_after
             },
             base_rate,
             use_mask: self.frame.use_mask as u32,
-            variance_threshold: if s.undersample {
-                s.variance_threshold
+            variance_threshold: if s.rates.undersample {
+                s.rates.variance_threshold
             } else {
                 [0.0; 4]
             },
-            variance_rate: s.variance_rate.map(|r| r * base_rate),
+            variance_rate: s.rates.variance_rate.map(|r| r * base_rate),
             gradient_stratum: if self.gradient_ran {
-                s.gradient_stratum
+                s.gradient.stratum
             } else {
                 0
             },
             gradient_width: gw,
             gradient_height: gh,
-            gradient_threshold: s.gradient_threshold,
-            gradient_scale: s.gradient_scale,
-            still_history: if still { s.max_history } else { 0.0 },
-            still_variance: s.still_sigma * s.still_sigma,
+            gradient_threshold: s.gradient.threshold,
+            gradient_scale: s.gradient.scale,
+            still_history: if still { s.temporal.max_history } else { 0.0 },
+            still_variance: s.rates.still_sigma * s.rates.still_sigma,
             use_importance: self.frame.use_importance as u32,
             parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
             ..Default::default()
@@ -995,12 +607,12 @@ impl Denoiser {
         exec.dispatch(&buckets.over_grid(&count, w, h, 1))?;
 
         let bal = balance::BalanceParams {
-            rays_per_pixel: s.rays_per_pixel,
+            rays_per_pixel: s.rates.rays_per_pixel,
             ring_count: buckets::ring_count(w, h),
-            raise: s.spend_saved_rays as u32,
-            policy: if s.supersample_target <= 0.0 {
+            raise: s.rates.spend_saved_rays as u32,
+            policy: if s.rates.supersample_target <= 0.0 {
                 balance::POLICY_FIXED
-            } else if s.load_balance {
+            } else if s.rates.load_balance {
                 balance::POLICY_BALANCE
             } else {
                 balance::POLICY_KEEP
@@ -1038,13 +650,13 @@ impl Denoiser {
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,
-            max_history: s.max_history,
+            max_history: s.temporal.max_history,
             rng_wrap: self.rng_wrap(),
-            clamp_radius: s.clamp_radius,
-            clamp_gamma: s.clamp_gamma,
-            firefly_max: s.firefly_max,
-            storage: s.storage.code()
-                | if s.stuck_correction {
+            clamp_radius: s.temporal.clamp_radius,
+            clamp_gamma: s.temporal.clamp_gamma,
+            firefly_max: s.temporal.firefly_max,
+            storage: s.temporal.storage.code()
+                | if s.temporal.stuck_correction {
                     0
                 } else {
                     crate::quantize::STORAGE_NO_CORRECTION
@@ -1058,14 +670,14 @@ impl Denoiser {
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
 
-        let plane_scale = s.plane_tolerance * self.frame.pixel_angle;
+        let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
         let var = variance::VarianceParams {
             width: w,
             height: h,
-            radius: s.spatial_radius,
-            spatial_until: s.spatial_until,
+            radius: s.filter.spatial_radius,
+            spatial_until: s.filter.spatial_until,
             plane_scale,
-            normal_power: s.normal_power,
+            normal_power: s.filter.normal_power,
             ..Default::default()
         };
         let variance = kernels::VarianceBindings {
@@ -1087,8 +699,8 @@ impl Denoiser {
             width: w,
             height: h,
             planes,
-            iterations: s.atrous_iterations,
-            skip_sigma: s.skip_sigma,
+            iterations: s.filter.atrous_iterations,
+            skip_sigma: s.filter.skip_sigma,
             ..Default::default()
         };
         let (tw, th) = classify::tile_grid(w, h);
@@ -1101,15 +713,15 @@ impl Denoiser {
         exec.dispatch(&classify.over_grid(&cls, tw, th, 1))?;
 
         self.out = 0;
-        for i in 0..s.atrous_iterations {
+        for i in 0..s.filter.atrous_iterations {
             let params = atrous::AtrousParams {
                 width: w,
                 height: h,
                 step: 1 << i,
                 iteration: i,
-                sigma_luminance: s.sigma_luminance,
+                sigma_luminance: s.filter.sigma_luminance,
                 plane_scale,
-                normal_power: s.normal_power,
+                normal_power: s.filter.normal_power,
                 ..Default::default()
             };
             let atrous = kernels::AtrousBindings {

@@ -18,9 +18,13 @@
 
 use crate::math;
 
-/// Precision of the stored history moments ([`Settings::storage`](crate::denoiser::Settings)).
-/// Only the precision is modelled: buffers keep their f32 layout (see the module docs).
+/// Precision of the stored history moments
+/// ([`TemporalSettings::storage`](crate::settings::TemporalSettings::storage)). Only the precision
+/// is modelled: buffers keep their f32 layout (see the module docs). In settings files: `"f32"`,
+/// `"f16"` or `"unorm8"`.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum StoragePrecision {
     /// f32: the reference, nothing is rounded beyond the f32 merge.
     #[default]

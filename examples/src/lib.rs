@@ -11,11 +11,12 @@
 //! 3. trace them and write the noisy [`Sample`]s into [`Denoiser::samples`];
 //! 4. [`Denoiser::resolve`]: the denoised signal is in [`Denoiser::output`].
 
-use vrrt_core::denoiser::{Denoiser, FrameInfo, Settings};
-use vrrt_core::gbuffer::Surface;
-use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::denoiser::{Denoiser, FrameInfo};
+use vrrt_core::payload::Filtered;
 use vrrt_core::payload::Sample;
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
+use vrrt_core::settings::Settings;
+use vrrt_core::surface::Surface;
 use vrrt_cpu::CpuExecutor;
 
 /// Image width of the examples.

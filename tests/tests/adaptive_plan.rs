@@ -3,8 +3,8 @@
 //! the gradient prepass within 5% of the unskipped error; on the moving scene the skipped filter
 //! work costs less than 2%; a signal without a source costs no pass.
 
-use vrrt_core::denoiser::Settings;
 use vrrt_core::plan::Executor;
+use vrrt_core::settings::{FilterSettings, GradientSettings, RateSettings, Settings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};
 
@@ -15,9 +15,18 @@ const SIGNAL: Signal = Signal::Ao { max_distance: 1.0 };
 /// and saved rays are spent.
 fn unskipped() -> Settings {
     Settings {
-        still_sigma: 0.0,
-        skip_sigma: 0.0,
-        gradient_stratum: 4,
+        rates: RateSettings {
+            still_sigma: 0.0,
+            ..Default::default()
+        },
+        filter: FilterSettings {
+            skip_sigma: 0.0,
+            ..Default::default()
+        },
+        gradient: GradientSettings {
+            stratum: 4,
+            ..Default::default()
+        },
         ..Settings::default()
     }
 }
@@ -59,7 +68,7 @@ fn run(
             traced += out.rays_traced;
             budget += out.decision.budget as f64;
             runs += out.gradient_ran as u32;
-            let (run, configured) = out.filter_work(settings.atrous_iterations);
+            let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
             tiles_run += run;
             tiles_full += configured;
         }
@@ -96,8 +105,14 @@ fn still_converged_scene_saves_rays_and_the_prepass() {
     let refs = references("room_static", (64..80).step_by(4));
     let full = run("room_static", unskipped(), 80, 64..80, &refs);
     let save = Settings {
-        spend_saved_rays: false,
-        gradient_stratum: 4,
+        rates: RateSettings {
+            spend_saved_rays: false,
+            ..Default::default()
+        },
+        gradient: GradientSettings {
+            stratum: 4,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let adaptive = run("room_static", save, 80, 64..80, &refs);
@@ -131,7 +146,10 @@ fn moving_scene_loses_nothing_to_skipping() {
     let adaptive = run(
         "room",
         Settings {
-            gradient_stratum: 4,
+            gradient: GradientSettings {
+                stratum: 4,
+                ..Default::default()
+            },
             ..Settings::default()
         },
         64,

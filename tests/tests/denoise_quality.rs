@@ -2,9 +2,9 @@
 //! CPU backend: SVGF (fixed 1 ray per pixel) must cut the raw input's error at least tenfold once
 //! converged, and VRRT at the same ray budget must beat SVGF while never breaking its budget.
 
-use vrrt_core::denoiser::Settings;
 use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::buckets::{bucket_to_rate, ring_count, ring_id, BUCKET_COUNT};
+use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};
 

@@ -3,12 +3,12 @@
 //! lowers the error at equal rays, the parallax reprojection follows a reflection under camera
 //! motion, and AO, shadows and reflections share one frame and one ray budget.
 
-use vrrt_core::denoiser::Settings;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::reflect;
 use vrrt_core::payload::Payload;
 use vrrt_core::reflections::ReflectionSettings;
+use vrrt_core::settings::{Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::animation::{CameraKey, CameraPath};
 use vrrt_scene::render::{read, reference, Readback, Renderer, Signal};
@@ -113,9 +113,13 @@ fn reflections_converge_to_the_reference_of_the_same_estimator() {
     let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
     let signal = reflections(0, true);
     let refs = references(&scene, &[0], signal, 2048);
+    let svgf = Settings::svgf(1.0);
     let settings = Settings {
-        max_history: 1024.0,
-        ..Settings::svgf(1.0)
+        temporal: TemporalSettings {
+            max_history: 1024.0,
+            ..svgf.temporal
+        },
+        ..svgf
     };
     let mut exec = CpuExecutor::new();
     let mut r = Renderer::new(&mut exec, SIZE.0, SIZE.1, signal, 1, settings).unwrap();

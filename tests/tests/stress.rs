@@ -10,14 +10,15 @@
 
 use std::time::Instant;
 use vrrt_cli::backend::{Backend, BackendKind};
-use vrrt_core::denoiser::{
-    Denoiser, DenoiserError, FrameInfo, Settings, SettingsError, StoragePrecision,
-};
-use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
-use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo};
+use vrrt_core::payload::Filtered;
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::quantize;
+use vrrt_core::settings::{
+    FilterSettings, Settings, SettingsError, StoragePrecision, TemporalSettings,
+};
+use vrrt_core::surface::{Surface, NO_INSTANCE};
 
 /// Storage-buffer binding range of software Vulkan (lavapipe's `maxStorageBufferRange`, 2^27).
 const LAVAPIPE_MAX_BINDING: u64 = 1 << 27;
@@ -231,7 +232,10 @@ fn pattern(x: u32, y: u32, z: u32, f: u32) -> (f32, f32) {
 fn non_finite_and_huge_samples_are_contained() {
     let (w, h, inject, recover) = (23, 17, 60u32, 120u32);
     let settings = Settings {
-        firefly_max: 1.0,
+        temporal: TemporalSettings {
+            firefly_max: 1.0,
+            ..Default::default()
+        },
         ..Settings::svgf(1.0)
     };
     let bad = |x: u32, y: u32, z: u32, f: u32| -> Option<u32> {
@@ -328,7 +332,10 @@ fn f16_history_does_not_drift_or_stick() {
         / (w * h) as f64;
     on_every_backend("f16 drift + stuck", |b| {
         let settings = |storage| Settings {
-            storage,
+            temporal: TemporalSettings {
+                storage,
+                ..Default::default()
+            },
             ..Settings::svgf(1.0)
         };
         let mut f32_run = Rig::new(b, w, h, settings(StoragePrecision::F32), plane(w, h));
@@ -389,8 +396,11 @@ fn unorm8_shadow_reaches_one_only_with_the_correction() {
         let mut figures = Vec::new();
         for correction in [true, false] {
             let settings = Settings {
-                storage: StoragePrecision::Unorm8,
-                stuck_correction: correction,
+                temporal: TemporalSettings {
+                    storage: StoragePrecision::Unorm8,
+                    stuck_correction: correction,
+                    ..Default::default()
+                },
                 ..Settings::svgf(1.0)
             };
             let mut rig = Rig::new(b, w, h, settings, plane(w, h));
@@ -449,7 +459,10 @@ fn hdr_extremes_black_white_and_denormals() {
         let mut flushed = Vec::new();
         for &(storage, v) in cases {
             let settings = Settings {
-                storage,
+                temporal: TemporalSettings {
+                    storage,
+                    ..Default::default()
+                },
                 ..Settings::svgf(1.0)
             };
             let mut rig = Rig::new(b, w, h, settings, plane(w, h));
@@ -534,8 +547,11 @@ fn resolutions_resize_cut_sky_and_zero_size() {
                 Settings::default()
             } else {
                 Settings {
-                    atrous_iterations: 1,
-                    spatial_radius: 1,
+                    filter: FilterSettings {
+                        atrous_iterations: 1,
+                        spatial_radius: 1,
+                        ..Default::default()
+                    },
                     ..Settings::default()
                 }
             };
@@ -606,11 +622,11 @@ fn resolutions_resize_cut_sky_and_zero_size() {
 /// `core/src/kernels/balance.rs`) and is not repeated here.
 mod properties {
     use proptest::prelude::*;
-    use vrrt_core::gbuffer;
     use vrrt_core::glam::Vec3;
     use vrrt_core::math;
     use vrrt_core::payload::{self, Payload, Sample};
     use vrrt_core::quantize;
+    use vrrt_core::surface;
 
     fn unit() -> impl Strategy<Value = Vec3> {
         (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)
@@ -654,9 +670,9 @@ mod properties {
             p in prop::array::uniform3(-100.0f32..100.0), q in prop::array::uniform3(-100.0f32..100.0),
             scale in 0.0f32..10.0, x in 0.0f32..1e6,
         ) {
-            let nw = gbuffer::normal_weight(n, m, power);
+            let nw = surface::normal_weight(n, m, power);
             prop_assert!((0.0..=1.0).contains(&nw), "normal {nw}");
-            let pw = gbuffer::plane_weight(Vec3::from(p), n, Vec3::from(q), scale);
+            let pw = surface::plane_weight(Vec3::from(p), n, Vec3::from(q), scale);
             prop_assert!((0.0..=1.0).contains(&pw), "plane {pw}");
             let lw = math::exp(-x);
             prop_assert!((0.0..=1.0).contains(&lw), "luminance {lw}");

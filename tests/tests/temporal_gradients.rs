@@ -3,7 +3,7 @@
 //! VRRT (no variance clamping) tracks the changing shadows better than both VRRT without it and
 //! SVGF with variance clamping, while static regions stay at least as sharp.
 
-use vrrt_core::denoiser::Settings;
+use vrrt_core::settings::{GradientSettings, Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};
 
@@ -70,15 +70,22 @@ fn gradients_beat_variance_clamping_on_moving_shadows() {
         })
         .collect();
     let grad = Settings {
-        gradient_stratum: 4,
-        gradient_scale: 32.0,
+        gradient: GradientSettings {
+            stratum: 4,
+            scale: 32.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let (g_moving, g_still, ran) = errors(grad, &refs);
     let (v_moving, v_still, _) = errors(Settings::default(), &refs);
+    let svgf = Settings::svgf(1.0);
     let clamp = Settings {
-        clamp_radius: 1,
-        ..Settings::svgf(1.0)
+        temporal: TemporalSettings {
+            clamp_radius: 1,
+            ..svgf.temporal
+        },
+        ..svgf
     };
     let (c_moving, c_still, _) = errors(clamp, &refs);
     println!("moving-region MSE: VRRT+gradients {g_moving:.5}, VRRT {v_moving:.5}, SVGF+clamp {c_moving:.5}");
@@ -98,7 +105,10 @@ fn prepass_is_skipped_when_nothing_moves() {
     let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
     let mut exec = CpuExecutor::new();
     let settings = Settings {
-        gradient_stratum: 4,
+        gradient: GradientSettings {
+            stratum: 4,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let mut r = Renderer::new(

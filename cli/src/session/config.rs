@@ -1,7 +1,7 @@
 //! The denoiser configurations compared by `run` and `bench` (the baselines and the stages of
 //! VRRT) and the denoiser settings each one stands for.
 
-use vrrt_core::denoiser::Settings;
+use vrrt_core::settings::Settings;
 use vrrt_scene::render::Signal;
 
 /// A denoiser configuration: the baselines and the stages of VRRT.
@@ -53,44 +53,35 @@ impl Config {
         }
     }
 
-    /// Denoiser settings for a budget of `rpp` rays per pixel and `signal`. Temporal gradients
-    /// are off for signals with reflections, which the gradient prepass cannot re-trace
-    /// (`Renderer::new` refuses them).
-    pub fn settings(self, rpp: f32, signal: Signal) -> Settings {
-        let vrrt = Settings {
-            rays_per_pixel: rpp,
-            ..Settings::default()
-        };
-        let mut settings = match self {
-            Config::Raw | Config::Svgf => Settings::svgf(rpp),
-            Config::SvgfClamp => Settings {
-                clamp_radius: 1,
-                ..Settings::svgf(rpp)
-            },
-            Config::VrrtSuper => Settings {
-                load_balance: false,
-                undersample: false,
-                ..vrrt
-            },
-            Config::VrrtBalance => Settings {
-                undersample: false,
-                ..vrrt
-            },
-            Config::Vrrt => vrrt,
-            Config::VrrtSave => Settings {
-                spend_saved_rays: false,
-                ..vrrt
-            },
-            Config::VrrtNoskip => Settings {
-                skip_sigma: 0.0,
-                still_sigma: 0.0,
-                ..vrrt
-            },
-        };
-        if signal.reflections().is_some() {
-            settings.gradient_stratum = 0;
+    /// Denoiser settings for a budget of `rpp` rays per pixel and `signal`: this configuration's
+    /// changes on top of `base` (`Settings::default()`, or a settings file), which they win over.
+    /// Temporal gradients are off for signals with reflections, which the gradient prepass cannot
+    /// re-trace (`Renderer::new` refuses them).
+    pub fn settings(self, base: Settings, rpp: f32, signal: Signal) -> Settings {
+        let mut s = base;
+        s.rates.rays_per_pixel = rpp;
+        match self {
+            Config::Raw | Config::Svgf => s = base.to_svgf(rpp),
+            Config::SvgfClamp => {
+                s = base.to_svgf(rpp);
+                s.temporal.clamp_radius = 1;
+            }
+            Config::VrrtSuper => {
+                s.rates.load_balance = false;
+                s.rates.undersample = false;
+            }
+            Config::VrrtBalance => s.rates.undersample = false,
+            Config::Vrrt => {}
+            Config::VrrtSave => s.rates.spend_saved_rays = false,
+            Config::VrrtNoskip => {
+                s.filter.skip_sigma = 0.0;
+                s.rates.still_sigma = 0.0;
+            }
         }
-        settings
+        if signal.reflections().is_some() {
+            s.gradient.stratum = 0;
+        }
+        s
     }
 
     /// True when the reported image is the raw samples rather than the denoised output.

@@ -10,6 +10,7 @@ use anyhow::{anyhow, Context, Result};
 use std::collections::HashMap;
 use std::time::Instant;
 use vrrt_core::plan::Executor;
+use vrrt_core::settings::Settings;
 use vrrt_scene::image::{Image, ImageRef};
 use vrrt_scene::metrics::{self, SequenceMetrics};
 use vrrt_scene::render::{Readback, Renderer, Signal};
@@ -25,6 +26,9 @@ pub struct SequenceOptions {
     pub signal: Signal,
     /// Reference samples per pixel.
     pub spp: u32,
+    /// Denoiser settings the configuration starts from (`Settings::default()`, or a settings
+    /// file); the configuration, `rpp` and the signal win over them.
+    pub base: Settings,
     /// Denoiser configuration.
     pub config: Config,
     /// Ray budget, rays per pixel per frame.
@@ -47,7 +51,7 @@ pub fn run_sequence(
     let (width, height) = opts.size;
     let pixels = (width * height) as usize;
     let sc = &scene.scene;
-    let settings = opts.config.settings(opts.rpp, opts.signal);
+    let settings = opts.config.settings(opts.base, opts.rpp, opts.signal);
     let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
         .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
     let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
@@ -104,7 +108,7 @@ pub fn run_sequence(
             }
         }
         let d = out.decision;
-        let (run, configured) = out.filter_work(settings.atrous_iterations);
+        let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
         let all_tiles: u32 = out.tiles.iter().sum();
         let mut record = FrameRecord {
             prepass_ran: out.gradient_ran,

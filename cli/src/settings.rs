@@ -1,0 +1,224 @@
+//! Settings files: the denoiser's [`Settings`] as TOML, `planes` and `parallax_plane` at the top
+//! and one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`). Fields left out
+//! keep their defaults, unknown fields are errors, and the result is validated, so a bad file
+//! fails before anything runs with the file, the line and the problem in one line.
+
+use anyhow::{anyhow, Result};
+use std::path::Path;
+use vrrt_core::settings::Settings;
+
+/// First lines of [`to_toml`]'s output.
+const HEADER: &str = "\
+# VRRT-rs denoiser settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
+# Every field is optional: one left out keeps the default shown here; unknown fields are errors.
+# Units and ranges: vrrt_core::settings (one struct per table). `parallax_plane` (a plane index)
+# is absent by default; `vrrt run` and `vrrt bench` set it and `planes` from the signal.
+";
+
+/// Parses the text of a settings file and validates it. The error is one line: where (line and
+/// column, for a TOML or type error) and what.
+pub fn parse(text: &str) -> Result<Settings, String> {
+    let settings: Settings = toml::from_str(text).map_err(|e| describe(text, &e))?;
+    settings.validate().map_err(|e| e.to_string())?;
+    Ok(settings)
+}
+
+/// Reads and parses the settings file at `path`; errors name the file.
+pub fn load(path: &Path) -> Result<Settings> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("cannot read settings file {}: {e}", path.display()))?;
+    parse(&text).map_err(|e| anyhow!("settings file {}: {e}", path.display()))
+}
+
+/// `settings` as the text of a settings file (with a comment header). Every float is written as
+/// the shortest decimal that reads back to the same `f32` (`0.9`, not `0.8999999761581421`), so
+/// [`parse`] gives `settings` back exactly.
+pub fn to_toml(settings: &Settings) -> String {
+    let mut value = toml::Value::try_from(settings).expect("settings serialize to TOML");
+    shorten_floats(&mut value);
+    let body = toml::to_string(&value).expect("a TOML table serializes");
+    format!("{HEADER}\n{body}")
+}
+
+/// Rewrites every float of `v` (all of them `f32` values widened to `f64`) as the `f64` nearest
+/// to the `f32`'s shortest decimal.
+fn shorten_floats(v: &mut toml::Value) {
+    match v {
+        toml::Value::Float(f) if f.is_finite() => {
+            let short = (*f as f32).to_string();
+            *f = short.parse().expect("a float's decimal parses");
+        }
+        toml::Value::Array(a) => a.iter_mut().for_each(shorten_floats),
+        toml::Value::Table(t) => t.iter_mut().for_each(|(_, v)| shorten_floats(v)),
+        _ => {}
+    }
+}
+
+/// A TOML or deserialization error as `line L, column C: message`.
+fn describe(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().replace('\n', " ");
+    match e.span() {
+        Some(span) => {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!("line {line}, column {column}: {message}")
+        }
+        None => message,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vrrt_core::settings::{
+        FilterSettings, GradientSettings, RateSettings, StoragePrecision, TemporalSettings,
+    };
+
+    #[test]
+    fn defaults_round_trip() {
+        let d = Settings::default();
+        let text = to_toml(&d);
+        assert_eq!(parse(&text), Ok(d), "{text}");
+        // Readable floats, the stages as tables.
+        for needle in [
+            "[temporal]",
+            "[rates]",
+            "[gradient]",
+            "[filter]",
+            "normal_threshold = 0.9\n",
+            "variance_threshold = [0.0001, 0.001, 0.01, 0.0]\n",
+            "storage = \"f32\"\n",
+        ] {
+            assert!(text.contains(needle), "{needle} missing from\n{text}");
+        }
+    }
+
+    #[test]
+    fn every_field_round_trips() {
+        // Non-default values everywhere, awkward floats included.
+        let s = Settings {
+            planes: 3,
+            parallax_plane: Some(2),
+            temporal: TemporalSettings {
+                max_history: 1000.5,
+                normal_threshold: -0.3,
+                plane_threshold: 1.0e-7,
+                clamp_radius: 2,
+                clamp_gamma: 0.1 + 0.2,
+                firefly_max: 3.3333333,
+                storage: StoragePrecision::Unorm8,
+                rng_wrap: 12345,
+                stuck_correction: false,
+            },
+            rates: RateSettings {
+                rays_per_pixel: 0.3,
+                supersample_target: 7.0,
+                load_balance: false,
+                spend_saved_rays: false,
+                undersample: false,
+                undersample_after: 9.5,
+                variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],
+                variance_rate: [1.0 / 64.0, 0.7, 16.0, 1.0 / 3.0],
+                still_sigma: 0.0,
+            },
+            gradient: GradientSettings {
+                stratum: 5,
+                iterations: 0,
+                threshold: 0.123,
+                scale: 32.0,
+            },
+            filter: FilterSettings {
+                atrous_iterations: 2,
+                sigma_luminance: 4.0,
+                normal_power: 0.0,
+                plane_tolerance: 1.0 / 7.0,
+                spatial_radius: 0,
+                spatial_until: 0.0,
+                skip_sigma: 1.0e-3,
+            },
+        };
+        assert_eq!(parse(&to_toml(&s)), Ok(s));
+    }
+
+    #[test]
+    fn shortest_decimals_read_back_exactly() {
+        // What `to_toml` relies on: an f32's shortest decimal, read as f64 (as TOML does) and
+        // narrowed to f32 (as serde does), is the same f32.
+        let mut x = 0x9e37_79b9u32;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let v = f32::from_bits(x);
+            if v.is_finite() {
+                let back = v.to_string().parse::<f64>().unwrap() as f32;
+                assert_eq!(back.to_bits(), v.to_bits(), "{v}");
+            }
+        }
+    }
+
+    #[test]
+    fn partial_file_keeps_the_other_defaults() {
+        let text = "\
+planes = 2
+
+[filter]
+sigma_luminance = 2.5
+atrous_iterations = 3
+
+[temporal]
+max_history = 32 # an integer is a fine float
+storage = \"f16\"
+";
+        let s = parse(text).unwrap();
+        let d = Settings::default();
+        let expected = Settings {
+            planes: 2,
+            filter: FilterSettings {
+                sigma_luminance: 2.5,
+                atrous_iterations: 3,
+                ..d.filter
+            },
+            temporal: TemporalSettings {
+                max_history: 32.0,
+                storage: StoragePrecision::F16,
+                ..d.temporal
+            },
+            ..d
+        };
+        assert_eq!(s, expected);
+        assert_eq!(parse(""), Ok(d));
+    }
+
+    #[test]
+    fn unknown_fields_are_errors() {
+        let e = parse("[filter]\nsigma_luminace = 2.0\n").unwrap_err();
+        assert!(e.starts_with("line 2, column 1: "), "{e}");
+        assert!(e.contains("unknown field `sigma_luminace`"), "{e}");
+        let e = parse("[filters]\nsigma_luminance = 2.0\n").unwrap_err();
+        assert!(e.contains("unknown field `filters`"), "{e}");
+        let e = parse("rays_per_pixel = 2.0\n").unwrap_err();
+        assert!(e.contains("unknown field `rays_per_pixel`"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+
+    #[test]
+    fn bad_values_are_errors() {
+        let e = parse("[filter]\nsigma_luminance = -1.0\n").unwrap_err();
+        assert_eq!(
+            e,
+            "setting `filter.sigma_luminance` = -1 is out of range (> 0)"
+        );
+        let e = parse("[rates]\nrays_per_pixel = 32\n").unwrap_err();
+        assert!(e.contains("`rates.rays_per_pixel`"), "{e}");
+        let e = parse("[temporal]\nmax_history = 8.0\n").unwrap_err();
+        assert!(e.contains("`rates.supersample_target`"), "{e}");
+        let e = parse("[gradient]\nstratum = -1\n").unwrap_err();
+        assert!(e.starts_with("line 2, column 11: "), "{e}");
+        let e = parse("[temporal]\nstorage = \"f64\"\n").unwrap_err();
+        assert!(e.contains("unknown variant `f64`"), "{e}");
+        let e = parse("planes = ").unwrap_err();
+        assert!(e.starts_with("line 1, column "), "{e}");
+    }
+}

@@ -1,0 +1,716 @@
+//! The denoiser's tunables, one struct per stage (like NRD's settings): [`TemporalSettings`]
+//! (reprojection and accumulation of history), [`RateSettings`] (how many rays each pixel gets),
+//! [`GradientSettings`] (the A-SVGF temporal-gradient prepass) and [`FilterSettings`] (variance
+//! estimation and the à-trous filter), gathered with the frame-level fields in [`Settings`].
+//!
+//! Every struct's `Default` is full VRRT, every field documents its unit, range and default, and
+//! every `validate` names a bad field by its path (`filter.sigma_luminance`). With the `serde`
+//! feature they (de)serialize with missing fields taken from the defaults and unknown fields
+//! refused, so a partial settings file (`vrrt run --settings FILE`) tunes only what it names.
+
+pub use crate::quantize::StoragePrecision;
+use core::fmt;
+
+/// Every tunable of the denoiser, by stage. `Settings::default()` is full VRRT; [`Settings::svgf`]
+/// the fixed-rate baseline.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct Settings {
+    /// Scalar signal planes denoised together (1..=4: AO, shadows of up to 4 lights; default 1).
+    pub planes: u32,
+    /// Plane reprojected along the reflection parallax (`kernels::reflect::reflect_motion`, which
+    /// the caller runs into `Denoiser::parallax` before `Denoiser::plan_rays`) instead of the
+    /// surface motion (0..planes); `None` (default) for none.
+    pub parallax_plane: Option<u32>,
+    /// Reprojection and accumulation of history.
+    pub temporal: TemporalSettings,
+    /// Ray rates: the budget, VRRT's supersampling, undersampling and load balancing.
+    pub rates: RateSettings,
+    /// Temporal gradients (A-SVGF), off by default.
+    pub gradient: GradientSettings,
+    /// Variance estimation and the à-trous spatial filter.
+    pub filter: FilterSettings,
+}
+
+/// Reprojection and accumulation of history (`kernels::reproject`, `kernels::accumulate`).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct TemporalSettings {
+    /// History length clamp in rays (1..=65504; default 64).
+    pub max_history: f32,
+    /// Reprojection: minimum cosine between this frame's and last frame's normals (-1..=1;
+    /// default 0.9).
+    pub normal_threshold: f32,
+    /// Reprojection: maximum plane distance as a fraction of view depth (> 0; default 0.02).
+    pub plane_threshold: f32,
+    /// Variance clamp of history against this frame's samples: window radius in pixels, 0 = off
+    /// (0..=5; default 0, off; the SVGF baseline turns it on, VRRT does not need it).
+    pub clamp_radius: u32,
+    /// Variance clamp width in standard deviations (> 0; default 1).
+    pub clamp_gamma: f32,
+    /// Firefly clamp of this frame's per-pixel mean, in signal units; 0 = off (>= 0; default 0,
+    /// off).
+    pub firefly_max: f32,
+    /// Storage precision of the history moments (`f32`, `f16` or `unorm8`; default `f32`, the
+    /// reference). f16 and unorm8 round every stored moment to that format's precision, with the
+    /// seed's stuck correction, to measure what a low-precision history does; buffers keep their
+    /// f32 layout (packed formats are not implemented). Unorm8 is for signals in `[0, 1]`
+    /// (shadows, AO) only.
+    pub storage: StoragePrecision,
+    /// Width of the stored rng index: it wraps at this value (0 = the width that goes with
+    /// `storage`: 32 bits for f32, 2^16 for f16, 2^8 for unorm8; any u32; default 0).
+    pub rng_wrap: u32,
+    /// The seed's stuck correction when storing low-precision history (default on). Off only to
+    /// demonstrate the pixel that never converges without it; no effect with f32 storage.
+    pub stuck_correction: bool,
+}
+
+/// How many rays each pixel traces: the budget, VRRT's requests and the load balancer
+/// (`kernels::reproject`, `kernels::balance`, `kernels::apply`).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct RateSettings {
+    /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1).
+    pub rays_per_pixel: f32,
+    /// VRRT supersampling: pixels with less history than this many rays ask for the difference
+    /// (up to 16 a frame); 0 turns VRRT off: every pixel traces `rays_per_pixel`, fractions by a
+    /// blue-noise test, and `load_balance` is moot (rays; 0 or 1..=`temporal.max_history`;
+    /// default 16).
+    pub supersample_target: f32,
+    /// Fit requests to the budget with the load balancer (default on). Off: requests are traced
+    /// as asked, whatever they cost.
+    pub load_balance: bool,
+    /// Spend budget left over by raising low requests, inner rings first (default on); off is the
+    /// "save" mode.
+    pub spend_saved_rays: bool,
+    /// VRRT undersampling of converged pixels by variance (default on).
+    pub undersample: bool,
+    /// History length (rays) from which a pixel counts as converged and may undersample
+    /// (1..=`temporal.max_history`; default 16, the supersampling target: a pixel that has
+    /// refilled its history stops asking and may give rays away). The seed waits for full history
+    /// (`max_history`); the shorter wait frees rays sooner for disocclusions (room scene, 96
+    /// frames: relMSE 0.00515 → 0.00455 at 1 ray), at some risk on slowly changing signals, which
+    /// temporal gradients cover.
+    pub undersample_after: f32,
+    /// Undersampling thresholds on the variance of the estimate (signal units squared), increasing;
+    /// a 0 ends the list (each >= 0; default `[1e-4, 1e-3, 1e-2, 0]`).
+    pub variance_threshold: [f32; 4],
+    /// Undersampling rates of those thresholds, relative to the base rate
+    /// `min(rays_per_pixel, 1)` (each in 1/64..=16; default `[1/8, 1/4, 1/2, 1]`).
+    pub variance_rate: [f32; 4],
+    /// Still frames (nothing moved, `FrameInfo::moved` false): a pixel with full history
+    /// (`temporal.max_history`) whose estimate's standard deviation (signal units) is below this
+    /// asks only for the floor, `variance_rate[0]`, and other pixels complete their history before
+    /// any variance-based undersampling; 0 = off. With `spend_saved_rays` off the rays stay
+    /// unspent ("save" mode). Needs `undersample` (>= 0; default 0.045: on the static room the
+    /// error rises 1.8% for 77% of the rays saved).
+    pub still_sigma: f32,
+}
+
+/// Temporal gradients (A-SVGF, `kernels::gradient`): one re-traced sample per stratum tells where
+/// the signal changed, so history is dropped there instead of clamped and VRRT can supersample.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct GradientSettings {
+    /// Stratum size in pixels, one re-traced sample per stratum and frame (0 = off, default;
+    /// 3..=8).
+    pub stratum: u32,
+    /// À-trous iterations of the gradient reconstruction at stratum resolution (0..=5; default 3).
+    pub iterations: u32,
+    /// Gradient `λ` above which history is dropped like a disocclusion (0..=1; default 0.5);
+    /// below it history is shortened to `count · (1 − λ)`.
+    pub threshold: f32,
+    /// Gain on the reconstructed `λ` (`min(1, scale · λ)`, >= 0; default 1, A-SVGF as published).
+    /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
+    /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
+    pub scale: f32,
+}
+
+/// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,
+/// `kernels::classify`, `kernels::atrous`).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct FilterSettings {
+    /// À-trous iterations, strides 1, 2, 4, … pixels (0..=5; default 5).
+    pub atrous_iterations: u32,
+    /// Luminance edge-stopping σ_l, in standard deviations of the estimate (> 0; default 1: with
+    /// the variance of the estimate, not of a single ray, SVGF's 4 over-blurs contact shadows and
+    /// disocclusions).
+    pub sigma_luminance: f32,
+    /// Normal edge-stopping exponent (>= 0; default 128).
+    pub normal_power: f32,
+    /// Plane-distance tolerance in pixel footprints (> 0; default 2).
+    pub plane_tolerance: f32,
+    /// Window radius of the spatial variance estimate in pixels (0..=5; default 3, i.e. 7×7).
+    pub spatial_radius: u32,
+    /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
+    pub spatial_until: f32,
+    /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
+    /// largest standard deviation of the estimate (signal units) below this (each iteration
+    /// counted as halving it, `kernels::classify`); 0 = every tile runs every iteration (>= 0;
+    /// default 0.004, below what a [0, 1] signal shows on an 8-bit display).
+    pub skip_sigma: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            planes: 1,
+            parallax_plane: None,
+            temporal: TemporalSettings::default(),
+            rates: RateSettings::default(),
+            gradient: GradientSettings::default(),
+            filter: FilterSettings::default(),
+        }
+    }
+}
+
+impl Default for TemporalSettings {
+    fn default() -> Self {
+        TemporalSettings {
+            max_history: 64.0,
+            normal_threshold: 0.9,
+            plane_threshold: 0.02,
+            clamp_radius: 0,
+            clamp_gamma: 1.0,
+            firefly_max: 0.0,
+            storage: StoragePrecision::F32,
+            rng_wrap: 0,
+            stuck_correction: true,
+        }
+    }
+}
+
+impl Default for RateSettings {
+    fn default() -> Self {
+        RateSettings {
+            rays_per_pixel: 1.0,
+            supersample_target: 16.0,
+            load_balance: true,
+            spend_saved_rays: true,
+            undersample: true,
+            undersample_after: 16.0,
+            variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
+            variance_rate: [0.125, 0.25, 0.5, 1.0],
+            still_sigma: 0.045,
+        }
+    }
+}
+
+impl Default for GradientSettings {
+    fn default() -> Self {
+        GradientSettings {
+            stratum: 0,
+            iterations: 3,
+            threshold: 0.5,
+            scale: 1.0,
+        }
+    }
+}
+
+impl Default for FilterSettings {
+    fn default() -> Self {
+        FilterSettings {
+            atrous_iterations: 5,
+            sigma_luminance: 1.0,
+            normal_power: 128.0,
+            plane_tolerance: 2.0,
+            spatial_radius: 3,
+            spatial_until: 4.0,
+            skip_sigma: 0.004,
+        }
+    }
+}
+
+/// A setting out of its range.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SettingsError {
+    /// Width or height is zero.
+    Resolution {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// A field outside its documented range.
+    OutOfRange {
+        /// Field path, stage first (`filter.sigma_luminance`).
+        field: &'static str,
+        /// Value given.
+        value: f32,
+        /// The range, in words.
+        range: &'static str,
+    },
+}
+
+impl fmt::Display for SettingsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SettingsError::Resolution { width, height } => {
+                write!(
+                    f,
+                    "resolution {width}x{height}: width and height must be at least 1"
+                )
+            }
+            SettingsError::OutOfRange {
+                field,
+                value,
+                range,
+            } => {
+                write!(f, "setting `{field}` = {value} is out of range ({range})")
+            }
+        }
+    }
+}
+
+impl core::error::Error for SettingsError {}
+
+/// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
+pub(crate) fn check(
+    ok: bool,
+    field: &'static str,
+    value: f32,
+    range: &'static str,
+) -> Result<(), SettingsError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(SettingsError::OutOfRange {
+            field,
+            value,
+            range,
+        })
+    }
+}
+
+/// Largest history length in rays (the largest finite f16).
+const MAX_HISTORY: f32 = 65504.0;
+
+impl Settings {
+    /// The SVGF baseline VRRT is measured against (every tile filtered fully, as published): every
+    /// pixel traces `rays_per_pixel`, no requests, no balancing.
+    pub fn svgf(rays_per_pixel: f32) -> Self {
+        Settings::default().to_svgf(rays_per_pixel)
+    }
+
+    /// These settings with VRRT's rates and the adaptive filter turned off, as in [`Self::svgf`]:
+    /// every pixel traces `rays_per_pixel`, no supersampling, undersampling or balancing, and
+    /// every tile runs every filter iteration. The other fields are kept.
+    pub fn to_svgf(self, rays_per_pixel: f32) -> Self {
+        Settings {
+            rates: RateSettings {
+                rays_per_pixel,
+                supersample_target: 0.0,
+                load_balance: false,
+                undersample: false,
+                ..self.rates
+            },
+            filter: FilterSettings {
+                skip_sigma: 0.0,
+                ..self.filter
+            },
+            ..self
+        }
+    }
+
+    /// Checks every field against its documented range: the frame-level fields, each stage's
+    /// [`validate`](TemporalSettings::validate), and the limits one stage puts on another
+    /// (`rates.supersample_target` and `rates.undersample_after` up to `temporal.max_history`).
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        check(
+            (1..=4).contains(&self.planes),
+            "planes",
+            self.planes as f32,
+            "1..=4",
+        )?;
+        if let Some(z) = self.parallax_plane {
+            check(
+                z < self.planes,
+                "parallax_plane",
+                z as f32,
+                "a plane (< planes)",
+            )?;
+        }
+        self.temporal.validate()?;
+        self.rates.validate()?;
+        self.gradient.validate()?;
+        self.filter.validate()?;
+        let (r, max) = (&self.rates, self.temporal.max_history);
+        check(
+            r.supersample_target <= max,
+            "rates.supersample_target",
+            r.supersample_target,
+            "0 or 1..=temporal.max_history",
+        )?;
+        check(
+            r.undersample_after <= max,
+            "rates.undersample_after",
+            r.undersample_after,
+            "1..=temporal.max_history",
+        )
+    }
+}
+
+impl TemporalSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            finite(self.max_history) && self.max_history >= 1.0 && self.max_history <= MAX_HISTORY,
+            "temporal.max_history",
+            self.max_history,
+            "1..=65504",
+        )?;
+        check(
+            finite(self.normal_threshold) && (-1.0..=1.0).contains(&self.normal_threshold),
+            "temporal.normal_threshold",
+            self.normal_threshold,
+            "-1..=1",
+        )?;
+        check(
+            finite(self.plane_threshold) && self.plane_threshold > 0.0,
+            "temporal.plane_threshold",
+            self.plane_threshold,
+            "> 0",
+        )?;
+        check(
+            self.clamp_radius <= 5,
+            "temporal.clamp_radius",
+            self.clamp_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.clamp_gamma) && self.clamp_gamma > 0.0,
+            "temporal.clamp_gamma",
+            self.clamp_gamma,
+            "> 0",
+        )?;
+        check(
+            finite(self.firefly_max) && self.firefly_max >= 0.0,
+            "temporal.firefly_max",
+            self.firefly_max,
+            ">= 0",
+        )
+    }
+}
+
+impl RateSettings {
+    /// Checks every field against its documented range. The limit `temporal.max_history` puts on
+    /// `supersample_target` and `undersample_after` is checked by [`Settings::validate`]; here
+    /// they may go up to the largest history, 65504.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            finite(self.rays_per_pixel) && self.rays_per_pixel > 0.0 && self.rays_per_pixel <= 16.0,
+            "rates.rays_per_pixel",
+            self.rays_per_pixel,
+            "0 < r <= 16",
+        )?;
+        check(
+            finite(self.supersample_target)
+                && (self.supersample_target == 0.0
+                    || (self.supersample_target >= 1.0 && self.supersample_target <= MAX_HISTORY)),
+            "rates.supersample_target",
+            self.supersample_target,
+            "0 or 1..=temporal.max_history",
+        )?;
+        check(
+            finite(self.undersample_after)
+                && self.undersample_after >= 1.0
+                && self.undersample_after <= MAX_HISTORY,
+            "rates.undersample_after",
+            self.undersample_after,
+            "1..=temporal.max_history",
+        )?;
+        for i in 0..4 {
+            let t = self.variance_threshold[i];
+            check(
+                finite(t) && t >= 0.0,
+                "rates.variance_threshold",
+                t,
+                ">= 0, finite",
+            )?;
+            if i > 0 && t != 0.0 {
+                let prev = self.variance_threshold[i - 1];
+                check(
+                    t >= prev,
+                    "rates.variance_threshold",
+                    t,
+                    "increasing (0 ends the list)",
+                )?;
+            }
+            let r = self.variance_rate[i];
+            check(
+                finite(r) && (1.0 / 64.0..=16.0).contains(&r),
+                "rates.variance_rate",
+                r,
+                "1/64..=16",
+            )?;
+        }
+        check(
+            finite(self.still_sigma) && self.still_sigma >= 0.0,
+            "rates.still_sigma",
+            self.still_sigma,
+            ">= 0",
+        )
+    }
+}
+
+impl GradientSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            self.stratum == 0 || (3..=8).contains(&self.stratum),
+            "gradient.stratum",
+            self.stratum as f32,
+            "0 or 3..=8",
+        )?;
+        check(
+            self.iterations <= 5,
+            "gradient.iterations",
+            self.iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.threshold) && (0.0..=1.0).contains(&self.threshold),
+            "gradient.threshold",
+            self.threshold,
+            "0..=1",
+        )?;
+        check(
+            finite(self.scale) && self.scale >= 0.0,
+            "gradient.scale",
+            self.scale,
+            ">= 0",
+        )
+    }
+}
+
+impl FilterSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            self.atrous_iterations <= 5,
+            "filter.atrous_iterations",
+            self.atrous_iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.sigma_luminance) && self.sigma_luminance > 0.0,
+            "filter.sigma_luminance",
+            self.sigma_luminance,
+            "> 0",
+        )?;
+        check(
+            finite(self.normal_power) && self.normal_power >= 0.0,
+            "filter.normal_power",
+            self.normal_power,
+            ">= 0",
+        )?;
+        check(
+            finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
+            "filter.plane_tolerance",
+            self.plane_tolerance,
+            "> 0",
+        )?;
+        check(
+            self.spatial_radius <= 5,
+            "filter.spatial_radius",
+            self.spatial_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.spatial_until) && self.spatial_until >= 0.0,
+            "filter.spatial_until",
+            self.spatial_until,
+            ">= 0",
+        )?;
+        check(
+            finite(self.skip_sigma) && self.skip_sigma >= 0.0,
+            "filter.skip_sigma",
+            self.skip_sigma,
+            ">= 0",
+        )
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    use std::string::ToString;
+
+    fn field_of(s: &Settings) -> &'static str {
+        match s.validate() {
+            Err(SettingsError::OutOfRange { field, .. }) => field,
+            other => panic!("expected an out-of-range error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn defaults_validate() {
+        assert_eq!(Settings::default().validate(), Ok(()));
+        assert_eq!(Settings::svgf(0.25).validate(), Ok(()));
+    }
+
+    #[test]
+    fn svgf_is_the_default_with_rates_off() {
+        let s = Settings::svgf(2.0);
+        let d = Settings::default();
+        assert_eq!(s.rates.rays_per_pixel, 2.0);
+        assert_eq!(s.rates.supersample_target, 0.0);
+        assert!(!s.rates.load_balance && !s.rates.undersample);
+        assert!(s.rates.spend_saved_rays);
+        assert_eq!(s.filter.skip_sigma, 0.0);
+        assert_eq!((s.temporal, s.gradient), (d.temporal, d.gradient));
+        assert_eq!(
+            FilterSettings {
+                skip_sigma: d.filter.skip_sigma,
+                ..s.filter
+            },
+            d.filter
+        );
+    }
+
+    #[test]
+    fn out_of_range_names_stage_and_field() {
+        let d = Settings::default();
+        let cases: [(Settings, &str); 10] = [
+            (Settings { planes: 5, ..d }, "planes"),
+            (
+                Settings {
+                    parallax_plane: Some(1),
+                    ..d
+                },
+                "parallax_plane",
+            ),
+            (
+                Settings {
+                    filter: FilterSettings {
+                        sigma_luminance: 0.0,
+                        ..d.filter
+                    },
+                    ..d
+                },
+                "filter.sigma_luminance",
+            ),
+            (
+                Settings {
+                    filter: FilterSettings {
+                        atrous_iterations: 6,
+                        ..d.filter
+                    },
+                    ..d
+                },
+                "filter.atrous_iterations",
+            ),
+            (
+                Settings {
+                    temporal: TemporalSettings {
+                        max_history: f32::NAN,
+                        ..d.temporal
+                    },
+                    ..d
+                },
+                "temporal.max_history",
+            ),
+            (
+                Settings {
+                    temporal: TemporalSettings {
+                        clamp_radius: 9,
+                        ..d.temporal
+                    },
+                    ..d
+                },
+                "temporal.clamp_radius",
+            ),
+            (
+                Settings {
+                    rates: RateSettings {
+                        rays_per_pixel: 17.0,
+                        ..d.rates
+                    },
+                    ..d
+                },
+                "rates.rays_per_pixel",
+            ),
+            (
+                Settings {
+                    rates: RateSettings {
+                        variance_threshold: [1e-2, 1e-3, 0.0, 0.0],
+                        ..d.rates
+                    },
+                    ..d
+                },
+                "rates.variance_threshold",
+            ),
+            (
+                Settings {
+                    gradient: GradientSettings {
+                        stratum: 2,
+                        ..d.gradient
+                    },
+                    ..d
+                },
+                "gradient.stratum",
+            ),
+            (
+                Settings {
+                    gradient: GradientSettings {
+                        threshold: 1.5,
+                        ..d.gradient
+                    },
+                    ..d
+                },
+                "gradient.threshold",
+            ),
+        ];
+        for (s, field) in &cases {
+            assert_eq!(field_of(s), *field);
+        }
+    }
+
+    #[test]
+    fn rates_are_limited_by_the_history() {
+        let d = Settings::default();
+        let s = Settings {
+            temporal: TemporalSettings {
+                max_history: 8.0,
+                ..d.temporal
+            },
+            ..d
+        };
+        // The stage alone is fine; with a history of 8 rays a target of 16 is not.
+        assert_eq!(s.rates.validate(), Ok(()));
+        assert_eq!(field_of(&s), "rates.supersample_target");
+        let s = Settings {
+            rates: RateSettings {
+                supersample_target: 8.0,
+                ..s.rates
+            },
+            ..s
+        };
+        assert_eq!(field_of(&s), "rates.undersample_after");
+    }
+
+    #[test]
+    fn error_message_names_the_path() {
+        let e = FilterSettings {
+            sigma_luminance: -1.0,
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "setting `filter.sigma_luminance` = -1 is out of range (> 0)"
+        );
+    }
+}
