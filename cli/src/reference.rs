@@ -78,7 +78,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         args.size.0,
         args.size.1,
         args.spp,
-        signal.name(),
+        signal,
         total / (frames as usize * parts.len()) as f64
     );
     Ok(())

@@ -27,10 +27,9 @@ pub mod blue_noise;
 pub mod camera;
 pub mod declare;
 #[cfg(not(target_arch = "spirv"))]
-pub mod frame;
-#[cfg(not(target_arch = "spirv"))]
 pub mod denoiser;
-pub mod gbuffer;
+#[cfg(not(target_arch = "spirv"))]
+pub mod frame;
 pub mod kernels;
 pub mod math;
 pub mod payload;
@@ -42,6 +41,7 @@ pub mod reflections;
 pub mod sampling;
 #[cfg(not(target_arch = "spirv"))]
 pub mod settings;
+pub mod surface;
 pub mod trace;
 
 pub use glam;

@@ -76,9 +76,7 @@ impl fmt::Debug for KernelDesc {
 
 /// A buffer owned by an executor.
 #[repr(transparent)]
-#[derive(
-    Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Pod, Zeroable,
-)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Pod, Zeroable)]
 pub struct BufferId(pub u32);
 
 /// How many workgroups a pass launches.

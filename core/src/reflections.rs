@@ -15,11 +15,11 @@
 
 use crate::camera::Camera;
 use crate::denoiser::Denoiser;
-use crate::settings::{check, SettingsError};
+use crate::frame::RaygenTarget;
 use crate::kernels;
 use crate::kernels::reflect::{self, RayHit, Shading};
-use crate::frame::RaygenTarget;
 use crate::plan::{BufferId, Executor};
+use crate::settings::{check, SettingsError};
 
 /// Tunables of the reflection passes, with documented defaults and ranges.
 #[derive(Copy, Clone, Debug, PartialEq)]

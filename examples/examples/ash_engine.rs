@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use vrrt_ash::ash::{self, vk};
 use vrrt_ash::{AshExecutor, RawVulkan};
 use vrrt_core::denoiser::Denoiser;
-use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::payload::Filtered;
 use vrrt_core::plan::Pass;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,

@@ -5,8 +5,8 @@
 //! `cargo run --release -p vrrt-examples --example cpu_slices`
 
 use vrrt_core::denoiser::Denoiser;
-use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
+use vrrt_core::payload::Filtered;
 use vrrt_core::plan::Executor;
 use vrrt_cpu::CpuExecutor;
 use vrrt_examples::{

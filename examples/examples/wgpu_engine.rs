@@ -9,7 +9,7 @@
 //! `VRRT_REQUIRE_VULKAN=1`. `VRRT_VALIDATION=1` runs it under the Khronos validation layer.
 
 use vrrt_core::denoiser::Denoiser;
-use vrrt_core::kernels::atrous::Filtered;
+use vrrt_core::payload::Filtered;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,
     validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,

@@ -7,16 +7,16 @@ use std::sync::Arc;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameScene, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
-use vrrt_core::gbuffer::Surface;
 use vrrt_core::kernels::apply::LIST_GROUP;
-use vrrt_core::kernels::atrous::Filtered;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{self, classify};
+use vrrt_core::payload::Filtered;
 use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
+use vrrt_core::surface::Surface;
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -254,9 +254,11 @@ impl Renderer {
         let planes = self.frame.layout().planes;
         self.gpu.upload(exec, f)?;
         let gpu = &self.gpu;
-        let report = self.frame.render(exec, &gpu.frame_scene(f), |exec, surfaces| {
-            gpu.gbuffer(exec, f, w, h, surfaces)
-        })?;
+        let report = self
+            .frame
+            .render(exec, &gpu.frame_scene(f), |exec, surfaces| {
+                gpu.gbuffer(exec, f, w, h, surfaces)
+            })?;
         if report.absent {
             return Ok(FrameOutput {
                 denoised: vec![1.0; (w * h * planes) as usize],

@@ -5,7 +5,6 @@
 use crate::{BufferSpec, Case, Word};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
-use vrrt_core::gbuffer::{Surface, NO_INSTANCE};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
@@ -14,6 +13,7 @@ use vrrt_core::kernels::{
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
+use vrrt_core::surface::{Surface, NO_INSTANCE};
 
 /// A case generator: `(rng, width, height) -> Case`.
 pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
@@ -196,8 +196,8 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let input: Vec<atrous::Filtered> = (0..n)
-        .map(|_| atrous::Filtered {
+    let input: Vec<vrrt_core::payload::Filtered> = (0..n)
+        .map(|_| vrrt_core::payload::Filtered {
             value: value(rng),
             variance: value(rng).abs(),
         })
@@ -224,7 +224,7 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&input, FLOATS),
             BufferSpec::from_pod(&surfaces, SURFACE),
             BufferSpec::from_pod(&tiles, INTS),
-            BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
+            BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
@@ -233,8 +233,8 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let filtered: Vec<atrous::Filtered> = (0..n)
-        .map(|_| atrous::Filtered {
+    let filtered: Vec<vrrt_core::payload::Filtered> = (0..n)
+        .map(|_| vrrt_core::payload::Filtered {
             value: value(rng),
             variance: match rng.random_range(0..50) {
                 0 => f32::NAN,
@@ -415,7 +415,7 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
             BufferSpec::from_pod(&surfaces(rng, w, h), SURFACE),
-            BufferSpec::from_pod(&vec![atrous::Filtered::default(); n], FLOATS),
+            BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),

@@ -7,11 +7,11 @@ use crate::trace_cases::{FLOATS, SURFACE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::gbuffer::Surface;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::kernels::reflect::{self, RayHit, Shading};
 use vrrt_core::payload::Sample;
+use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;

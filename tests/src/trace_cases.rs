@@ -5,11 +5,11 @@
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::gbuffer::Surface;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
 use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;

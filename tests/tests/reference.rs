@@ -27,10 +27,7 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
                 .zip(&long.stderr)
                 .filter(|((&a, &b), &sb)| (a - b).abs() > 5.0 * sb * (scale + 1.0) + 1e-6)
                 .count();
-            println!(
-                "{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}",
-                signal.to_string()
-            );
+            println!("{signal} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}");
             if let Some(prev) = previous {
                 let ratio = prev / mean_se;
                 assert!(

@@ -78,7 +78,7 @@ impl References {
             width,
             height,
             spp: spp as u64,
-            signal: signal.name(),
+            signal: signal.to_string(),
             version: REFERENCE_VERSION,
         };
         let planes = signal.planes(f.lights.len());

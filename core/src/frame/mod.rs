@@ -20,10 +20,10 @@
 //! - **Plane layout** ([`Signal::layout`]) and which raygen traces which plane
 //!   ([`trace_planes`]).
 
-mod raygen;
+mod planes;
 mod signal;
 
-pub use raygen::{trace_planes, RaygenTarget};
+pub use planes::{trace_planes, RaygenTarget};
 pub use signal::{PlaneLayout, Signal};
 
 use crate::camera::Camera;
