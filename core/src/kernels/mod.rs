@@ -46,7 +46,8 @@ pub struct WorkgroupIds {
 }
 
 /// Every name the kernel table uses, so that the generated SPIR-V entry points resolve them at
-/// the shader crate's root.
+/// the shader crate's root: every kernel module (a new module needs nothing here; the table names
+/// its types as `module::Type`) and the element types kernels share.
 #[doc(hidden)]
 pub mod names {
     pub use super::balance::Balance;
@@ -54,12 +55,8 @@ pub mod names {
     pub use super::gradient::GradientSample;
     pub use super::raygen::AreaLight;
     pub use super::reflect::RayHit;
-    pub use super::{
-        accumulate, apply, atrous, balance, buckets, classify, fill, gbuffer, gradient, raygen,
-        reflect, reproject, variance,
-    };
-    pub use crate::payload::Filtered;
-    pub use crate::payload::{Payload, Sample};
+    pub use super::*;
+    pub use crate::payload::{Filtered, Payload, Sample};
     pub use crate::surface::Surface;
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 }

@@ -4,7 +4,7 @@
 //! An entry reads `entry => DESC, Bindings, Io: fn module::function, threads(x, y, z), params Type
 //! { name: read|write|atomic ElementType, .. }`. Bindings are numbered in order; `write` means each
 //! invocation writes only elements it owns, `atomic` that invocations contend through
-//! `crate::atomic`. Names used here must be in [`super::names`].
+//! `crate::atomic`. Types are written `module::Type`, or bare when [`super::names`] lists them.
 
 use super::names::*;
 
