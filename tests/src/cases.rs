@@ -8,7 +8,7 @@ use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
-    accumulate, apply, atrous, balance, buckets, classify, fill, reproject, variance,
+    accumulate, apply, atrous, balance, buckets, classify, copy, fill, reproject, variance,
 };
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
@@ -29,6 +29,7 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("balance", balance_case),
     ("apply", apply_case),
     ("fill", fill_case),
+    ("copy", copy_case),
     ("gbuffer", crate::trace_cases::gbuffer_case),
     ("raygen_ao", crate::trace_cases::raygen_ao_case),
     ("raygen_shadow", crate::trace_cases::raygen_shadow_case),
@@ -535,6 +536,25 @@ fn fill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
+fn copy_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    // A row that is not a multiple of the workgroup and a length that ends mid-row.
+    let row = w + 3;
+    let len = row * h - w / 2;
+    let src: Vec<u32> = (0..len + 9).map(|_| rng.random()).collect();
+    let dst: Vec<u32> = (0..len + 9).map(|_| rng.random()).collect();
+    let params = copy::CopyParams { row, len };
+    Case {
+        name: format!("copy {len} in rows of {row}"),
+        kernel: &vrrt_core::kernels::COPY,
+        buffers: vec![
+            BufferSpec::from_pod(&src, INTS),
+            BufferSpec::from_pod(&dst, INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::COPY, row, h, 1),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -548,6 +568,16 @@ mod tests {
                 kernel.entry
             );
         }
+    }
+
+    #[test]
+    fn copy_copies_len_words_and_nothing_else() {
+        let case = copy_case(&mut rng(3), 37, 19);
+        let out = crate::run_case(&mut vrrt_cpu::CpuExecutor::new(), &case).unwrap();
+        let (src, dst) = (&case.buffers[0].data, &case.buffers[1].data);
+        let len = src.len() - 9;
+        assert_eq!(&out[1][..len], &src[..len]);
+        assert_eq!(&out[1][len..], &dst[len..]);
     }
 
     #[test]

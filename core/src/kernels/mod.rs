@@ -9,6 +9,7 @@ pub mod atrous;
 pub mod balance;
 pub mod buckets;
 pub mod classify;
+pub mod copy;
 pub mod fill;
 pub mod gbuffer;
 pub mod gradient;

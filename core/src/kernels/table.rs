@@ -135,6 +135,13 @@ crate::kernel_table! {
         buf: write u32,
     }
 
+    /// [`copy::copy`]: `dst[i] = src[i]` over a `row × rows` grid; the bandwidth yardstick.
+    copy => COPY, CopyBindings, CopyIo: fn copy::copy,
+    threads(64, 1, 1), params copy::CopyParams {
+        src: read u32,
+        dst: write u32,
+    }
+
     /// [`gradient::project`]: forward projection of one previous sample per stratum.
     gradient_project => GRADIENT_PROJECT, GradientProjectBindings, GradientProjectIo: fn gradient::project,
     threads(8, 8, 1), params gradient::ProjectParams {
