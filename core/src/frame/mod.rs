@@ -271,3 +271,56 @@ impl Frame {
         }
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn scene<'a>(lights: &'a [AreaLight], instances: &'a [InstanceData]) -> FrameScene<'a> {
+        let camera = Camera::look_at(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y, 0.8);
+        FrameScene {
+            nodes: BufferId(0),
+            tris: BufferId(1),
+            lights: BufferId(2),
+            next: BufferId(3),
+            light_list: lights,
+            instances,
+            camera,
+            prev_camera: camera,
+            camera_cut: false,
+        }
+    }
+
+    #[test]
+    fn still_frame_rule_sees_every_kind_of_motion() {
+        let light = AreaLight {
+            corner_y: 3.0,
+            ..AreaLight::default()
+        };
+        let lights = [light];
+        let still = [InstanceData {
+            roughness: 0.3,
+            ..InstanceData::default()
+        }];
+        let prev = lights_hash(&lights);
+        assert!(!scene(&lights, &still).moved(prev), "nothing moved");
+
+        let moved_light = [AreaLight {
+            corner_y: 3.5,
+            ..light
+        }];
+        assert!(scene(&moved_light, &still).moved(prev), "a light moved");
+        assert!(scene(&[], &still).moved(prev), "the light went out");
+
+        let moved = [InstanceData {
+            m03: 0.1,
+            ..still[0]
+        }];
+        assert!(scene(&lights, &moved).moved(prev), "an instance moved");
+
+        let mut panned = scene(&lights, &still);
+        panned.prev_camera = Camera::look_at(Vec3::new(0.1, 1.0, 4.0), Vec3::ZERO, Vec3::Y, 0.8);
+        assert!(panned.moved(prev), "the camera moved");
+    }
+}
