@@ -15,7 +15,7 @@ use ash::vk;
 use std::collections::HashMap;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
 
 /// Runs plans with raw Vulkan. See the [crate docs](crate).
 pub struct AshExecutor {
@@ -231,6 +231,13 @@ impl Executor for AshExecutor {
 
     fn name(&self) -> &'static str {
         "ash"
+    }
+
+    fn binding_limit(&self) -> BindingLimit {
+        BindingLimit {
+            bytes: u64::from(self.max_storage_range),
+            name: "maxStorageBufferRange",
+        }
     }
 
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, AshError> {

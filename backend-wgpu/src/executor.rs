@@ -9,7 +9,7 @@ use crate::pipelines::Kernel;
 use crate::timings::Timer;
 use crate::validation::{Messenger, ValidationLog};
 use crate::{WgpuError, BUFFER_USAGES, MIN_IMMEDIATE_SIZE};
-use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
 
 /// How [`WgpuExecutor::new_headless`] picks and configures its device.
 #[derive(Clone, Debug)]
@@ -219,6 +219,22 @@ impl Executor for WgpuExecutor {
 
     fn name(&self) -> &'static str {
         "wgpu"
+    }
+
+    fn binding_limit(&self) -> BindingLimit {
+        let limits = self.device.limits();
+        let binding = u64::from(limits.max_storage_buffer_binding_size);
+        if binding <= limits.max_buffer_size {
+            BindingLimit {
+                bytes: binding,
+                name: "max_storage_buffer_binding_size",
+            }
+        } else {
+            BindingLimit {
+                bytes: limits.max_buffer_size,
+                name: "max_buffer_size",
+            }
+        }
     }
 
     /// Buffers have [`BUFFER_USAGES`]; wgpu zero-initialises them.

@@ -27,10 +27,11 @@
 //! history (seed: "spatial output is NOT being fed to temporal").
 
 use crate::blue_noise;
+use crate::buffers::{self, TooLarge};
 use crate::camera::Camera;
-use crate::kernels::gradient::{self, GradientSample};
+use crate::kernels::gradient;
 use crate::kernels::{
-    self, accumulate, apply, atrous, balance, buckets, classify, fill, reflect, reproject, variance,
+    self, accumulate, apply, atrous, balance, buckets, classify, fill, reproject, variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -42,6 +43,8 @@ use core::fmt;
 pub enum DenoiserError<E> {
     /// Settings or resolution out of range.
     Settings(SettingsError),
+    /// The buffers of this size do not fit the device.
+    TooLarge(TooLarge),
     /// The backend failed.
     Backend(E),
 }
@@ -50,6 +53,7 @@ impl<E: fmt::Display> fmt::Display for DenoiserError<E> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             DenoiserError::Settings(e) => write!(f, "{e}"),
+            DenoiserError::TooLarge(e) => write!(f, "{e}"),
             DenoiserError::Backend(e) => write!(f, "backend: {e}"),
         }
     }
@@ -148,13 +152,6 @@ pub struct Denoiser {
     frame: FrameInfo,
 }
 
-/// Bytes of one element of each buffer kind.
-const SURFACE_BYTES: u64 = core::mem::size_of::<crate::surface::Surface>() as u64;
-const PAYLOAD_BYTES: u64 = core::mem::size_of::<crate::payload::Payload>() as u64;
-const SAMPLE_BYTES: u64 = core::mem::size_of::<crate::payload::Sample>() as u64;
-const FILTERED_BYTES: u64 = core::mem::size_of::<crate::payload::Filtered>() as u64;
-const GRADIENT_BYTES: u64 = core::mem::size_of::<GradientSample>() as u64;
-
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
 pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
     if stratum == 0 {
@@ -179,61 +176,48 @@ impl Denoiser {
             }));
         }
         settings.validate().map_err(DenoiserError::Settings)?;
-        let pixels = width as u64 * height as u64;
-        let planes = pixels * settings.planes as u64;
-        let noise = exec.create_buffer(blue_noise::LEN as u64 * 4)?;
-        let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
-        let cells = gw as u64 * gh as u64;
-        let gradient_bytes = cells * settings.planes as u64 * GRADIENT_BYTES;
+        let sizes = buffers::denoiser_buffers(width, height, &settings);
+        buffers::check_fit(width, height, &settings, exec.binding_limit())
+            .map_err(DenoiserError::TooLarge)?;
+        let mut ids = [[BufferId(0); 2]; 22];
+        for (slot, b) in ids.iter_mut().zip(&sizes) {
+            for id in &mut slot[..b.count as usize] {
+                *id = exec.create_buffer(b.bytes)?;
+            }
+        }
+        let id = |name: &str| ids[sizes.iter().position(|b| b.name == name).expect(name)];
+        let noise = id("noise")[0];
         exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
-        let counters = exec.create_buffer(COUNTERS_LEN as u64 * 4)?;
+        let counters = id("counters")[0];
         exec.write_buffer(counters, &[0; COUNTERS_LEN as usize * 4])?;
         Ok(Denoiser {
             settings,
             width,
             height,
-            surfaces: [
-                exec.create_buffer(pixels * SURFACE_BYTES)?,
-                exec.create_buffer(pixels * SURFACE_BYTES)?,
-            ],
-            history: [
-                exec.create_buffer(planes * PAYLOAD_BYTES)?,
-                exec.create_buffer(planes * PAYLOAD_BYTES)?,
-            ],
-            reprojected: exec.create_buffer(planes * PAYLOAD_BYTES)?,
-            flags: exec.create_buffer(pixels * 4)?,
-            samples: exec.create_buffer(planes * SAMPLE_BYTES)?,
-            filtered: [
-                exec.create_buffer(planes * FILTERED_BYTES)?,
-                exec.create_buffer(planes * FILTERED_BYTES)?,
-            ],
-            mask: exec.create_buffer(pixels * 4)?,
-            requests: exec.create_buffer(pixels * 4)?,
-            counts: exec.create_buffer(buckets::COUNTS_LEN as u64 * 4)?,
-            decision: exec.create_buffer(core::mem::size_of::<balance::Balance>() as u64)?,
+            surfaces: id("surfaces"),
+            history: id("history"),
+            reprojected: id("reprojected")[0],
+            flags: id("flags")[0],
+            samples: id("samples")[0],
+            filtered: id("filtered"),
+            mask: id("mask")[0],
+            requests: id("requests")[0],
+            counts: id("counts")[0],
+            decision: id("decision")[0],
             noise,
-            rays: exec.create_buffer(pixels * 4)?,
-            work: exec.create_buffer(pixels * 4)?,
-            args: exec.create_buffer(apply::ARGS_LEN as u64 * 4)?,
+            rays: id("rays")[0],
+            work: id("work")[0],
+            args: id("args")[0],
             counters,
-            gradient_keys: exec.create_buffer(cells * 4)?,
-            gradient_raw: exec.create_buffer(gradient_bytes)?,
-            gradient: [
-                exec.create_buffer(gradient_bytes)?,
-                exec.create_buffer(gradient_bytes)?,
-            ],
+            gradient_keys: id("gradient_keys")[0],
+            gradient_raw: id("gradient_raw")[0],
+            gradient: id("gradient"),
             gradient_out: 0,
             gradient_ran: false,
-            tiles: {
-                let (tw, th) = classify::tile_grid(width, height);
-                exec.create_buffer(tw as u64 * th as u64 * 4)?
-            },
-            tile_histogram: exec.create_buffer(classify::HISTOGRAM_LEN as u64 * 4)?,
-            importance: {
-                let (tw, th) = reflect::tile_grid(width, height);
-                exec.create_buffer(tw as u64 * th as u64 * 4)?
-            },
-            parallax: exec.create_buffer(pixels * 8)?,
+            tiles: id("tiles")[0],
+            tile_histogram: id("tile_histogram")[0],
+            importance: id("importance")[0],
+            parallax: id("parallax")[0],
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -380,8 +364,8 @@ impl Denoiser {
     }
 
     /// Raw temporal gradient of this frame (`GradientSample` per cell and plane, plane-stacked;
-    /// `λ` = [`GradientSample::lambda`]): the overlay of what the re-traced samples saw. Valid when
-    /// [`Self::gradient_ran`].
+    /// `λ` = [`GradientSample::lambda`](gradient::GradientSample::lambda)): the overlay of what
+    /// the re-traced samples saw. Valid when [`Self::gradient_ran`].
     pub fn gradient_raw(&self) -> BufferId {
         self.gradient_raw
     }

@@ -24,6 +24,8 @@ extern crate std;
 
 pub mod atomic;
 pub mod blue_noise;
+#[cfg(not(target_arch = "spirv"))]
+pub mod buffers;
 pub mod camera;
 pub mod declare;
 #[cfg(not(target_arch = "spirv"))]

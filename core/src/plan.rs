@@ -186,6 +186,54 @@ impl<'a> Pass<'a> {
         }
         Ok(())
     }
+
+    /// The compulsory memory traffic of the pass: the bytes its bandwidth floor is made of.
+    /// `buffer_size` returns the size in bytes of a bound buffer.
+    ///
+    /// Rule: every bound buffer moves whole, once — read once if its binding is
+    /// [`Access::Read`], written once if [`Access::Write`], read and written once if
+    /// [`Access::Atomic`] (read-modify-write). Neighbourhood taps are assumed to hit in cache
+    /// and a `Write` binding is a pure write stream, so a pass that moves more (re-reads,
+    /// read-before-write, spills) shows it as `ms / floor`. The declaration is all the host knows:
+    /// a binding the kernel skips at run time still counts, buffers are taken as sized to what
+    /// the pass uses (as the denoiser allocates them), and the 12-byte indirect-count read is
+    /// left out.
+    pub fn bytes_moved(&self, buffer_size: impl Fn(BufferId) -> u64) -> PassBytes {
+        let mut bytes = PassBytes::default();
+        for (&id, binding) in self.buffers.iter().zip(self.kernel.bindings) {
+            let size = buffer_size(id);
+            if binding.access != Access::Write {
+                bytes.read += size;
+            }
+            if binding.access.writes() {
+                bytes.written += size;
+            }
+        }
+        bytes
+    }
+}
+
+/// Bytes a pass moves between memory and the device: see [`Pass::bytes_moved`].
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct PassBytes {
+    /// Bytes read.
+    pub read: u64,
+    /// Bytes written.
+    pub written: u64,
+}
+
+impl PassBytes {
+    /// Bytes read and written.
+    pub fn total(&self) -> u64 {
+        self.read + self.written
+    }
+}
+
+impl core::ops::AddAssign for PassBytes {
+    fn add_assign(&mut self, other: PassBytes) {
+        self.read += other.read;
+        self.written += other.written;
+    }
 }
 
 /// A pass that does not match its kernel.
@@ -349,6 +397,24 @@ pub struct PassTiming {
     pub ms: f64,
 }
 
+/// The largest storage buffer a kernel may bind on an executor, and the device limit that sets
+/// it: sizes are checked against it before any work starts.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct BindingLimit {
+    /// Bytes.
+    pub bytes: u64,
+    /// The device limit's name (e.g. `maxStorageBufferRange`).
+    pub name: &'static str,
+}
+
+impl BindingLimit {
+    /// No limit (the CPU backend: buffers are host memory).
+    pub const NONE: BindingLimit = BindingLimit {
+        bytes: u64::MAX,
+        name: "no limit",
+    };
+}
+
 /// What a backend must do to run any plan. Recording may be deferred: work is only guaranteed
 /// complete once [`Executor::read_buffer`] or [`Executor::finish`] returns.
 pub trait Executor {
@@ -356,6 +422,10 @@ pub trait Executor {
     type Error: fmt::Debug + fmt::Display;
     /// Short backend name (`cpu`, `wgpu`, `ash`).
     fn name(&self) -> &'static str;
+    /// The largest buffer a pass may bind (default: no limit).
+    fn binding_limit(&self) -> BindingLimit {
+        BindingLimit::NONE
+    }
     /// Allocates a zero-filled storage buffer of `size_bytes` (a multiple of 4).
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, Self::Error>;
     /// Copies `data` to the start of `buffer`.
@@ -452,5 +522,65 @@ impl<'a> CpuBindings<'a> {
     /// Number of invocations per workgroup.
     pub fn workgroup_len(&self) -> u32 {
         self.workgroup_size.x * self.workgroup_size.y * self.workgroup_size.z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A kernel that is never run: only its bindings matter to the accounting.
+    unsafe fn no_op(_: UVec3, _: &CpuBindings<'_>) {}
+
+    static KERNEL: KernelDesc = KernelDesc {
+        entry: "hand_built",
+        workgroup_size: [8, 8, 1],
+        bindings: &[
+            Binding {
+                name: "input",
+                ty: "f32",
+                elem_size: 4,
+                access: Access::Read,
+            },
+            Binding {
+                name: "out",
+                ty: "[f32; 4]",
+                elem_size: 16,
+                access: Access::Write,
+            },
+            Binding {
+                name: "counters",
+                ty: "u32",
+                elem_size: 4,
+                access: Access::Atomic,
+            },
+        ],
+        params_size: 0,
+        cpu: no_op,
+    };
+
+    #[test]
+    fn bytes_moved_reads_and_writes_each_bound_buffer_once() {
+        let buffers = [BufferId(3), BufferId(7), BufferId(9)];
+        let pass = Pass::over_grid(&KERNEL, &buffers, &[], 64, 32, 1);
+        let size = |id: BufferId| match id.0 {
+            3 => 64 * 32 * 4,
+            7 => 64 * 32 * 16,
+            9 => 8,
+            _ => unreachable!("not bound"),
+        };
+        let bytes = pass.bytes_moved(size);
+        // Read: the input and the atomic counters; written: the output and the counters.
+        assert_eq!(
+            bytes,
+            PassBytes {
+                read: 64 * 32 * 4 + 8,
+                written: 64 * 32 * 16 + 8,
+            }
+        );
+        assert_eq!(bytes.total(), 64 * 32 * 20 + 16);
+        let mut twice = bytes;
+        twice += bytes;
+        assert_eq!(twice.total(), 2 * bytes.total());
     }
 }

@@ -1,0 +1,191 @@
+//! The denoiser's buffers as sizes, before any is allocated: so a size that cannot fit the
+//! device is refused with the limit, the buffer and the largest size that fits — before any
+//! work starts — and so memory can be reported per buffer.
+
+use crate::denoiser::grid_size;
+use crate::kernels::gradient::GradientSample;
+use crate::kernels::{apply, balance, buckets, classify, reflect};
+use crate::payload::{Filtered, Payload, Sample, COUNTERS_LEN};
+use crate::plan::BindingLimit;
+use crate::settings::Settings;
+use crate::surface::Surface;
+use core::fmt;
+use core::mem::size_of;
+
+/// How many of each buffer the denoiser keeps, and the bytes of one.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct BufferSize {
+    /// Buffer name (the `Denoiser` accessor that returns it).
+    pub name: &'static str,
+    /// Copies kept (ping-pong pairs have 2).
+    pub count: u32,
+    /// Bytes of one copy.
+    pub bytes: u64,
+}
+
+const fn size(name: &'static str, count: u32, bytes: u64) -> BufferSize {
+    BufferSize { name, count, bytes }
+}
+
+/// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
+pub fn denoiser_buffers(width: u32, height: u32, settings: &Settings) -> [BufferSize; 22] {
+    let pixels = width as u64 * height as u64;
+    let planes = pixels * settings.planes as u64;
+    let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
+    let cells = gw as u64 * gh as u64;
+    let gradient = cells * settings.planes as u64 * size_of::<GradientSample>() as u64;
+    let (tw, th) = classify::tile_grid(width, height);
+    let (rw, rh) = reflect::tile_grid(width, height);
+    let bytes = |n: u64, elem: usize| n * elem as u64;
+    [
+        size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4)),
+        size("counters", 1, bytes(COUNTERS_LEN as u64, 4)),
+        size("surfaces", 2, bytes(pixels, size_of::<Surface>())),
+        size("history", 2, bytes(planes, size_of::<Payload>())),
+        size("reprojected", 1, bytes(planes, size_of::<Payload>())),
+        size("flags", 1, bytes(pixels, 4)),
+        size("samples", 1, bytes(planes, size_of::<Sample>())),
+        size("filtered", 2, bytes(planes, size_of::<Filtered>())),
+        size("mask", 1, bytes(pixels, 4)),
+        size("requests", 1, bytes(pixels, 4)),
+        size("counts", 1, bytes(buckets::COUNTS_LEN as u64, 4)),
+        size("decision", 1, bytes(1, size_of::<balance::Balance>())),
+        size("rays", 1, bytes(pixels, 4)),
+        size("work", 1, bytes(pixels, 4)),
+        size("args", 1, bytes(apply::ARGS_LEN as u64, 4)),
+        size("gradient_keys", 1, bytes(cells, 4)),
+        size("gradient_raw", 1, gradient),
+        size("gradient", 2, gradient),
+        size("tiles", 1, bytes(tw as u64 * th as u64, 4)),
+        size(
+            "tile_histogram",
+            1,
+            bytes(classify::HISTOGRAM_LEN as u64, 4),
+        ),
+        size("importance", 1, bytes(rw as u64 * rh as u64, 4)),
+        size("parallax", 1, bytes(pixels, 8)),
+    ]
+}
+
+/// A size whose buffers do not fit the device.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct TooLarge {
+    /// The size asked for.
+    pub size: (u32, u32),
+    /// The first buffer over the limit.
+    pub buffer: &'static str,
+    /// Its bytes.
+    pub bytes: u64,
+    /// The device's limit.
+    pub limit: BindingLimit,
+    /// The largest size of the same aspect ratio whose buffers all fit (`None`: not even 1×1).
+    pub fits: Option<(u32, u32)>,
+}
+
+impl fmt::Display for TooLarge {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (w, h) = self.size;
+        write!(
+            f,
+            "{w}x{h} does not fit the device: the denoiser's buffer `{}` needs {} bytes, more \
+             than {} ({} bytes)",
+            self.buffer, self.bytes, self.limit.name, self.limit.bytes
+        )?;
+        match self.fits {
+            Some((fw, fh)) => write!(
+                f,
+                "; the largest size of this aspect ratio that fits is {fw}x{fh}"
+            ),
+            None => write!(f, "; no size fits"),
+        }
+    }
+}
+
+/// The first buffer of `sizes(width, height)` larger than `limit`, if any.
+fn over_limit(
+    sizes: &impl Fn(u32, u32) -> [BufferSize; 22],
+    width: u32,
+    height: u32,
+    limit: BindingLimit,
+) -> Option<BufferSize> {
+    sizes(width, height)
+        .into_iter()
+        .find(|b| b.bytes > limit.bytes)
+}
+
+/// Checks every buffer of a `width × height` denoiser against `limit`; on failure, finds the
+/// largest size of the same aspect ratio that fits (buffers grow with the pixel count, so the
+/// search is a bisection on the scale).
+pub fn check_fit(
+    width: u32,
+    height: u32,
+    settings: &Settings,
+    limit: BindingLimit,
+) -> Result<(), TooLarge> {
+    let sizes = |w: u32, h: u32| denoiser_buffers(w, h, settings);
+    let Some(first) = over_limit(&sizes, width, height, limit) else {
+        return Ok(());
+    };
+    let scaled = |s: u32| {
+        let w = (width as u64 * s as u64 / 4096).max(1) as u32;
+        let h = (height as u64 * s as u64 / 4096).max(1) as u32;
+        (w, h)
+    };
+    // Largest scale s/4096 in [1, 4096) whose size fits; scale 0 stands for 1×1.
+    let (mut lo, mut hi) = (0u32, 4096u32);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        let (w, h) = scaled(mid);
+        if over_limit(&sizes, w, h, limit).is_some() {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let (w, h) = scaled(lo);
+    Err(TooLarge {
+        size: (width, height),
+        buffer: first.name,
+        bytes: first.bytes,
+        limit,
+        fits: over_limit(&sizes, w, h, limit).is_none().then_some((w, h)),
+    })
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    const LAVAPIPE: BindingLimit = BindingLimit {
+        bytes: 128 << 20,
+        name: "maxStorageBufferRange",
+    };
+
+    #[test]
+    fn oversized_request_names_buffer_limit_and_what_fits() {
+        let s = Settings::default();
+        assert_eq!(check_fit(1280, 720, &s, LAVAPIPE), Ok(()));
+        let e = check_fit(1920, 1080, &s, LAVAPIPE).unwrap_err();
+        assert_eq!(e.buffer, "surfaces");
+        assert!(e.bytes > LAVAPIPE.bytes);
+        let (w, h) = e.fits.expect("something fits");
+        assert!(check_fit(w, h, &s, LAVAPIPE).is_ok());
+        // Largest: one step up of the same aspect does not fit.
+        assert!(check_fit(w + 2, h + 2, &s, LAVAPIPE).is_err());
+        let msg = e.to_string();
+        assert!(
+            msg.contains("maxStorageBufferRange") && msg.contains("`surfaces`"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn sizes_match_the_pixel_count() {
+        let s = Settings::default();
+        let b = denoiser_buffers(100, 50, &s);
+        let surfaces = b.iter().find(|b| b.name == "surfaces").unwrap();
+        assert_eq!(surfaces.bytes, 5000 * size_of::<Surface>() as u64);
+        assert_eq!(surfaces.count, 2);
+    }
+}
