@@ -196,7 +196,7 @@ impl Reflections {
         self.plane
     }
 
-    /// Ray records (`RayHit` per pixel) of the last [`Self::trace`].
+    /// Ray records (`RayHit` per pixel) of the last [`Self::raygen`].
     pub fn hits(&self) -> BufferId {
         self.hits
     }

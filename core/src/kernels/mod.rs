@@ -1,5 +1,5 @@
 //! One module per pass. Each exposes plain functions over one invocation id plus its bindings and
-//! the push-constant struct; [`table`] declares every kernel once, and from it come the
+//! the push-constant struct; `kernels/table.rs` declares every kernel once, and from it come the
 //! [`KernelDesc`](crate::plan::KernelDesc)s (`ATROUS`, `REPROJECT`, …), the named bindings structs
 //! (`AtrousBindings`, …), [`ALL`] and the SPIR-V entry points.
 
