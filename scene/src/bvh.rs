@@ -83,6 +83,16 @@ fn node(b: &Aabb, first: u32, count: u32) -> BvhNode {
     }
 }
 
+/// Most bytes a [`Bvh`] over `triangles` triangles holds: at most `2n − 1` nodes (every leaf
+/// holds a triangle), plus the reordered triangles, their normals and the order. The builder's
+/// transient buffers come on top while it runs.
+pub fn memory_bound(triangles: usize) -> u64 {
+    use std::mem::size_of;
+    let n = triangles as u64;
+    let per_triangle = size_of::<Triangle>() + size_of::<TriangleNormals>() + size_of::<u32>();
+    (2 * n).saturating_sub(1).max(1) * size_of::<BvhNode>() as u64 + n * per_triangle as u64
+}
+
 /// Builds with default options. `normals` may be empty (then the result's normals are empty).
 pub fn build(triangles: &[Triangle], normals: &[TriangleNormals]) -> Bvh {
     build_with(triangles, normals, &BuildOptions::default())

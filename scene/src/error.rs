@@ -1,6 +1,7 @@
 //! The one error type of scene loading: every variant names the file (or scene) and the problem,
 //! so a user can fix the input without a debugger.
 
+use crate::load::Limit;
 use std::fmt;
 use std::path::PathBuf;
 
@@ -34,6 +35,40 @@ pub enum SceneError {
     NoTriangles {
         /// The file.
         path: PathBuf,
+    },
+    /// The file's first bytes are not those of the format its extension names (checked before
+    /// the rest of the file is read).
+    WrongFormat {
+        /// The file.
+        path: PathBuf,
+        /// The format the extension names, e.g. `"PLY"` or `"gzip"`.
+        expected: &'static str,
+        /// The file's first bytes, escaped.
+        found: String,
+    },
+    /// A resource limit of [`crate::load::LoadLimits`] was hit.
+    LimitExceeded {
+        /// The file.
+        path: PathBuf,
+        /// Which limit.
+        limit: Limit,
+        /// Its value.
+        max: u64,
+        /// The value found, when known (reading stops at the limit, so sizes often are not).
+        value: Option<u64>,
+    },
+    /// Every vertex the triangles use is at one point: the scene has no extent.
+    ZeroSize {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Every triangle has zero area (at `f32` precision at the mesh's scale): nothing would be
+    /// visible.
+    AllDegenerate {
+        /// The file.
+        path: PathBuf,
+        /// How many triangles there are.
+        triangles: usize,
     },
     /// The file extension is not a supported mesh format.
     UnsupportedFormat {
@@ -101,6 +136,49 @@ impl fmt::Display for SceneError {
             SceneError::NoTriangles { path } => {
                 write!(f, "{}: the file holds no triangles", path.display())
             }
+            SceneError::WrongFormat {
+                path,
+                expected,
+                found,
+            } if found.is_empty() => {
+                write!(f, "{}: not a {expected} file (it is empty)", path.display())
+            }
+            SceneError::WrongFormat {
+                path,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{}: not a {expected} file (it starts with `{found}`)",
+                path.display()
+            ),
+            SceneError::LimitExceeded {
+                path,
+                limit,
+                max,
+                value,
+            } => {
+                write!(f, "{}: {}", path.display(), limit.what())?;
+                if let Some(v) = value {
+                    write!(f, " ({})", limit.format(*v))?;
+                }
+                write!(
+                    f,
+                    " exceeds the {} limit ({})",
+                    limit.format(*max),
+                    limit.flag()
+                )
+            }
+            SceneError::ZeroSize { path } => write!(
+                f,
+                "{}: the scene has zero size (every vertex is at one point)",
+                path.display()
+            ),
+            SceneError::AllDegenerate { path, triangles } => write!(
+                f,
+                "{}: all {triangles} triangles are degenerate (zero area): nothing is visible",
+                path.display()
+            ),
             SceneError::UnsupportedFormat { path } => write!(
                 f,
                 "{}: unsupported mesh format (expected .obj, .ply, .glb or .gltf, optionally .gz)",

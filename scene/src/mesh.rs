@@ -81,6 +81,57 @@ impl Mesh {
         }
     }
 
+    /// Rejects a mesh that would render as nothing: one whose triangles' vertices are all at one
+    /// point ([`SceneError::ZeroSize`]), or whose triangles all have zero area
+    /// ([`SceneError::AllDegenerate`]). Zero area is judged at `f32` precision at the mesh's
+    /// scale, since that is what the renderer sees: twice the area, in `f64`, at most
+    /// `(f32::EPSILON · diagonal)²`. Some degenerate triangles among visible ones are harmless
+    /// (rays never hit them) and kept. `source` names the file in errors.
+    pub fn check_visible(&self, source: &Path) -> Result<(), SceneError> {
+        if self.indices.is_empty() {
+            return Err(SceneError::NoTriangles {
+                path: source.to_path_buf(),
+            });
+        }
+        // In f64 (glam is built without its f64 types here): no overflow for f32 inputs.
+        let corner = |i: u32| self.positions[i as usize].to_array().map(f64::from);
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in self.indices.iter().flatten().map(|&i| corner(i)) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let diagonal = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+        if diagonal == 0.0 {
+            return Err(SceneError::ZeroSize {
+                path: source.to_path_buf(),
+            });
+        }
+        let tiny = (f32::EPSILON as f64 * diagonal).powi(2);
+        let visible = self.indices.iter().any(|t| {
+            let [a, b, c] = t.map(corner);
+            let (u, v) = (
+                [0, 1, 2].map(|k| b[k] - a[k]),
+                [0, 1, 2].map(|k| c[k] - a[k]),
+            );
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            n.iter().map(|x| x * x).sum::<f64>().sqrt() > tiny
+        });
+        if visible {
+            Ok(())
+        } else {
+            Err(SceneError::AllDegenerate {
+                path: source.to_path_buf(),
+                triangles: self.indices.len(),
+            })
+        }
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
@@ -174,6 +225,49 @@ mod tests {
         assert!(err.to_string().contains("only 1 vertices"), "{err}");
         let err = Mesh::new(p, vec![Vec3::ZERO], vec![], vec![]).unwrap_err();
         assert!(matches!(err, SceneError::NoTriangles { .. }));
+    }
+
+    #[test]
+    fn invisible_meshes_are_rejected() {
+        let p = Path::new("flat.obj");
+        let mesh =
+            |positions: Vec<Vec3>, indices| Mesh::new(p, positions, vec![], indices).unwrap();
+        let point = mesh(vec![Vec3::ONE; 3], vec![[0, 1, 2]]);
+        assert!(matches!(
+            point.check_visible(p),
+            Err(SceneError::ZeroSize { .. })
+        ));
+        // Collinear triangles, and one far too thin for f32 at this scale.
+        let line = mesh(
+            vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::X * 2.0,
+                Vec3::new(1e3, 1e-9, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 2, 1], [0, 3, 2]],
+        );
+        let e = line.check_visible(p).unwrap_err();
+        assert!(
+            matches!(e, SceneError::AllDegenerate { triangles: 3, .. }),
+            "{e}"
+        );
+        assert!(
+            e.to_string()
+                .contains("flat.obj: all 3 triangles are degenerate"),
+            "{e}"
+        );
+        // One visible triangle among degenerate ones is enough; so is a tiny but whole mesh.
+        let some = mesh(
+            vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::Y],
+            vec![[0, 1, 2], [0, 1, 3]],
+        );
+        assert!(some.check_visible(p).is_ok());
+        let tiny = mesh(
+            vec![Vec3::ZERO, Vec3::X * 1e-30, Vec3::Y * 1e-30],
+            vec![[0, 1, 2]],
+        );
+        assert!(tiny.check_visible(p).is_ok());
     }
 
     #[test]

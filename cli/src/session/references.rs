@@ -72,15 +72,14 @@ impl References {
             signal,
             spp,
         } = request;
-        let key = ReferenceKey {
-            scene: scene_key.to_string(),
-            frame: f.index,
-            width,
-            height,
-            spp: spp as u64,
-            signal: signal.to_string(),
-            version: REFERENCE_VERSION,
-        };
+        let key = ReferenceKey::for_frame(
+            scene_key,
+            f,
+            (width, height),
+            signal,
+            spp as u64,
+            REFERENCE_VERSION,
+        );
         let planes = signal.planes(f.lights.len());
         if let Some(hit) = self.cache.as_ref().and_then(|c| c.load(&key)) {
             let mean_stderr = match &hit.stderr {

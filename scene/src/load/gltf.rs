@@ -6,6 +6,7 @@
 //! and every accessor is bounds-checked against its buffer before it is read, so a malformed file
 //! gives an error instead of a panic. Sparse accessors are rejected.
 
+use super::{Limit, LoadLimits};
 use crate::error::SceneError;
 use crate::mesh::Mesh;
 use gltf::accessor::{DataType, Dimensions};
@@ -16,10 +17,12 @@ use vrrt_core::glam::{Affine3A, Mat4, Vec3};
 /// Deepest node hierarchy accepted.
 const MAX_NODE_DEPTH: usize = 256;
 
-/// Parses a `.gltf` or `.glb` file; external buffers are read relative to `path`.
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
+/// Parses a `.gltf` or `.glb` file; external buffers are read relative to `path`, each under
+/// the file-size limit. The vertex and triangle limits are checked before each primitive is
+/// added, since nodes may place one mesh many times.
+pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
     let gltf = open(path, bytes)?;
-    let buffers = resolve_buffers(path, &gltf)?;
+    let buffers = resolve_buffers(path, &gltf, limits)?;
     let doc = &gltf.document;
 
     let roots: Vec<gltf::Node> = if let Some(scene) = doc.default_scene() {
@@ -68,7 +71,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
         let world = parent * Affine3A::from_mat4(local);
         if let Some(m) = node.mesh() {
             for prim in m.primitives() {
-                append_primitive(path, &buffers, &prim, &world, &mut mesh)?;
+                append_primitive(path, &buffers, &prim, &world, limits, &mut mesh)?;
             }
         }
         for child in node.children() {
@@ -120,6 +123,7 @@ fn append_primitive(
     buffers: &[Vec<u8>],
     prim: &gltf::Primitive,
     world: &Affine3A,
+    limits: &LoadLimits,
     out: &mut Mesh,
 ) -> Result<(), SceneError> {
     let mode = prim.mode();
@@ -133,6 +137,8 @@ fn append_primitive(
         return Err(SceneError::parse(path, "primitive without POSITION"));
     };
     check_accessor(path, buffers, &pos_acc, Dimensions::Vec3, &[DataType::F32])?;
+    let vertices = out.positions.len() + pos_acc.count();
+    limits.check(path, Limit::Vertices, vertices as u64)?;
     let normal_acc = prim.get(&Semantic::Normals);
     if let Some(n) = &normal_acc {
         check_accessor(path, buffers, n, Dimensions::Vec3, &[DataType::F32])?;
@@ -202,6 +208,11 @@ fn append_primitive(
     if tris.is_empty() {
         return Ok(());
     }
+    limits.check(
+        path,
+        Limit::Triangles,
+        (out.indices.len() + tris.len()) as u64,
+    )?;
     let local = Mesh::new(path, positions, normals, tris)?;
     out.append(&local.transformed(world));
     Ok(())
@@ -262,7 +273,11 @@ fn check_accessor(
     Ok(())
 }
 
-fn resolve_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, SceneError> {
+fn resolve_buffers(
+    path: &Path,
+    gltf: &gltf::Gltf,
+    limits: &LoadLimits,
+) -> Result<Vec<Vec<u8>>, SceneError> {
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
         let data = match buffer.source() {
@@ -270,7 +285,7 @@ fn resolve_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Scene
                 .blob
                 .clone()
                 .ok_or_else(|| SceneError::parse(path, "GLB buffer without a BIN chunk"))?,
-            gltf::buffer::Source::Uri(uri) => load_uri(path, uri)?,
+            gltf::buffer::Source::Uri(uri) => load_uri(path, uri, limits)?,
         };
         if data.len() < buffer.length() {
             return Err(SceneError::parse(
@@ -288,7 +303,7 @@ fn resolve_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Scene
     Ok(out)
 }
 
-fn load_uri(path: &Path, uri: &str) -> Result<Vec<u8>, SceneError> {
+fn load_uri(path: &Path, uri: &str, limits: &LoadLimits) -> Result<Vec<u8>, SceneError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, payload) = rest
             .split_once(";base64,")
@@ -306,11 +321,13 @@ fn load_uri(path: &Path, uri: &str) -> Result<Vec<u8>, SceneError> {
         .parent()
         .unwrap_or(Path::new("."))
         .join(percent_decode(uri));
-    std::fs::read(&file).map_err(|e| {
-        SceneError::parse(
+    super::read_file(&file, limits).map_err(|e| match e {
+        SceneError::Io { source, .. } => SceneError::parse(
             path,
-            format!("cannot read buffer file {}: {e}", file.display()),
-        )
+            format!("cannot read buffer file {}: {source}", file.display()),
+        ),
+        // A limit hit names the buffer file.
+        other => other,
     })
 }
 

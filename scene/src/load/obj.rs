@@ -2,6 +2,7 @@
 //! relative indices, polygons fan-triangulated). Everything else (`vt`, groups, materials, lines,
 //! points) is ignored. A vertex is a distinct `(position, normal)` pair.
 
+use super::{Limit, LoadLimits};
 use crate::error::SceneError;
 use crate::mesh::{smooth_normals, Mesh};
 use std::collections::HashMap;
@@ -11,8 +12,8 @@ use vrrt_core::glam::Vec3;
 /// No normal given for a corner.
 const NONE: u32 = u32::MAX;
 
-/// Parses OBJ text.
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
+/// Parses OBJ text; the vertex and triangle limits are checked as the lists grow.
+pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
         SceneError::parse(path, format!("not UTF-8 text (byte {})", e.valid_up_to()))
     })?;
@@ -29,7 +30,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
             continue;
         };
         match keyword {
-            "v" => positions.push(parse_vec3(path, line_no, &mut words)?),
+            "v" => {
+                limits.check(path, Limit::Vertices, positions.len() as u64 + 1)?;
+                positions.push(parse_vec3(path, line_no, &mut words)?);
+            }
             "vn" => file_normals.push(parse_vec3(path, line_no, &mut words)?),
             "f" => {
                 polygon.clear();
@@ -49,6 +53,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
                         format!("face with {} corners (at least 3 needed)", polygon.len()),
                     ));
                 }
+                let triangles = corners.len() + polygon.len() - 2;
+                limits.check(path, Limit::Triangles, triangles as u64)?;
                 for i in 1..polygon.len() - 1 {
                     corners.push([polygon[0], polygon[i], polygon[i + 1]]);
                 }
@@ -162,7 +168,7 @@ mod tests {
     #[test]
     fn quad_with_normals_and_negative_indices() {
         let src = b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -2 -1\n";
-        let m = parse(Path::new("q.obj"), src).unwrap();
+        let m = parse(Path::new("q.obj"), src, &LoadLimits::default()).unwrap();
         assert_eq!(m.triangle_count(), 3);
         // 4 corners with the file normal plus 3 with computed ones.
         assert_eq!(m.positions.len(), 7);
@@ -171,21 +177,59 @@ mod tests {
 
     #[test]
     fn errors_name_file_and_line() {
-        let e = parse(Path::new("x.obj"), b"v 0 0 0\nv 1 0\n")
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            Path::new("x.obj"),
+            b"v 0 0 0\nv 1 0\n",
+            &LoadLimits::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert_eq!(e, "x.obj:2: expected three coordinates");
-        let e = parse(Path::new("x.obj"), b"v 0 0 0\nf 1 2 3\n")
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            Path::new("x.obj"),
+            b"v 0 0 0\nf 1 2 3\n",
+            &LoadLimits::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.starts_with("x.obj:2: vertex index 2 out of range"), "{e}");
         let e = parse(
             Path::new("x.obj"),
             b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            &LoadLimits::default(),
         )
         .unwrap_err();
         assert!(e.to_string().contains("not finite"), "{e}");
-        let e = parse(Path::new("x.obj"), b"v 0 0 0\n").unwrap_err();
+        let e = parse(Path::new("x.obj"), b"v 0 0 0\n", &LoadLimits::default()).unwrap_err();
         assert!(matches!(e, SceneError::NoTriangles { .. }));
+    }
+
+    #[test]
+    fn counts_are_limited_while_parsing() {
+        let limits = LoadLimits {
+            max_vertices: 3,
+            max_triangles: 1,
+            ..LoadLimits::default()
+        };
+        let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nf 1 2 3 1\n";
+        let e = parse(Path::new("x.obj"), quad, &limits).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                SceneError::LimitExceeded {
+                    limit: Limit::Triangles,
+                    value: Some(3),
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = parse(
+            Path::new("x.obj"),
+            b"v 0 0 0\nv 0 0 0\nv 0 0 0\nv 0 0 0\n",
+            &limits,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("--max-vertices"), "{e}");
     }
 }

@@ -2,6 +2,7 @@
 //! `nx ny nz`) and `face` (`vertex_indices` or `vertex_index` list, polygons fan-triangulated); every
 //! other element and property is parsed for its size and skipped.
 
+use super::{Limit, LoadLimits};
 use crate::error::SceneError;
 use crate::mesh::Mesh;
 use std::path::Path;
@@ -121,9 +122,17 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Parses a PLY file.
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
+/// Parses a PLY file. The declared vertex and face counts are held to the limits before the
+/// body is read (a face makes at least one triangle), the triangles again as polygons split.
+pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
     let (encoding, elements, body) = parse_header(path, bytes)?;
+    for el in &elements {
+        match el.name.as_str() {
+            "vertex" => limits.check(path, Limit::Vertices, el.count as u64)?,
+            "face" => limits.check(path, Limit::Triangles, el.count as u64)?,
+            _ => {}
+        }
+    }
     let body_text = if encoding == Encoding::Ascii {
         std::str::from_utf8(&bytes[body..])
             .map_err(|_| SceneError::parse(path, "ascii body is not text"))?
@@ -172,6 +181,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
                 path,
                 "face element lacks a vertex_indices list",
             ));
+        }
+        if el.properties.is_empty() {
+            // Items of no bytes: nothing to read, however many are declared.
+            continue;
         }
         let mut values = vec![0.0f64; el.properties.len()];
         let mut polygon: Vec<u32> = Vec::new();
@@ -227,6 +240,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Mesh, SceneError> {
                         ),
                     ));
                 }
+                let triangles = indices.len() + polygon.len() - 2;
+                limits.check(path, Limit::Triangles, triangles as u64)?;
                 for i in 1..polygon.len() - 1 {
                     indices.push([polygon[0], polygon[i], polygon[i + 1]]);
                 }
@@ -380,7 +395,7 @@ mod tests {
 
     #[test]
     fn ascii_quad() {
-        let m = parse(Path::new("q.ply"), ASCII.as_bytes()).unwrap();
+        let m = parse(Path::new("q.ply"), ASCII.as_bytes(), &LoadLimits::default()).unwrap();
         assert_eq!(m.triangle_count(), 2);
         assert_eq!(m.positions.len(), 4);
     }
@@ -388,7 +403,7 @@ mod tests {
     #[test]
     fn binary_both_endians() {
         for big in [false, true] {
-            let m = parse(Path::new("t.ply"), &binary(big)).unwrap();
+            let m = parse(Path::new("t.ply"), &binary(big), &LoadLimits::default()).unwrap();
             assert_eq!(m.indices, vec![[0, 1, 2]]);
             assert_eq!(m.positions[1], Vec3::X);
         }
@@ -397,18 +412,59 @@ mod tests {
     #[test]
     fn truncated_and_bad_index() {
         let b = binary(false);
-        let e = parse(Path::new("t.ply"), &b[..b.len() - 2])
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            Path::new("t.ply"),
+            &b[..b.len() - 2],
+            &LoadLimits::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("t.ply") && e.contains("truncated"), "{e}");
         let bad = ASCII.replace("4 0 1 2 3", "3 0 1 9");
-        let e = parse(Path::new("q.ply"), bad.as_bytes())
+        let e = parse(Path::new("q.ply"), bad.as_bytes(), &LoadLimits::default())
             .unwrap_err()
             .to_string();
         assert!(e.contains("only 4 vertices"), "{e}");
-        let e = parse(Path::new("q.ply"), b"ply\nformat ascii 1.0\n")
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            Path::new("q.ply"),
+            b"ply\nformat ascii 1.0\n",
+            &LoadLimits::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("end_header"), "{e}");
+    }
+
+    #[test]
+    fn declared_counts_are_limited_before_the_body() {
+        // A header declaring a billion vertices and no body: refused by the limit, not by
+        // truncation after reading.
+        let huge = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n\
+            property float x\nproperty float y\nproperty float z\nend_header\n";
+        let e = parse(Path::new("h.ply"), huge.as_bytes(), &LoadLimits::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                SceneError::LimitExceeded {
+                    limit: Limit::Vertices,
+                    value: Some(1_000_000_000),
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let limits = LoadLimits {
+            max_triangles: 1,
+            ..LoadLimits::default()
+        };
+        let e = parse(Path::new("q.ply"), ASCII.as_bytes(), &limits).unwrap_err();
+        assert!(e.to_string().contains("--max-triangles"), "{e}");
+        // Elements without properties take no bytes; a huge count must not loop.
+        let empty = ASCII.replace(
+            "end_header",
+            "element dummy 18446744073709551615\nend_header",
+        );
+        let m = parse(Path::new("q.ply"), empty.as_bytes(), &LoadLimits::default()).unwrap();
+        assert_eq!(m.triangle_count(), 2);
     }
 }
