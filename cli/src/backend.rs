@@ -6,7 +6,7 @@
 
 use std::fmt;
 use vrrt_ash::{AdapterType, AshExecutor, AshOptions};
-use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
 use vrrt_cpu::CpuExecutor;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
@@ -198,6 +198,14 @@ impl Executor for Backend {
             Backend::Cpu(e) => e.name(),
             Backend::Wgpu(e) => e.name(),
             Backend::Ash(e) => e.name(),
+        }
+    }
+
+    fn binding_limit(&self) -> BindingLimit {
+        match self {
+            Backend::Cpu(e) => e.binding_limit(),
+            Backend::Wgpu(e) => e.binding_limit(),
+            Backend::Ash(e) => e.binding_limit(),
         }
     }
 

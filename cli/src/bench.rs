@@ -54,6 +54,12 @@ pub struct BenchArgs {
     /// Output directory.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
+    /// Per-pass report against the bandwidth floor instead of the matrix: renders one
+    /// configuration (the first of `--scenes`, `--configs`, `--budgets`, `--signals`; default
+    /// room, vrrt, 1 rpp, AO) at `--size` (default 1280x720) for `--frames` (default 8, the
+    /// first 2 warm-up) on each of `--backends` (default auto), and writes `passes.csv`.
+    #[arg(long)]
+    pub passes: bool,
     /// Denoiser settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
     /// the defaults). Every cell starts from it instead of the defaults; the cell's
     /// configuration, budget and signal win over it (`rates.rays_per_pixel`, `planes` and
@@ -109,6 +115,9 @@ const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.passes {
+        return crate::passes::run(args);
+    }
     let q = args.quick;
     let scenes = if args.scenes.is_empty() {
         vec!["room".to_string()]
@@ -230,7 +239,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
                             ms_per_frame: ms[ms.len() / 2],
                             ms_spread: ms[ms.len() - 1] - ms[0],
-                            passes: r.pass_means(),
+                            passes: r.pass_means(&r.records),
                         };
                         eprint!("\r{:<72}", "");
                         eprintln!(

@@ -4,6 +4,7 @@
 pub mod backend;
 pub mod bench;
 pub mod info;
+pub mod passes;
 pub mod plot;
 pub mod reference;
 pub mod run;

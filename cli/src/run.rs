@@ -4,8 +4,8 @@
 use crate::backend::BackendKind;
 use crate::plot;
 use crate::session::{
-    self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, FrameRecord,
-    FrameView, References, SequenceOptions, SignalKind,
+    self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_rpp, parse_size, Config,
+    FrameRecord, FrameView, References, SequenceOptions, SignalKind, WARMUP_FRAMES,
 };
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
@@ -272,12 +272,31 @@ pub fn run(args: &RunArgs) -> Result<()> {
             rs.records.iter().filter(|r| r.signal_absent).count()
         ),
     );
+    let timed = rs.timed_records();
+    let warmup = &rs.records[..rs.records.len() - timed.len()];
+    let ms = mean_finite(timed.iter().map(|r| r.ms_frame));
     row(
         &mut t,
         "ms per frame (mean)",
-        format!("{:.2}", rs.mean_of(|r| r.ms_frame)),
+        if warmup.is_empty() {
+            format!(
+                "{ms:.2} over all {} frames (too few to leave out {WARMUP_FRAMES} warm-up frames)",
+                timed.len()
+            )
+        } else {
+            let warm: Vec<String> = warmup
+                .iter()
+                .map(|r| format!("{:.1}", r.ms_frame))
+                .collect();
+            format!(
+                "{ms:.2} over frames {}–{}; warm-up frames excluded ({} ms)",
+                warmup.len(),
+                rs.records.len() - 1,
+                warm.join(", ")
+            )
+        },
     );
-    for (name, ms) in rs.pass_means() {
+    for (name, ms) in rs.pass_means(timed) {
         row(&mut t, &format!("  {name}"), format!("{ms:.3} ms"));
     }
     row(&mut t, "output", out.display().to_string());

@@ -293,3 +293,78 @@ fn bad_settings_files_exit_2_naming_file_and_problem() {
         "cannot read settings file /nonexistent/s.toml",
     );
 }
+
+#[test]
+fn bench_passes_reports_every_denoiser_pass_against_the_floor() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("passes");
+    let o = vrrt(
+        &[
+            "bench",
+            "--passes",
+            "--size",
+            "64x36",
+            "--frames",
+            "4",
+            "--backends",
+            "cpu",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &dir.path().join("cache"),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("passes.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let num = |r: &[&str], name: &str| r[col(name)].parse::<f64>().unwrap();
+    let row = |pass: &str| {
+        rows.iter()
+            .find(|r| r[col("pass")] == pass)
+            .unwrap_or_else(|| panic!("no row {pass} in\n{csv}"))
+    };
+    // The passes of vrrt, AO, 1 rpp that run every frame; the gradient prepass runs only when
+    // something moved.
+    for pass in [
+        "reproject",
+        "fill",
+        "count_buckets",
+        "balance",
+        "apply",
+        "accumulate",
+        "variance",
+        "classify",
+        "atrous",
+        "denoiser",
+    ] {
+        assert_eq!(row(pass)[col("denoiser")], "1", "{pass}");
+    }
+    for pass in ["gbuffer", "raygen_ao"] {
+        assert_eq!(row(pass)[col("denoiser")], "0", "{pass}");
+    }
+    assert_eq!(row("denoiser")[col("frames")], "2");
+    assert_eq!(row("warmup")[col("frames")], "2");
+    assert!(num(row("atrous"), "dispatches_per_frame") > 1.0);
+    let denoiser_ms: f64 = rows
+        .iter()
+        .filter(|r| r[col("denoiser")] == "1" && !["denoiser", "warmup"].contains(&r[col("pass")]))
+        .map(|r| num(r, "ms"))
+        .sum();
+    assert!((denoiser_ms - num(row("denoiser"), "ms")).abs() < 1e-4);
+    for r in &rows {
+        let pass = r[col("pass")];
+        assert!(num(r, "bytes_per_px") > 0.0, "{pass}");
+        assert!(num(r, "bandwidth_gb_s") > 0.0, "{pass}");
+        let (ms, floor, ratio) = (num(r, "ms"), num(r, "floor_ms"), num(r, "floor_ratio"));
+        assert!(floor > 0.0, "{pass}");
+        assert!(
+            (ratio - ms / floor).abs() <= 1e-3 * ratio.max(1.0),
+            "{pass}: {ratio} != {ms} / {floor}"
+        );
+    }
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("| **whole denoiser** |"), "{stdout}");
+    assert!(stdout.contains("warm-up"), "{stdout}");
+}

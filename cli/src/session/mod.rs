@@ -17,7 +17,7 @@ mod signal;
 pub use config::Config;
 pub use images::{moving_mask, planes_to_image, MOVING_THRESHOLD};
 pub use parse::{parse_backend, parse_rpp, parse_size, MAX_DIMENSION};
-pub use record::{FrameRecord, FrameView, PartFrame, PartMetrics, SequenceResult};
+pub use record::{FrameRecord, FrameView, PartFrame, PartMetrics, SequenceResult, WARMUP_FRAMES};
 pub use references::{FrameReference, ReferenceRequest, References, REFERENCE_VERSION};
 pub use report::{fmt, mean, mean_finite, pass_columns, pass_header};
 pub use sequence::{run_sequence, SequenceOptions};

@@ -6,6 +6,11 @@ use vrrt_scene::image::Image;
 use vrrt_scene::metrics::{self, SequenceMetrics, SequenceSummary};
 use vrrt_scene::render::FrameOutput;
 
+/// Frames at the start of a sequence left out of timing means: backends compile pipelines when
+/// a kernel first runs (some first run on the second frame, e.g. the gradient prepass) and
+/// allocate on first use.
+pub const WARMUP_FRAMES: usize = 2;
+
 /// One frame's numbers (a row of `frames.csv`). With several parts, each metric is the mean over
 /// the parts (PSNR: of their mean MSE), so that a signal with many planes does not outweigh one.
 #[derive(Clone, Debug, Default)]
@@ -150,14 +155,22 @@ impl SequenceResult {
         mean_finite(self.records.iter().map(value))
     }
 
-    /// Mean ms per frame of each pass.
-    pub fn pass_means(&self) -> Vec<(&'static str, f64)> {
-        let n = self.records.len().max(1) as f64;
+    /// The frames whose timings count: all after the first [`WARMUP_FRAMES`], or every frame of
+    /// a sequence no longer than that.
+    pub fn timed_records(&self) -> &[FrameRecord] {
+        self.records
+            .get(WARMUP_FRAMES..)
+            .filter(|r| !r.is_empty())
+            .unwrap_or(&self.records)
+    }
+
+    /// Mean ms per frame of each pass over `records` (of this sequence).
+    pub fn pass_means(&self, records: &[FrameRecord]) -> Vec<(&'static str, f64)> {
+        let n = records.len().max(1) as f64;
         self.pass_names
             .iter()
             .map(|&name| {
-                let total: f64 = self
-                    .records
+                let total: f64 = records
                     .iter()
                     .flat_map(|r| r.passes.iter())
                     .filter(|(p, _)| *p == name)
