@@ -223,7 +223,7 @@ impl Executor for WgpuExecutor {
 
     fn binding_limit(&self) -> BindingLimit {
         let limits = self.device.limits();
-        let binding = u64::from(limits.max_storage_buffer_binding_size);
+        let binding = limits.max_storage_buffer_binding_size;
         if binding <= limits.max_buffer_size {
             BindingLimit {
                 bytes: binding,
