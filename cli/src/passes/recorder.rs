@@ -111,11 +111,11 @@ pub const COPY_REPEATS: usize = 5;
 pub struct Bandwidth {
     /// Bytes per second.
     pub bytes_per_second: f64,
-    /// Bytes copied per repeat ([`COPY_BYTES`] rounded up to whole chunks).
+    /// Bytes copied per repeat (`COPY_BYTES` rounded up to whole chunks).
     pub copied: u64,
 }
 
-/// The memory bandwidth of `exec`: the best of [`COPY_REPEATS`] copies of [`COPY_BYTES`] by the
+/// The memory bandwidth of `exec`: the best of `COPY_REPEATS` copies of `COPY_BYTES` by the
 /// `copy` kernel, (read + written bytes, as [`Pass::bytes_moved`] counts them) / the passes' own
 /// timings. Best, not median: the floor is what the memory allows.
 pub fn bandwidth<E: Executor>(exec: &mut Recorder<E>) -> Result<Bandwidth> {
