@@ -368,3 +368,50 @@ fn bench_passes_reports_every_denoiser_pass_against_the_floor() {
     assert!(stdout.contains("| **whole denoiser** |"), "{stdout}");
     assert!(stdout.contains("warm-up"), "{stdout}");
 }
+
+/// On a device whose storage-buffer binding limit is below what 1080p needs (lavapipe: 128 MiB),
+/// `vrrt run` stops before any work with the buffer, the limit and the largest size that fits.
+/// Skipped without a Vulkan adapter, unless `VRRT_REQUIRE_VULKAN` is set.
+#[test]
+fn oversized_request_fails_early_naming_buffer_limit_and_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let start = std::time::Instant::now();
+    let o = vrrt(
+        &[
+            "run",
+            "--size",
+            "1920x1080",
+            "--frames",
+            "1",
+            "--spp",
+            "2",
+            "--backend",
+            "ash",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &dir.path().join("cache"),
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    if stderr.contains("no Vulkan") && std::env::var_os("VRRT_REQUIRE_VULKAN").is_none() {
+        println!("skipped: no Vulkan adapter");
+        return;
+    }
+    if o.status.success() {
+        // A device with a larger limit (a hardware GPU) runs 1080p: nothing to refuse.
+        return;
+    }
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    for needle in [
+        "`surfaces`",
+        "maxStorageBufferRange",
+        "largest size",
+        "fits is ",
+    ] {
+        assert!(stderr.contains(needle), "{needle:?} missing: {stderr}");
+    }
+    // Refused before any frame was rendered.
+    assert!(!out.join("frames.csv").exists());
+    assert!(!out.join("frame0000_denoised.png").exists());
+}
