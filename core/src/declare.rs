@@ -217,9 +217,6 @@ macro_rules! kernel_table {
     // ---- the SPIR-V entry point ----
     (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
         [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
-        // The SPIR-V ABI takes one parameter per binding; the kernel function gets them as one
-        // struct.
-        #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
@@ -231,9 +228,6 @@ macro_rules! kernel_table {
     };
     (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
         [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
-        // The SPIR-V ABI takes one parameter per binding; the kernel function gets them as one
-        // struct.
-        #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
