@@ -30,7 +30,8 @@ pub const BUILTINS: &[BuiltinInfo] = &[
     },
     BuiltinInfo {
         name: "room_static",
-        description: "the room at frame 0 with nothing moving (camera, objects, light): convergence tests",
+        description: "the room at frame 0 with nothing moving (camera, objects, light): convergence \
+                      tests; still, so it runs any number of frames",
     },
 ];
 
@@ -297,5 +298,10 @@ mod tests {
         let st = builtin("room_static").unwrap();
         assert!(st.geometry_is_static() && st.camera.is_static());
         assert_eq!(st.frame(3).lights[0], st.frame(40).lights[0]);
+        // Still: any number of frames, all the same; the animated room stops at its length.
+        assert!(st.is_still() && !s.is_still());
+        assert_eq!(st.frames_available(), u32::MAX);
+        assert_eq!(s.frames_available(), s.frame_count);
+        assert_eq!(st.frame(500).camera, st.frame(0).camera);
     }
 }

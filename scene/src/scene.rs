@@ -106,6 +106,24 @@ impl Scene {
         }
     }
 
+    /// Nothing moves: camera, instances and lights are static, so every frame is the same and
+    /// the sequence may run any number of frames (convergence and still-frame savings).
+    pub fn is_still(&self) -> bool {
+        self.camera.is_static()
+            && self.instances.iter().all(|i| i.motion.is_static())
+            && self.lights.iter().all(|l| l.motion.is_static())
+    }
+
+    /// Frames a sequence may render: the animation's `frame_count`, or any number when the scene
+    /// is still.
+    pub fn frames_available(&self) -> u32 {
+        if self.is_still() {
+            u32::MAX
+        } else {
+            self.frame_count
+        }
+    }
+
     /// Adds a mesh and returns its index.
     pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
         self.meshes.push(mesh);
