@@ -190,7 +190,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         };
         println!("backend {backend}: {}", exec.device());
         for scene in &loaded {
-            let frames = clamp_frames(frames, scene.scene.frame_count);
+            let frames = clamp_frames(frames, scene.scene.frames_available());
             for &kind in &signals {
                 let configs = if q && args.configs.is_empty() && kind != SignalKind::Ao {
                     &QUICK_OTHER_CONFIGS[..]

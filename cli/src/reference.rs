@@ -39,7 +39,7 @@ pub struct ReferenceArgs {
 pub fn run(args: &ReferenceArgs) -> Result<()> {
     check_common(args.frames, args.spp, args.ao_radius)?;
     let scene = load_scene(&args.scene)?;
-    let frames = clamp_frames(args.frames, scene.scene.frame_count);
+    let frames = clamp_frames(args.frames, scene.scene.frames_available());
     let (mut exec, _) = open_backend(args.backend, false)?;
     let refs = References::from_env(true);
     if let Some(dir) = refs.cache_dir() {

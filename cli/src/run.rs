@@ -93,7 +93,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let base = load_settings(args.settings.as_deref())?;
     let rpp = args.rpp.unwrap_or(base.rates.rays_per_pixel);
     let scene = load_scene(&args.scene)?;
-    let frames = clamp_frames(args.frames, scene.scene.frame_count);
+    let frames = clamp_frames(args.frames, scene.scene.frames_available());
     let (mut exec, why) = open_backend(args.backend, args.validation)?;
     let device = exec.device();
     std::fs::create_dir_all(&args.out)

@@ -326,7 +326,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let (w, h) = args.size.unwrap_or(DEFAULT_SIZE);
     let frames = clamp_frames(
         args.frames.unwrap_or(DEFAULT_FRAMES),
-        scene.scene.frame_count,
+        scene.scene.frames_available(),
     );
     check_common(frames, args.spp, args.ao_radius)?;
     if frames as usize <= WARMUP_FRAMES {
