@@ -1,0 +1,79 @@
+//! Parallax motion of the reflected image: where last frame saw the reflected point.
+
+use super::*;
+
+/// Push constants of [`reflect_motion`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MotionParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Frame index of the records to read (last frame's).
+    pub frame: u32,
+    /// Window radius over which the reflection depth is averaged (seed: "average from local rays").
+    pub radius: u32,
+    /// This frame's eye, x.
+    pub eye_x: f32,
+    /// This frame's eye, y.
+    pub eye_y: f32,
+    /// This frame's eye, z.
+    pub eye_z: f32,
+    /// Surfaces with a larger GGX alpha keep the surface motion.
+    pub max_roughness: f32,
+    /// Last frame's camera.
+    pub prev_camera: Camera,
+}
+
+/// Reflection parallax (seed: "reprojection along G-buffer depth smears; add reflection depth"),
+/// one invocation per pixel: the reflected image lies `d` behind the surface along the view ray,
+/// `d` the mean hit distance of last frame's records within `radius` of where the surface was.
+/// That virtual point, carried by the surface's own motion, projected with last frame's camera is
+/// where the reflection was: `motion[pixel] = (x, y)` in last frame's pixels. Pixels without a
+/// reflecting surface or a nearby record keep the surface motion.
+pub fn reflect_motion(id: UVec3, p: &MotionParams, io: ReflectMotionIo<'_>) {
+    let ReflectMotionIo {
+        surfaces,
+        hits,
+        motion,
+    } = io;
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let pix = pixel_index(id.x, id.y, p.width);
+    let s = surfaces[pix];
+    let mut out = [s.prev_x, s.prev_y];
+    let (cx, cy) = (math::floor(s.prev_x + 0.5), math::floor(s.prev_y + 0.5));
+    // A moving reflector's image does not follow a fixed virtual point: keep its surface motion.
+    let reflective =
+        s.is_valid() && s.roughness <= p.max_roughness && s.prev_position() == s.position();
+    if reflective && math::is_finite(cx) && math::is_finite(cy) {
+        let r = p.radius as i32;
+        let (mut sum, mut n) = (0.0f32, 0.0f32);
+        let mut dy = -r;
+        while dy <= r {
+            let mut dx = -r;
+            while dx <= r {
+                let (qx, qy) = (cx + dx as f32, cy + dy as f32);
+                if qx >= 0.0 && qy >= 0.0 && qx < p.width as f32 && qy < p.height as f32 {
+                    let h = hits[pixel_index(qx as u32, qy as u32, p.width)];
+                    if h.is_from(p.frame) && h.distance < MISS_DISTANCE {
+                        sum += h.distance;
+                        n += 1.0;
+                    }
+                }
+                dx += 1;
+            }
+            dy += 1;
+        }
+        if n > 0.0 {
+            let eye = Vec3::new(p.eye_x, p.eye_y, p.eye_z);
+            let view = normalize(s.position() - eye);
+            let virtual_prev = s.prev_position() + view * (sum / n);
+            let (x, y) = p.prev_camera.project_point(virtual_prev, p.width, p.height);
+            out = [x, y];
+        }
+    }
+    motion[pix] = out;
+}

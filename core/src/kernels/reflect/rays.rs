@@ -1,0 +1,85 @@
+//! The reflection rays of the work list: one record per ray, its sample in the reflection plane.
+
+use super::*;
+
+/// Push constants of [`raygen_reflect`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RaygenParams {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Signal plane the reflections are written to (the other planes are left alone).
+    pub plane: u32,
+    /// Lights in `lights` to use.
+    pub lights: u32,
+    /// Frame index stamped into the ray records.
+    pub frame: u32,
+    /// Reserved.
+    pub _pad: [u32; 3],
+    /// Eye and hit lighting.
+    pub shading: Shading,
+}
+
+/// One invocation per work-list entry (like `raygen::raygen_ao`): `rays[pixel]` reflection rays
+/// from the rng index the reprojected history carries, their [`Sample`] in plane `plane`, and the
+/// 0th ray's record in `hits` (stamped with `frame`). A surface that reflects nothing gets value 0
+/// for its rays without tracing, so its history fills like any other plane's.
+pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
+    let RaygenReflectIo {
+        work,
+        args,
+        rays,
+        surfaces,
+        history,
+        nodes,
+        tris,
+        lights,
+        out,
+        hits,
+    } = io;
+    let scene = HitScene {
+        nodes,
+        tris,
+        lights,
+        light_count: p.lights,
+    };
+    if id.x >= args[0] {
+        return;
+    }
+    let pix = work[id.x as usize] as usize;
+    let n = rays[pix];
+    let s = surfaces[pix];
+    let i = (p.plane * p.width * p.height) as usize + pix;
+    let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
+    let seed = pixel_seed(x, y, p.plane);
+    let first_index = history[i].rng_index;
+    let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
+    let mut record = RayHit::default();
+    let mut k = 0u32;
+    while k < n && s.is_valid() {
+        let r = reflection_ray(&s, &p.shading, seed, first_index.wrapping_add(k), scene);
+        let v = if r.pdf > 0.0 { r.radiance } else { 0.0 };
+        if k == 0 {
+            first = v;
+            record = r;
+        }
+        sum += v;
+        sum_sq += v * v;
+        k += 1;
+    }
+    record.frame = p.frame;
+    hits[pix] = record;
+    out[i] = if n == 0 || !s.is_valid() {
+        Sample::default()
+    } else {
+        let nf = n as f32;
+        Sample {
+            m1: sum / nf,
+            m2: sum_sq / nf,
+            rays: n,
+            first,
+        }
+    };
+}
