@@ -64,25 +64,37 @@ fn err(e: impl fmt::Display) -> BackendError {
     BackendError(e.to_string())
 }
 
+/// wgpu options with validation when asked for, or when the options' default has it on
+/// (`VRRT_VALIDATION=1`, as in the tests and CI).
+fn wgpu_options(validation: bool) -> WgpuOptions {
+    let default = WgpuOptions::default();
+    WgpuOptions {
+        validation: validation || default.validation,
+        ..default
+    }
+}
+
+/// ash options with validation as for [`wgpu_options`].
+fn ash_options(validation: bool) -> AshOptions {
+    let default = AshOptions::default();
+    AshOptions {
+        validation: validation || default.validation,
+        ..default
+    }
+}
+
 impl Backend {
-    /// Opens `kind`. Returns the backend and why it was chosen (for `auto`).
+    /// Opens `kind`, with the Vulkan validation layers when `validation` is set or the
+    /// environment has `VRRT_VALIDATION=1`. Returns the backend and why it was chosen (for `auto`).
     pub fn open(kind: BackendKind, validation: bool) -> Result<(Backend, String), BackendError> {
         match kind {
             BackendKind::Cpu => Ok((Backend::Cpu(CpuExecutor::new()), "asked for".into())),
             BackendKind::Wgpu => {
-                let exec = WgpuExecutor::new_headless(WgpuOptions {
-                    validation,
-                    ..Default::default()
-                })
-                .map_err(err)?;
+                let exec = WgpuExecutor::new_headless(wgpu_options(validation)).map_err(err)?;
                 Ok((Backend::Wgpu(Box::new(exec)), "asked for".into()))
             }
             BackendKind::Ash => {
-                let exec = AshExecutor::new_headless(AshOptions {
-                    validation,
-                    ..Default::default()
-                })
-                .map_err(err)?;
+                let exec = AshExecutor::new_headless(ash_options(validation)).map_err(err)?;
                 Ok((Backend::Ash(Box::new(exec)), "asked for".into()))
             }
             BackendKind::Auto => Ok(Self::auto(validation)),
@@ -91,10 +103,7 @@ impl Backend {
 
     fn auto(validation: bool) -> (Backend, String) {
         let mut notes = Vec::new();
-        match WgpuExecutor::new_headless(WgpuOptions {
-            validation,
-            ..Default::default()
-        }) {
+        match WgpuExecutor::new_headless(wgpu_options(validation)) {
             Ok(exec) => {
                 let info = exec.adapter_info();
                 if matches!(
@@ -111,10 +120,7 @@ impl Backend {
             }
             Err(e) => notes.push(format!("wgpu: {e}")),
         }
-        match AshExecutor::new_headless(AshOptions {
-            validation,
-            ..Default::default()
-        }) {
+        match AshExecutor::new_headless(ash_options(validation)) {
             Ok(exec) => {
                 let info = exec.adapter_info();
                 if matches!(
@@ -176,6 +182,14 @@ impl Backend {
             Backend::Cpu(_) => 0,
             Backend::Wgpu(e) => e.validation_errors(),
             Backend::Ash(e) => e.validation_errors(),
+        }
+    }
+
+    /// Warns on stderr when the validation layers reported errors (logged as they came).
+    pub fn warn_validation_errors(&self) {
+        let n = self.validation_errors();
+        if n > 0 {
+            eprintln!("warning: {n} validation errors were reported");
         }
     }
 }

@@ -2,12 +2,14 @@
 //! signals × scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
 
 use crate::backend::BackendKind;
+use crate::limits::LimitArgs;
 use crate::plot::{self, Curve};
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
     self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, References,
     SequenceOptions, SignalKind,
 };
+use crate::{outdir, progress};
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -51,7 +53,9 @@ pub struct BenchArgs {
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
-    /// Output directory.
+    /// Output directory. It holds only this bench's files: what an earlier bench wrote there
+    /// (`bench.csv`, `bench.md`, `relmse_vs_*.png`; with `--passes`, `passes.csv`) is removed
+    /// first, and nothing else in it is touched.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
     /// Per-pass report against the bandwidth floor instead of the matrix: renders one
@@ -66,7 +70,13 @@ pub struct BenchArgs {
     /// `parallax_plane` of the file are not used).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
+    /// Limits on a mesh file given as the scene.
+    #[command(flatten, next_help_heading = "Limits on a mesh file")]
+    pub limits: LimitArgs,
 }
+
+/// The files the matrix writes into `--out` (and removes there before writing).
+pub const BENCH_OUTPUTS: [&str; 3] = ["bench.csv", "bench.md", "relmse_vs_*.png"];
 
 /// One cell of the matrix.
 #[derive(Clone, Debug)]
@@ -157,12 +167,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.signals.clone()
     };
     let base = load_settings(args.settings.as_deref())?;
+    let limits = args.limits.limits();
     let loaded = scenes
         .iter()
-        .map(|s| load_scene(s))
+        .map(|s| load_scene(s, &limits))
         .collect::<Result<Vec<_>>>()?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    outdir::prepare(&args.out, &BENCH_OUTPUTS)?;
 
     match which("oidnDenoise") {
         Some(p) => println!(
@@ -241,9 +251,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             ms_spread: ms[ms.len() - 1] - ms[0],
                             passes: r.pass_means(&r.records),
                         };
-                        eprint!("\r{:<72}", "");
-                        eprintln!(
-                            "\r{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
+                        progress::println(&format!(
+                            "{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
                             cell.scene,
                             kind.name(),
                             config.name(),
@@ -252,12 +261,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             fmt(cell.relmse, 6),
                             cell.ms_per_frame,
                             started.elapsed().as_secs_f64()
-                        );
+                        ));
                         cells.push(cell);
                     }
                 }
             }
         }
+        exec.warn_validation_errors();
     }
     if cells.is_empty() {
         bail!("no backend could be opened");

@@ -4,8 +4,11 @@
 pub mod backend;
 pub mod bench;
 pub mod info;
+pub mod limits;
+pub mod outdir;
 pub mod passes;
 pub mod plot;
+pub mod progress;
 pub mod reference;
 pub mod run;
 pub mod session;

@@ -1,6 +1,7 @@
 //! `vrrt reference`: traces and caches the references of a scene's frames.
 
 use crate::backend::BackendKind;
+use crate::limits::LimitArgs;
 use crate::run::{check_common, clamp_frames};
 use crate::session::{
     load_scene, open_backend, parse_backend, parse_size, parts, ReferenceRequest, References,
@@ -32,13 +33,16 @@ pub struct ReferenceArgs {
     /// Backend that traces them: auto, cpu, wgpu or ash.
     #[arg(long, default_value = "cpu", value_parser = parse_backend)]
     pub backend: BackendKind,
+    /// Limits on a mesh file given as the scene.
+    #[command(flatten, next_help_heading = "Limits on a mesh file")]
+    pub limits: LimitArgs,
 }
 
 /// Runs `vrrt reference`: the references `run` measures against, one per part of the signal
 /// (`all`: AO, shadows and reflections).
 pub fn run(args: &ReferenceArgs) -> Result<()> {
     check_common(args.frames, args.spp, args.ao_radius)?;
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.scene, &args.limits.limits())?;
     let frames = clamp_frames(args.frames, scene.scene.frames_available());
     let (mut exec, _) = open_backend(args.backend, false)?;
     let refs = References::from_env(true);
@@ -78,8 +82,9 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         args.size.0,
         args.size.1,
         args.spp,
-        signal,
+        args.signal.name(),
         total / (frames as usize * parts.len()) as f64
     );
+    exec.warn_validation_errors();
     Ok(())
 }

@@ -2,11 +2,14 @@
 //! its reference and writes `frames.csv`, images and (optionally) debug overlays.
 
 use crate::backend::BackendKind;
-use crate::plot;
+use crate::limits::LimitArgs;
+use crate::progress::Progress;
 use crate::session::{
-    self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_rpp, parse_size, Config,
-    FrameRecord, FrameView, References, SequenceOptions, SignalKind, WARMUP_FRAMES,
+    self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_rpp, parse_size,
+    plane_names, Config, FrameRecord, FrameView, References, SequenceOptions, SignalKind,
+    WARMUP_FRAMES,
 };
+use crate::{outdir, plot};
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -54,7 +57,9 @@ pub struct RunArgs {
     /// Reference samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Output directory.
+    /// Output directory. It holds only this run's files: what an earlier run wrote there
+    /// (`frame*_*.png`, `denoised_last*.exr`, `frames.csv`) is removed first, and nothing else
+    /// in it is touched.
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
     /// Write PNGs of every n-th frame (clamped to [0, 1]: reflections are HDR radiance, which
@@ -65,10 +70,16 @@ pub struct RunArgs {
     /// reprojection and after accumulation (heatmaps), and a budget bar chart.
     #[arg(long)]
     pub overlays: bool,
-    /// Enable the Vulkan validation layers (wgpu, ash).
+    /// Enable the Vulkan validation layers (wgpu, ash); `VRRT_VALIDATION=1` does too.
     #[arg(long)]
     pub validation: bool,
+    /// Limits on a mesh file given as the scene.
+    #[command(flatten, next_help_heading = "Limits on a mesh file")]
+    pub limits: LimitArgs,
 }
+
+/// The files `vrrt run` writes into `--out` (and removes there before writing).
+pub const RUN_OUTPUTS: [&str; 3] = ["frame*_*.png", "denoised_last*.exr", "frames.csv"];
 
 /// Checks the options that clap's parsers do not.
 pub fn check_common(frames: u32, spp: u32, ao_radius: f32) -> Result<()> {
@@ -92,12 +103,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
     }
     let base = load_settings(args.settings.as_deref())?;
     let rpp = args.rpp.unwrap_or(base.rates.rays_per_pixel);
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.scene, &args.limits.limits())?;
     let frames = clamp_frames(args.frames, scene.scene.frames_available());
     let (mut exec, why) = open_backend(args.backend, args.validation)?;
     let device = exec.device();
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    outdir::prepare(&args.out, &RUN_OUTPUTS)?;
     let refs = References::from_env(true);
     let opts = SequenceOptions {
         size: args.size,
@@ -113,6 +123,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let out = &args.out;
     let (w, h) = args.size;
     let mut last_denoised = Vec::new();
+    let mut progress = Progress::new("frame", frames.into(), 10);
     let result = session::run_sequence(&mut exec, &scene, &opts, &refs, |v| {
         let i = v.record.frame;
         let several = v.parts.len() > 1;
@@ -138,17 +149,17 @@ pub fn run(args: &RunArgs) -> Result<()> {
         if args.overlays {
             write_overlays(out, v, (w, h))?;
         }
-        let line = format!(
-            "frame {}/{frames}: relMSE {}, {} rays, {:.1} ms",
-            i + 1,
-            fmt(v.record.relmse, 5),
-            v.record.rays_traced,
-            v.record.ms_frame
-        );
-        eprint!("\r{line:<72}");
+        progress.set(u64::from(i) + 1, || {
+            format!(
+                "relMSE {}, {} rays, {:.1} ms",
+                fmt(v.record.relmse, 5),
+                v.record.rays_traced,
+                v.record.ms_frame
+            )
+        });
         Ok(())
     })?;
-    eprintln!();
+    drop(progress);
     for (tag, img) in &last_denoised {
         write_exr(out.join(format!("denoised_last{tag}.exr")), img.view())?;
     }
@@ -156,12 +167,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let csv = frames_csv(&result.records, &part_names, &result.pass_names);
     std::fs::write(out.join("frames.csv"), csv)
         .with_context(|| format!("cannot write {}", out.join("frames.csv").display()))?;
-    if exec.validation_errors() > 0 {
-        eprintln!(
-            "warning: {} validation errors were reported",
-            exec.validation_errors()
-        );
-    }
+    exec.warn_validation_errors();
 
     let rs = &result;
     let mut t = String::new();
@@ -182,11 +188,19 @@ pub fn run(args: &RunArgs) -> Result<()> {
     row(
         &mut t,
         "denoiser / budget",
+        format!("{} at {rpp} rpp", args.denoiser.name()),
+    );
+    let ao_radius = opts
+        .signal
+        .ao_distance()
+        .map_or(String::new(), |r| format!(", AO radius {r}"));
+    row(
+        &mut t,
+        "signal",
         format!(
-            "{} at {} rpp, signal {}",
-            args.denoiser.name(),
-            rpp,
-            opts.signal
+            "{}{ao_radius}; planes {}",
+            args.signal.name(),
+            plane_names(opts.signal, scene.scene.lights.len()).join(", ")
         ),
     );
     if let Some(path) = &args.settings {

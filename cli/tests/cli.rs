@@ -376,7 +376,6 @@ fn bench_passes_reports_every_denoiser_pass_against_the_floor() {
 fn oversized_request_fails_early_naming_buffer_limit_and_fit() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let start = std::time::Instant::now();
     let o = vrrt(
         &[
             "run",

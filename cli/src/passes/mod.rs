@@ -9,6 +9,7 @@ pub use recorder::{bandwidth, Bandwidth, Dispatched, Recorder, COPY_REPEATS};
 
 use crate::backend::BackendKind;
 use crate::bench::BenchArgs;
+use crate::progress::Progress;
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{load_scene, open_backend, Config, SignalKind, WARMUP_FRAMES};
 use anyhow::{anyhow, bail, Context, Result};
@@ -314,7 +315,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             "--passes renders one configuration: give at most one scene, config, budget and signal"
         );
     }
-    let scene = load_scene(args.scenes.first().map_or("room", String::as_str))?;
+    let scene = load_scene(
+        args.scenes.first().map_or("room", String::as_str),
+        &args.limits.limits(),
+    )?;
     let config = args.configs.first().copied().unwrap_or(Config::Vrrt);
     let rpp = args.budgets.first().copied().unwrap_or(1.0);
     let kind = args.signals.first().copied().unwrap_or(SignalKind::Ao);
@@ -334,8 +338,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let signal = kind.signal(args.ao_radius);
     let settings = config.settings(load_settings(args.settings.as_deref())?, rpp, signal);
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    crate::outdir::prepare(&args.out, &["passes.csv"])?;
 
     let mut reports = Vec::new();
     for backend in backends {
@@ -347,6 +350,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let mut renderer = Renderer::new(&mut exec, w, h, signal, lights, settings)
             .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
         let mut shares = Vec::new();
+        let mut progress = Progress::new(format!("{} frame", exec.name()), frames.into(), 4);
         for i in 0..frames {
             exec.clear_timings();
             renderer
@@ -354,9 +358,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 .and_then(|_| exec.finish())
                 .map_err(|e| anyhow!("rendering frame {i}: {e}"))?;
             shares.push(frame_shares(&exec));
-            eprint!("\r{} frame {}/{frames}", exec.name(), i + 1);
+            progress.set(u64::from(i) + 1, String::new);
         }
-        eprintln!();
+        drop(progress);
+        exec.inner().warn_validation_errors();
         let subject = Subject {
             backend: exec.name().to_string(),
             device,

@@ -3,6 +3,7 @@
 
 use super::{mean, planes_to_image};
 use crate::backend::Backend;
+use crate::progress::Progress;
 use anyhow::{anyhow, Result};
 use std::path::Path;
 use vrrt_scene::image::Image;
@@ -43,7 +44,7 @@ pub struct ReferenceRequest<'a> {
 /// Where references come from: the on-disk cache, else traced (and then stored).
 pub struct References {
     cache: Option<ReferenceCache>,
-    /// Print a progress line while tracing.
+    /// Show the progress of each reference traced.
     pub progress: bool,
 }
 
@@ -92,17 +93,28 @@ impl References {
                 cached: true,
             });
         }
-        let progress = self.progress;
         let frame = f.index;
+        let mut bar = None;
         let r = render::reference(exec, f, width, height, signal, spp, |done, total| {
-            if progress {
-                eprint!(
-                    "\r{:<72}",
-                    format!("reference: frame {frame}, {done}/{total} spp")
-                );
+            if self.progress {
+                bar.get_or_insert_with(|| {
+                    let what = match signal {
+                        Signal::Ao { .. } => "ao",
+                        Signal::Shadows => "shadows",
+                        Signal::Reflections(_) => "reflections",
+                        Signal::All { .. } => "all",
+                    };
+                    Progress::new(
+                        format!("reference of frame {frame} ({what}), spp"),
+                        total.into(),
+                        1,
+                    )
+                })
+                .set(done.into(), String::new);
             }
         })
         .map_err(|e| anyhow!("tracing the reference of frame {frame}: {e}"))?;
+        drop(bar);
         let image = planes_to_image(&r.mean, width, height, planes);
         let stderr = planes_to_image(&r.stderr, width, height, planes);
         let mean_stderr = mean(&r.stderr);

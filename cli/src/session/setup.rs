@@ -4,6 +4,7 @@
 use crate::backend::{Backend, BackendKind};
 use anyhow::{anyhow, bail, Result};
 use std::path::Path;
+use vrrt_scene::load::LoadLimits;
 use vrrt_scene::Scene;
 
 /// Opens a backend, turning failure into a one-line error.
@@ -20,8 +21,8 @@ pub struct LoadedScene {
 }
 
 /// Loads a built-in scene by name, or a mesh file (`.obj`, `.ply`, `.ply.gz`, `.glb`, `.gltf`)
-/// shown by [`vrrt_scene::builtin::showcase`].
-pub fn load_scene(spec: &str) -> Result<LoadedScene> {
+/// shown by [`vrrt_scene::builtin::showcase`], loaded under `limits` (the `--max-*` flags).
+pub fn load_scene(spec: &str, limits: &LoadLimits) -> Result<LoadedScene> {
     use vrrt_scene::builtin;
     if builtin::BUILTINS.iter().any(|b| b.name == spec) {
         let scene = builtin::builtin(spec).map_err(|e| anyhow!("{e}"))?;
@@ -37,7 +38,7 @@ pub fn load_scene(spec: &str) -> Result<LoadedScene> {
         let e = builtin::builtin(spec).err().map(|e| e.to_string());
         bail!("{}", e.unwrap_or_else(|| format!("unknown scene `{spec}`")));
     }
-    let mesh = vrrt_scene::load::load_mesh(path).map_err(|e| anyhow!("{e}"))?;
+    let mesh = vrrt_scene::load::load_mesh_with(path, limits).map_err(|e| anyhow!("{e}"))?;
     let name = path
         .file_name()
         .and_then(|n| n.to_str())

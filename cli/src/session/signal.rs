@@ -87,3 +87,37 @@ pub fn parts(signal: Signal, lights: usize) -> Vec<Part> {
     }
     parts
 }
+
+/// The names of `signal`'s planes in order, for a scene with `lights` lights: `ao`,
+/// `shadow0`, `shadow1`, …, `reflections` (what summaries call them; the files and columns
+/// are named by [`Part`]).
+pub fn plane_names(signal: Signal, lights: usize) -> Vec<String> {
+    let layout = signal.layout(lights);
+    let mut names = Vec::new();
+    if layout.ao.is_some() {
+        names.push("ao".to_string());
+    }
+    if let Some((_, n)) = layout.shadows {
+        names.extend((0..n).map(|i| format!("shadow{i}")));
+    }
+    if layout.reflections.is_some() {
+        names.push("reflections".to_string());
+    }
+    names
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn planes_are_named_by_what_they_hold() {
+        let all = SignalKind::All.signal(1.0);
+        assert_eq!(
+            plane_names(all, 2),
+            ["ao", "shadow0", "shadow1", "reflections"]
+        );
+        assert_eq!(plane_names(SignalKind::Ao.signal(1.0), 2), ["ao"]);
+        assert_eq!(plane_names(Signal::Shadows, 0), ["shadow0"]);
+    }
+}
