@@ -1,0 +1,113 @@
+//! The gradient stage: the A-SVGF temporal-gradient prepass (forward projection, re-trace,
+//! reconstruction), before the rates see last frame's buffers overwritten.
+
+use super::*;
+
+impl Denoiser {
+    /// The temporal-gradient prepass (A-SVGF), between the G-buffer and [`Self::plan_rays`]:
+    /// forward projection of one previous-frame sample per stratum, re-trace of its 0th ray
+    /// against `scene`, and the à-trous reconstruction. It reads last frame's rays, samples and
+    /// reprojected history, which [`Self::plan_rays`] overwrites, so it must run first. Returns
+    /// whether it ran: it is skipped when off, on reset frames, and when [`FrameInfo::moved`] is
+    /// false (nothing can have changed, so every `λ` would be 0).
+    pub fn temporal_gradients<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        scene: &GradientScene,
+    ) -> Result<bool, E::Error> {
+        let s = self.settings;
+        self.gradient_ran = false;
+        if s.gradient.stratum == 0 || self.frame.reset || !self.frame.moved {
+            return Ok(false);
+        }
+        let (w, h) = (self.width, self.height);
+        let (gw, gh) = self.gradient_size();
+        let index_mask = gradient::index_mask(w * h);
+        let clear = fill::FillParams {
+            len: gw * gh,
+            value: gradient::EMPTY_KEY,
+        };
+        let keys = kernels::FillBindings {
+            buf: self.gradient_keys,
+        };
+        exec.dispatch(&keys.over_grid(&clear, clear.len, 1, 1))?;
+        let proj = gradient::ProjectParams {
+            width: w,
+            height: h,
+            stratum: s.gradient.stratum,
+            grid_width: gw,
+            grid_height: gh,
+            frame_index: self.frame.index,
+            index_mask,
+            normal_threshold: s.temporal.normal_threshold,
+            plane_threshold: s.temporal.plane_threshold,
+            camera: scene.camera,
+        };
+        let project = kernels::GradientProjectBindings {
+            prev_surfaces: self.surfaces[1 - self.cur],
+            surfaces: self.surfaces[self.cur],
+            rays: self.rays,
+            next: scene.next,
+            keys: self.gradient_keys,
+        };
+        exec.dispatch(&project.over_grid(&proj, gw, gh, 1))?;
+        let mut retrace = gradient::RetraceParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            grid_width: gw,
+            grid_height: gh,
+            index_mask,
+            max_distance: 0.0,
+            _pad: 0,
+        };
+        // Last frame's reprojected history still holds the rng index each pixel's raygen started
+        // from, and `samples` last frame's 0th ray values.
+        let ao = kernels::GradientAoBindings {
+            keys: self.gradient_keys,
+            prev_surfaces: self.surfaces[1 - self.cur],
+            next: scene.next,
+            prev_payload: self.reprojected,
+            prev_samples: self.samples,
+            nodes: scene.nodes,
+            tris: scene.tris,
+            out: self.gradient_raw,
+        };
+        match scene.rays {
+            GradientRays::Ao { max_distance } => {
+                retrace.max_distance = max_distance;
+                exec.dispatch(&ao.over_grid(&retrace, gw, gh, 1))?;
+            }
+            GradientRays::Shadows { lights } => {
+                let shadow = kernels::GradientShadowBindings {
+                    keys: ao.keys,
+                    prev_surfaces: ao.prev_surfaces,
+                    next: ao.next,
+                    prev_payload: ao.prev_payload,
+                    prev_samples: ao.prev_samples,
+                    nodes: ao.nodes,
+                    tris: ao.tris,
+                    lights,
+                    out: ao.out,
+                };
+                exec.dispatch(&shadow.over_grid(&retrace, gw, gh, 1))?;
+            }
+        }
+        let mut input = self.gradient_raw;
+        for i in 0..s.gradient.iterations {
+            let p = gradient::GradientAtrousParams {
+                grid_width: gw,
+                grid_height: gh,
+                step: 1 << i,
+                _pad: 0,
+            };
+            let out = self.gradient[(i % 2) as usize];
+            let pass = kernels::GradientAtrousBindings { input, out };
+            exec.dispatch(&pass.over_grid(&p, gw, gh, s.planes))?;
+            input = out;
+            self.gradient_out = (i % 2) as usize;
+        }
+        self.gradient_ran = true;
+        Ok(true)
+    }
+}

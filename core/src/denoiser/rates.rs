@@ -1,0 +1,127 @@
+//! The rates stage: reprojection with ray requests, bucket counting, load balancing and apply
+//! (the work list raygen traces).
+
+use super::*;
+
+impl Denoiser {
+    /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
+    /// and apply. Afterwards [`Self::rays`], [`Self::work`] and [`Self::args`] say what to trace.
+    pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h) = (self.width, self.height);
+        let vrrt = s.rates.supersample_target > 0.0;
+        let (gw, gh) = self.gradient_size();
+        // Below one ray per pixel the budget's rate is the base request (seed: "can use global
+        // ray rate < 1") and undersampling rates scale with it: with a base of 1 every request
+        // would exceed a 1/2-ray budget and water filling would level refills down to the base.
+        let still = s.rates.undersample && !self.frame.moved && !self.frame.reset;
+        let base_rate = if vrrt {
+            s.rates.rays_per_pixel.min(1.0)
+        } else {
+            s.rates.rays_per_pixel
+        };
+        let params = reproject::ReprojectParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            reset: self.frame.reset as u32,
+            normal_threshold: s.temporal.normal_threshold,
+            plane_threshold: s.temporal.plane_threshold,
+            frame_index: self.frame.index,
+            supersample_target: s.rates.supersample_target,
+            // On a still frame history stays valid, so it is completed before any undersampling.
+            full_history: if still {
+                s.temporal.max_history
+            } else {
+                s.rates.undersample_after
+            },
+            base_rate,
+            use_mask: self.frame.use_mask as u32,
+            variance_threshold: if s.rates.undersample {
+                s.rates.variance_threshold
+            } else {
+                [0.0; 4]
+            },
+            variance_rate: s.rates.variance_rate.map(|r| r * base_rate),
+            gradient_stratum: if self.gradient_ran {
+                s.gradient.stratum
+            } else {
+                0
+            },
+            gradient_width: gw,
+            gradient_height: gh,
+            gradient_threshold: s.gradient.threshold,
+            gradient_scale: s.gradient.scale,
+            still_history: if still { s.temporal.max_history } else { 0.0 },
+            still_variance: s.rates.still_sigma * s.rates.still_sigma,
+            use_importance: self.frame.use_importance as u32,
+            parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
+            ..Default::default()
+        };
+        let reproject = kernels::ReprojectBindings {
+            surfaces: self.surfaces[self.cur],
+            prev_surfaces: self.surfaces[1 - self.cur],
+            history: self.history[1 - self.cur],
+            mask: self.mask,
+            gradient: self.gradient(),
+            importance: self.importance,
+            parallax: self.parallax,
+            out: self.reprojected,
+            flags: self.flags,
+            requests: self.requests,
+        };
+        exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;
+
+        let clear = fill::FillParams {
+            len: buckets::COUNTS_LEN,
+            value: 0,
+        };
+        let counts = kernels::FillBindings { buf: self.counts };
+        exec.dispatch(&counts.over_grid(&clear, clear.len, 1, 1))?;
+        let count = buckets::BucketParams {
+            width: w,
+            height: h,
+        };
+        let buckets = kernels::CountBucketsBindings {
+            requests: self.requests,
+            counts: self.counts,
+        };
+        exec.dispatch(&buckets.over_grid(&count, w, h, 1))?;
+
+        let bal = balance::BalanceParams {
+            rays_per_pixel: s.rates.rays_per_pixel,
+            ring_count: buckets::ring_count(w, h),
+            raise: s.rates.spend_saved_rays as u32,
+            policy: if s.rates.supersample_target <= 0.0 {
+                balance::POLICY_FIXED
+            } else if s.rates.load_balance {
+                balance::POLICY_BALANCE
+            } else {
+                balance::POLICY_KEEP
+            },
+        };
+        let balance = kernels::BalanceBindings {
+            counts: self.counts,
+            out: self.decision,
+            args: self.args,
+        };
+        exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
+
+        let app = apply::ApplyParams {
+            width: w,
+            height: h,
+            planes: s.planes,
+            frame_index: self.frame.index,
+        };
+        let apply = kernels::ApplyBindings {
+            requests: self.requests,
+            decision: self.decision,
+            noise: self.noise,
+            rays: self.rays,
+            work: self.work,
+            args: self.args,
+            samples: self.samples,
+        };
+        exec.dispatch(&apply.over_grid(&app, w, h, 1))
+    }
+}

@@ -1,0 +1,99 @@
+//! The resolve stage, after raygen: accumulation, variance, tile classification and the à-trous
+//! iterations.
+
+use super::*;
+
+impl Denoiser {
+    /// Passes 2.. (after raygen): accumulation, variance estimation and the à-trous iterations.
+    pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
+        let acc = accumulate::AccumulateParams {
+            width: w,
+            height: h,
+            max_history: s.temporal.max_history,
+            rng_wrap: self.rng_wrap(),
+            clamp_radius: s.temporal.clamp_radius,
+            clamp_gamma: s.temporal.clamp_gamma,
+            firefly_max: s.temporal.firefly_max,
+            storage: s.temporal.storage.code()
+                | if s.temporal.stuck_correction {
+                    0
+                } else {
+                    crate::quantize::STORAGE_NO_CORRECTION
+                },
+        };
+        let accumulate = kernels::AccumulateBindings {
+            history: self.reprojected,
+            samples: self.samples,
+            out: self.history[self.cur],
+            counters: self.counters,
+        };
+        exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
+
+        let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
+        let var = variance::VarianceParams {
+            width: w,
+            height: h,
+            radius: s.filter.spatial_radius,
+            spatial_until: s.filter.spatial_until,
+            plane_scale,
+            normal_power: s.filter.normal_power,
+            ..Default::default()
+        };
+        let variance = kernels::VarianceBindings {
+            payload: self.history[self.cur],
+            surfaces: self.surfaces[self.cur],
+            out: self.filtered[0],
+        };
+        exec.dispatch(&variance.over_grid(&var, w, h, planes))?;
+
+        let clear = fill::FillParams {
+            len: classify::HISTOGRAM_LEN,
+            value: 0,
+        };
+        let histogram = kernels::FillBindings {
+            buf: self.tile_histogram,
+        };
+        exec.dispatch(&histogram.over_grid(&clear, clear.len, 1, 1))?;
+        let cls = classify::ClassifyParams {
+            width: w,
+            height: h,
+            planes,
+            iterations: s.filter.atrous_iterations,
+            skip_sigma: s.filter.skip_sigma,
+            ..Default::default()
+        };
+        let (tw, th) = classify::tile_grid(w, h);
+        let classify = kernels::ClassifyBindings {
+            surfaces: self.surfaces[self.cur],
+            filtered: self.filtered[0],
+            tiles: self.tiles,
+            histogram: self.tile_histogram,
+        };
+        exec.dispatch(&classify.over_grid(&cls, tw, th, 1))?;
+
+        self.out = 0;
+        for i in 0..s.filter.atrous_iterations {
+            let params = atrous::AtrousParams {
+                width: w,
+                height: h,
+                step: 1 << i,
+                iteration: i,
+                sigma_luminance: s.filter.sigma_luminance,
+                plane_scale,
+                normal_power: s.filter.normal_power,
+                ..Default::default()
+            };
+            let atrous = kernels::AtrousBindings {
+                input: self.filtered[self.out],
+                surfaces: self.surfaces[self.cur],
+                tiles: self.tiles,
+                out: self.filtered[1 - self.out],
+            };
+            exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
+            self.out = 1 - self.out;
+        }
+        Ok(())
+    }
+}
