@@ -1,7 +1,8 @@
 //! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick; with
-//! `--settings`, the default denoiser settings as TOML.
+//! `--settings`, the default denoiser settings as TOML; with `--memory`, the memory report.
 
 use crate::backend::{Backend, BackendKind};
+use crate::session::{parse_size, SignalKind};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
 use vrrt_core::plan::Executor;
@@ -9,18 +10,37 @@ use vrrt_core::settings::Settings;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
 /// Options of `vrrt info`.
-#[derive(Clone, Debug, Default, clap::Args)]
+#[derive(Clone, Debug, clap::Args)]
 pub struct InfoArgs {
     /// Print the default denoiser settings as a TOML settings file (a template for `vrrt run
     /// --settings FILE`) instead of the backends.
     #[arg(long)]
     pub settings: bool,
+    /// Print what the denoiser's buffers hold and what one frame moves, per buffer and per pixel
+    /// (at `--size`, for `--signal`, default settings at 1 rpp), instead of the backends.
+    #[arg(long)]
+    pub memory: bool,
+    /// Image size of `--memory`, WxH.
+    #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Signal of `--memory`.
+    #[arg(long, value_enum, default_value = "ao")]
+    pub signal: SignalKind,
+    /// Lights in the scene of `--memory` (one shadow plane each, up to 4).
+    #[arg(long, default_value = "1")]
+    pub lights: usize,
 }
 
 /// Runs `vrrt info`.
 pub fn run(args: &InfoArgs) -> Result<()> {
     if args.settings {
         print!("{}", crate::settings::to_toml(&Settings::default()));
+        return Ok(());
+    }
+    if args.memory {
+        let signal = args.signal.signal(1.0);
+        let report = crate::memory::report(args.size, args.signal.name(), signal, args.lights)?;
+        print!("{report}");
         return Ok(());
     }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());

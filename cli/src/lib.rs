@@ -5,6 +5,7 @@ pub mod backend;
 pub mod bench;
 pub mod info;
 pub mod limits;
+pub mod memory;
 pub mod outdir;
 pub mod passes;
 pub mod plot;

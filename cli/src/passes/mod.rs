@@ -3,7 +3,7 @@
 //! by [`Recorder`]) over the memory bandwidth measured in the same run on the same backend
 //! ([`bandwidth`]); `floor_ratio = ms / floor` says how far from memory-bound it runs.
 
-mod recorder;
+pub(crate) mod recorder;
 
 pub use recorder::{bandwidth, Bandwidth, Dispatched, Recorder, COPY_REPEATS};
 
