@@ -12,9 +12,9 @@ use vrrt_core::camera::Camera;
 use vrrt_core::frame::{Frame, FrameScene, Signal};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::kernels::reflect::RayHit;
 use vrrt_core::payload::Sample;
 use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
 use vrrt_core::surface::Surface;
 
@@ -72,11 +72,7 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
         .map(|b| (b.name, b.count, b.bytes))
         .collect();
     if frame.reflections().is_some() {
-        sizes.push((
-            "reflection hits",
-            1,
-            (w * h) as u64 * size_of::<RayHit>() as u64,
-        ));
+        sizes.push(("reflection hits", 1, Reflections::hits_bytes(w, h)));
     }
     let mut total = 0u64;
     for (name, count, bytes) in &sizes {

@@ -27,8 +27,15 @@ const fn size(name: &'static str, count: u32, bytes: u64) -> BufferSize {
     BufferSize { name, count, bytes }
 }
 
+/// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
+pub const DENOISER_BUFFERS: usize = 22;
+
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
-pub fn denoiser_buffers(width: u32, height: u32, settings: &Settings) -> [BufferSize; 22] {
+pub fn denoiser_buffers(
+    width: u32,
+    height: u32,
+    settings: &Settings,
+) -> [BufferSize; DENOISER_BUFFERS] {
     let pixels = width as u64 * height as u64;
     let planes = pixels * settings.planes as u64;
     let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
@@ -103,7 +110,7 @@ impl fmt::Display for TooLarge {
 
 /// The first buffer of `sizes(width, height)` larger than `limit`, if any.
 fn over_limit(
-    sizes: &impl Fn(u32, u32) -> [BufferSize; 22],
+    sizes: &impl Fn(u32, u32) -> [BufferSize; DENOISER_BUFFERS],
     width: u32,
     height: u32,
     limit: BindingLimit,

@@ -164,6 +164,11 @@ pub struct Reflections {
 }
 
 impl Reflections {
+    /// Bytes of the ray records of a `width × height` image (one `RayHit` per pixel).
+    pub fn hits_bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * core::mem::size_of::<RayHit>() as u64
+    }
+
     /// Reflections written to plane `plane` of a `width × height` denoiser (which should
     /// reproject that plane along the parallax: `Settings::parallax_plane`).
     pub fn new<E: Executor>(
@@ -176,7 +181,7 @@ impl Reflections {
         settings
             .validate()
             .map_err(crate::denoiser::DenoiserError::Settings)?;
-        let bytes = width as u64 * height as u64 * core::mem::size_of::<RayHit>() as u64;
+        let bytes = Self::hits_bytes(width, height);
         // Zero-filled: pdf 0 marks every record unused until the first trace.
         let hits = exec.create_buffer(bytes.max(4))?;
         Ok(Reflections {

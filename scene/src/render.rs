@@ -208,8 +208,6 @@ impl FrameOutput {
 
 /// Runs a scene frame by frame through core's frame pipeline and reads the outputs back.
 pub struct Renderer {
-    width: u32,
-    height: u32,
     frame: Frame,
     gpu: GpuScene,
 }
@@ -226,8 +224,6 @@ impl Renderer {
         settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         Ok(Renderer {
-            width,
-            height,
             frame: Frame::new(exec, width, height, signal, lights, settings)?,
             gpu: GpuScene::default(),
         })
@@ -250,7 +246,7 @@ impl Renderer {
         f: &FrameGeometry,
         readback: Readback,
     ) -> Result<FrameOutput, E::Error> {
-        let (w, h) = (self.width, self.height);
+        let (w, h) = self.frame.denoiser().size();
         let planes = self.frame.layout().planes;
         self.gpu.upload(exec, f)?;
         let gpu = &self.gpu;

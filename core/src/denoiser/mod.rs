@@ -183,7 +183,7 @@ impl Denoiser {
         let sizes = buffers::denoiser_buffers(width, height, &settings);
         buffers::check_fit(width, height, &settings, exec.binding_limit())
             .map_err(DenoiserError::TooLarge)?;
-        let mut ids = [[BufferId(0); 2]; 22];
+        let mut ids = [[BufferId(0); 2]; buffers::DENOISER_BUFFERS];
         for (slot, b) in ids.iter_mut().zip(&sizes) {
             for id in &mut slot[..b.count as usize] {
                 *id = exec.create_buffer(b.bytes)?;
