@@ -11,6 +11,8 @@ use bytemuck::Pod;
 use common::executor;
 use vrrt_ash::ash::vk;
 use vrrt_ash::{AshError, AshExecutor, ExecError};
+use vrrt_core::camera::{Camera, View};
+use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::accumulate::AccumulateParams;
 use vrrt_core::kernels::atrous::AtrousParams;
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
@@ -258,6 +260,31 @@ fn surfaces(rng: &mut Rng) -> Vec<Surface> {
         .collect()
 }
 
+/// The view the à-trous inputs are seen through.
+fn view() -> View {
+    let camera = Camera::look_at(
+        Vec3::new(0.0, 0.0, -2.0),
+        Vec3::new(0.0, 0.0, 5.0),
+        Vec3::Y,
+        0.8,
+    );
+    View {
+        camera,
+        prev_camera: camera,
+    }
+}
+
+/// The depth and normal + roughness images of `surf`, as an engine writes them.
+fn packed(surf: &[Surface]) -> (Vec<f32>, Vec<u32>) {
+    surf.iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let t = s.pack(i as u32 % W, i as u32 / W, &view().prev_camera);
+            (t.depth, t.normal_roughness)
+        })
+        .unzip()
+}
+
 #[test]
 fn atrous_matches_cpu() {
     let Some(mut ex) = executor() else { return };
@@ -269,7 +296,8 @@ fn atrous_matches_cpu() {
             variance: rng.unit() * rng.unit(),
         })
         .collect();
-    let surf = surfaces(&mut rng);
+    let (depth, normal_roughness) = packed(&surfaces(&mut rng));
+    let v = view();
     let tiles = tile_levels();
     let out = vec![0u8; n * 8];
     for (i, step) in [1u32, 2, 4].into_iter().enumerate() {
@@ -280,9 +308,11 @@ fn atrous_matches_cpu() {
             iteration: i as u32,
             ..AtrousParams::default()
         };
-        let inputs: [&[u8]; 4] = [
+        let inputs: [&[u8]; 6] = [
             bytemuck::cast_slice(&input),
-            bytemuck::cast_slice(&surf),
+            bytemuck::cast_slice(&depth),
+            bytemuck::cast_slice(&normal_roughness),
+            bytemuck::bytes_of(&v),
             bytemuck::cast_slice(&tiles),
             &out,
         ];
@@ -294,7 +324,7 @@ fn atrous_matches_cpu() {
                 inputs: &inputs,
                 params: p,
                 grid: [W, H, PLANES],
-                out: 3,
+                out: 5,
                 out_len: n,
             },
         );
@@ -354,6 +384,8 @@ fn tile_levels() -> Vec<u32> {
 /// Five dependent à-trous passes (ping-pong) recorded without waits, the fourth launched
 /// indirectly, with a `write_buffer` in the middle of the stream. Returns the final buffer.
 fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> BufferId {
+    let (depth, normal_roughness) = packed(surf);
+    let v = view();
     let zeros = vec![0u8; std::mem::size_of_val(input)];
     let groups = [W.div_ceil(8), H.div_ceil(8), PLANES];
     let indirect: Vec<u32> = [7u32].into_iter().chain(groups).collect(); // counts at byte 4
@@ -361,11 +393,13 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
         ex,
         &[
             bytemuck::cast_slice(input),
-            bytemuck::cast_slice(surf),
+            bytemuck::cast_slice(&depth),
             &zeros,
             &zeros,
             bytemuck::cast_slice(&indirect),
             bytemuck::cast_slice(&tile_levels()),
+            bytemuck::cast_slice(&normal_roughness),
+            bytemuck::bytes_of(&v),
         ],
     );
     let (s, ind) = (b[1], b[4]);
@@ -379,7 +413,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
             ..AtrousParams::default()
         };
         let out = b[2 + i % 2];
-        let bufs = [prev, s, b[5], out];
+        let bufs = [prev, s, b[6], b[7], b[5], out];
         let mut pass = Pass::over_grid(
             &vrrt_core::kernels::ATROUS,
             &bufs,
@@ -396,11 +430,11 @@ fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> Buffe
         }
         ex.dispatch(&pass).unwrap();
         if i == 2 {
-            // Rows 3..6 of the surfaces replace rows 0..3 mid-stream: later passes must see it
+            // Rows 3..6 of the depth replace rows 0..3 mid-stream: later passes must see it
             // (and earlier ones must not).
             ex.write_buffer(
                 s,
-                bytemuck::cast_slice(&surf[W as usize * 3..W as usize * 6]),
+                bytemuck::cast_slice(&depth[W as usize * 3..W as usize * 6]),
             )
             .unwrap();
         }

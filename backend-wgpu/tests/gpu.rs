@@ -5,6 +5,8 @@
 //! `VRRT_REQUIRE_VULKAN=1`. Validation layers are always requested; every test asserts that the
 //! executor saw no validation error.
 
+use vrrt_core::camera::{Camera, View};
+use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{accumulate, atrous, buckets, classify};
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
@@ -285,7 +287,23 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
         })
         .collect();
     let input = b.buffer(bytemuck::cast_slice(&input));
-    let surfaces = b.buffer(bytemuck::cast_slice(&surfaces(&mut rng)));
+    // The G-buffer as an engine writes it, seen through a camera whose rays the positions follow.
+    let camera = Camera::from_basis(Vec3::ZERO, Vec3::X, -Vec3::Y, Vec3::Z, 0.6);
+    let view = View {
+        camera,
+        prev_camera: camera,
+    };
+    let (depth, normal_roughness): (Vec<f32>, Vec<u32>) = surfaces(&mut rng)
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let t = s.pack(i as u32 % W, i as u32 / W, &camera);
+            (t.depth, t.normal_roughness)
+        })
+        .unzip();
+    let depth = b.buffer(bytemuck::cast_slice(&depth));
+    let normal_roughness = b.buffer(bytemuck::cast_slice(&normal_roughness));
+    let view = b.buffer(bytemuck::bytes_of(&view));
     let tiles = b.buffer(bytemuck::cast_slice(&tile_levels()));
     let out = [
         b.buffer(&vec![0u8; n as usize * 8]),
@@ -300,7 +318,7 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
             ..Default::default()
         };
         let src = if i == 0 { input } else { out[0] };
-        let buffers = [src, surfaces, tiles, out[i]];
+        let buffers = [src, depth, normal_roughness, view, tiles, out[i]];
         b.dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ATROUS,
             &buffers,

@@ -16,7 +16,6 @@ use vrrt_core::payload::Sample;
 use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
-use vrrt_core::surface::Surface;
 
 /// An executor that runs nothing: buffers are only ids, and the [`Recorder`] around it counts
 /// each pass's bytes.
@@ -52,6 +51,9 @@ impl Executor for PlanOnly {
     }
     fn clear_timings(&mut self) {}
 }
+
+/// The buffers whose current copy the engine writes.
+const ENGINE_INPUTS: [&str; 3] = ["depth", "normal_roughness", "motion"];
 
 /// The memory report of a `size` frame of `signal` (called `label`) with `lights` lights, default
 /// settings at 1 ray per pixel.
@@ -114,18 +116,27 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
         }
     }
     let per_px = |b: u64| b as f64 / pixels;
-    out += &format!("\ndenoiser memory: {:.1} bytes/pixel\n", per_px(total));
+    // This frame's copy of each input is the engine's; last frame's depth and normal, the
+    // second copies, are the denoiser's.
+    let inputs: u64 = sizes
+        .iter()
+        .filter(|(name, ..)| ENGINE_INPUTS.contains(name))
+        .map(|(_, _, bytes)| bytes)
+        .sum();
     out += &format!(
-        "engine inputs: {:.1} bytes/pixel\n",
-        size_of::<Surface>() as f64
+        "\ndenoiser memory: {:.1} bytes/pixel\n",
+        per_px(total - inputs)
     );
+    out += &format!("engine inputs: {:.1} bytes/pixel\n", per_px(inputs));
     out += &format!(
         "bytes moved per frame: {:.1} bytes/pixel\n",
         per_px(denoiser)
     );
     out += &format!(
-        "\nengine inputs are the G-buffer texel the renderer writes (`Surface`); the noisy signal \
-         adds {} bytes/pixel per plane (`Sample`).\nbytes moved count the denoiser's passes \
+        "\nengine inputs are this frame's view depth, normal + roughness and motion (the README's \
+         input contract); the noisy signal adds {} bytes/pixel per plane (`Sample`, counted in \
+         the denoiser's `samples`). The built-in renderer keeps 16 bytes/pixel of its own beside \
+         them (geometric normal and instance of two frames).\nbytes moved count the denoiser's passes \
          (`Pass::bytes_moved`: each bound buffer once); the ray-tracing passes, which also read \
          the BVH, move {:.1} bytes/pixel more.\n",
         size_of::<Sample>(),
@@ -165,7 +176,8 @@ mod tests {
         }
         assert!(figure(&all, "denoiser memory:") > figure(&ao, "denoiser memory:"));
         assert!(figure(&all, "bytes moved per frame:") > figure(&ao, "bytes moved per frame:"));
-        assert!(ao.contains("| surfaces | 2 |"), "{ao}");
+        assert!(ao.contains("| depth | 2 |"), "{ao}");
+        assert_eq!(figure(&ao, "engine inputs:"), 16.0, "{ao}");
         assert!(all.contains("| reflection hits | 1 |"), "{all}");
     }
 }

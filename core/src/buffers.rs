@@ -2,13 +2,13 @@
 //! device is refused with the limit, the buffer and the largest size that fits — before any
 //! work starts — and so memory can be reported per buffer.
 
+use crate::camera::View;
 use crate::denoiser::grid_size;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::{apply, balance, buckets, classify, reflect};
 use crate::payload::{Filtered, Payload, Sample, COUNTERS_LEN};
 use crate::plan::BindingLimit;
 use crate::settings::Settings;
-use crate::surface::Surface;
 use core::fmt;
 use core::mem::size_of;
 
@@ -28,7 +28,7 @@ const fn size(name: &'static str, count: u32, bytes: u64) -> BufferSize {
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 22;
+pub const DENOISER_BUFFERS: usize = 25;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -47,7 +47,12 @@ pub fn denoiser_buffers(
     [
         size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4)),
         size("counters", 1, bytes(COUNTERS_LEN as u64, 4)),
-        size("surfaces", 2, bytes(pixels, size_of::<Surface>())),
+        // The engine's inputs; the second copy of depth and normal is last frame's, kept by the
+        // denoiser for reprojection.
+        size("depth", 2, bytes(pixels, 4)),
+        size("normal_roughness", 2, bytes(pixels, 4)),
+        size("motion", 1, bytes(pixels, 8)),
+        size("view", 1, size_of::<View>() as u64),
         size("history", 2, bytes(planes, size_of::<Payload>())),
         size("reprojected", 1, bytes(planes, size_of::<Payload>())),
         size("flags", 1, bytes(pixels, 4)),
@@ -172,9 +177,10 @@ mod tests {
     #[test]
     fn oversized_request_names_buffer_limit_and_what_fits() {
         let s = Settings::default();
-        assert_eq!(check_fit(1280, 720, &s, LAVAPIPE), Ok(()));
-        let e = check_fit(1920, 1080, &s, LAVAPIPE).unwrap_err();
-        assert_eq!(e.buffer, "surfaces");
+        assert_eq!(check_fit(1920, 1080, &s, LAVAPIPE), Ok(()));
+        assert_eq!(check_fit(3840, 2160, &s, LAVAPIPE), Ok(()));
+        let e = check_fit(7680, 4320, &s, LAVAPIPE).unwrap_err();
+        assert_eq!(e.buffer, "motion");
         assert!(e.bytes > LAVAPIPE.bytes);
         let (w, h) = e.fits.expect("something fits");
         assert!(check_fit(w, h, &s, LAVAPIPE).is_ok());
@@ -182,7 +188,7 @@ mod tests {
         assert!(check_fit(w + 2, h + 2, &s, LAVAPIPE).is_err());
         let msg = e.to_string();
         assert!(
-            msg.contains("maxStorageBufferRange") && msg.contains("`surfaces`"),
+            msg.contains("maxStorageBufferRange") && msg.contains("`motion`"),
             "{msg}"
         );
     }
@@ -191,8 +197,8 @@ mod tests {
     fn sizes_match_the_pixel_count() {
         let s = Settings::default();
         let b = denoiser_buffers(100, 50, &s);
-        let surfaces = b.iter().find(|b| b.name == "surfaces").unwrap();
-        assert_eq!(surfaces.bytes, 5000 * size_of::<Surface>() as u64);
-        assert_eq!(surfaces.count, 2);
+        let depth = b.iter().find(|b| b.name == "depth").unwrap();
+        assert_eq!(depth.bytes, 5000 * 4);
+        assert_eq!(depth.count, 2);
     }
 }

@@ -50,6 +50,17 @@ pub struct Camera {
     pub tan_half_fov_y: f32,
 }
 
+/// This frame's and last frame's camera: the one-element buffer every kernel that reconstructs
+/// positions from view depth binds (too large for push constants beside the other parameters).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct View {
+    /// This frame's camera.
+    pub camera: Camera,
+    /// Last frame's camera (the same as `camera` on a first frame or a cut).
+    pub prev_camera: Camera,
+}
+
 impl Camera {
     /// A camera at `origin` looking at `target`, with `world_up` fixing the roll and a vertical
     /// field of view in radians. `world_up` must not be parallel to the view direction.
@@ -130,6 +141,21 @@ impl Camera {
         }
     }
 
+    /// The world point at view depth `depth` seen through continuous pixel coordinates `(x, y)`
+    /// (centre convention of the module docs): `origin + depth·(forward + sx·right + sy·up)`, the
+    /// inverse of [`Camera::project_point`] and [`Camera::depth`]. How the denoiser reconstructs
+    /// positions from the engine's view depth.
+    #[inline]
+    pub fn unproject(&self, x: f32, y: f32, depth: f32, width: u32, height: u32) -> Vec3 {
+        let w = width as f32;
+        let h = height as f32;
+        let tan_y = self.tan_half_fov_y;
+        let tan_x = tan_y * (w / h);
+        let sx = (2.0 * (x + 0.5) / w - 1.0) * tan_x;
+        let sy = (1.0 - 2.0 * (y + 0.5) / h) * tan_y;
+        self.origin() + (self.forward() + self.right() * sx + self.up() * sy) * depth
+    }
+
     /// Linear view depth of `p`: its distance along `forward`.
     #[inline]
     pub fn depth(&self, p: Vec3) -> f32 {
@@ -192,6 +218,14 @@ mod tests {
                 (px - x as f32).abs() < 1e-3 && (py - y as f32).abs() < 1e-3,
                 "{px} {py}"
             );
+            let q = cam.unproject(
+                x as f32,
+                y as f32,
+                cam.depth(ray.origin + ray.dir * 7.5),
+                w,
+                h,
+            );
+            assert!((q - (ray.origin + ray.dir * 7.5)).length() < 1e-4, "{q}");
             let (dx, dy) = cam.project_direction(ray.dir, w, h);
             assert!((dx - x as f32).abs() < 1e-3 && (dy - y as f32).abs() < 1e-3);
         }

@@ -34,6 +34,7 @@ pub mod denoiser;
 pub mod frame;
 pub mod kernels;
 pub mod math;
+pub mod packing;
 pub mod payload;
 #[cfg(not(target_arch = "spirv"))]
 pub mod plan;

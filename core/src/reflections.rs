@@ -15,7 +15,7 @@
 
 use crate::camera::Camera;
 use crate::denoiser::Denoiser;
-use crate::frame::RaygenTarget;
+use crate::frame::{GBuffer, RaygenTarget};
 use crate::kernels;
 use crate::kernels::reflect::{self, RayHit, Shading};
 use crate::plan::{BufferId, Executor};
@@ -229,6 +229,7 @@ impl Reflections {
         &self,
         exec: &mut E,
         denoiser: &Denoiser,
+        gbuffer: &GBuffer,
         scene: &ReflectionScene,
     ) -> Result<(), E::Error> {
         let s = &self.settings;
@@ -247,7 +248,10 @@ impl Reflections {
         };
         let (tw, th) = reflect::tile_grid(w, h);
         let pass = kernels::ReflectTilesBindings {
-            surfaces: denoiser.surfaces(),
+            depth: gbuffer.inputs.depth,
+            normal_roughness: gbuffer.inputs.normal_roughness,
+            geometry: gbuffer.geometry,
+            view: gbuffer.view,
             nodes: scene.nodes,
             tris: scene.tris,
             lights: scene.lights,
@@ -270,9 +274,12 @@ impl Reflections {
             prev_camera: scene.prev_camera,
         };
         let pass = kernels::ReflectMotionBindings {
-            surfaces: denoiser.surfaces(),
+            depth: gbuffer.inputs.depth,
+            normal_roughness: gbuffer.inputs.normal_roughness,
+            motion: gbuffer.inputs.motion,
+            view: gbuffer.view,
             hits: self.hits,
-            motion: denoiser.parallax(),
+            parallax: denoiser.parallax(),
         };
         exec.dispatch(&pass.over_grid(&motion, w, h, 1))
     }
@@ -298,7 +305,10 @@ impl Reflections {
             work: target.work,
             args: target.args,
             rays: target.rays,
-            surfaces: target.surfaces,
+            depth: target.gbuffer.inputs.depth,
+            normal_roughness: target.gbuffer.inputs.normal_roughness,
+            geometry: target.gbuffer.geometry,
+            view: target.gbuffer.view,
             history: target.history,
             nodes: scene.nodes,
             tris: scene.tris,
@@ -315,6 +325,7 @@ impl Reflections {
         &self,
         exec: &mut E,
         denoiser: &Denoiser,
+        gbuffer: &GBuffer,
         scene: &ReflectionScene,
     ) -> Result<(), E::Error> {
         if self.settings.reuse_radius == 0 {
@@ -333,7 +344,10 @@ impl Reflections {
             shading: self.shading(scene),
         };
         let pass = kernels::ReflectReuseBindings {
-            surfaces: denoiser.surfaces(),
+            depth: gbuffer.inputs.depth,
+            normal_roughness: gbuffer.inputs.normal_roughness,
+            geometry: gbuffer.geometry,
+            view: gbuffer.view,
             hits: self.hits,
             samples: denoiser.samples(),
         };

@@ -1,13 +1,21 @@
-//! The G-buffer texel every pass reads, and the bilateral tests on it.
+//! The G-buffer texel as the kernels see it, rebuilt from the engine's packed inputs (view
+//! depth, normal + roughness, motion; see [`crate::packing`] and the README's input contract),
+//! and the bilateral tests on it.
+//!
+//! No buffer holds a `Surface`: each kernel reconstructs the texels it reads ([`Surface::at`]),
+//! positions from view depth through the camera, so the denoiser reads 16 bytes per pixel
+//! instead of 80 and any engine can feed it.
 
+use crate::camera::{Camera, View};
 use crate::math;
+use crate::packing;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 /// Instance id of a pixel that hit nothing (sky): no signal, no rays, skipped by the filters.
 pub const NO_INSTANCE: u32 = u32::MAX;
 
-/// One pixel of the G-buffer (80 bytes, scalars only so the layout is identical on every target).
+/// One pixel of the G-buffer, unpacked (a value in registers, never stored).
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Surface {
@@ -47,15 +55,181 @@ pub struct Surface {
     pub prev_py: f32,
     /// Previous world-space position, z.
     pub prev_pz: f32,
-    /// Reserved.
-    pub _pad0: f32,
-    /// Reserved.
-    pub _pad1: f32,
-    /// Reserved.
-    pub _pad2: f32,
+}
+
+/// Whether an engine's view depth marks a surface: positive and finite. Sky (no surface) is 0 or
+/// +∞; NaN counts as sky rather than poisoning the filters.
+#[inline]
+pub fn has_surface(depth: f32) -> bool {
+    depth > 0.0 && math::is_finite(depth)
+}
+
+/// [`Surface::at`] pixel `(x, y)` of the input buffers `depth` and `normal_roughness`.
+#[inline]
+pub fn load(
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    width: u32,
+    height: u32,
+    depth: &[f32],
+    normal_roughness: &[u32],
+) -> Surface {
+    let i = (y * width + x) as usize;
+    Surface::at(camera, x, y, width, height, depth[i], normal_roughness[i])
+}
+
+/// The engine's inputs at one pixel, packed as the buffers hold them.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Texel {
+    /// Linear view depth (0 for sky).
+    pub depth: f32,
+    /// [`packing::pack_normal_roughness`] of the shading normal and alpha.
+    pub normal_roughness: u32,
+    /// [`packing::pack_motion`]: pixel offset and view-depth change to last frame.
+    pub motion: [u32; 2],
+    /// The built-in renderer's [`packing::pack_hit`] (geometric normal, instance).
+    pub hit: [u32; 2],
 }
 
 impl Surface {
+    /// The surface seen at pixel `(x, y)` of a `width × height` image through `camera`, from its
+    /// view depth and packed normal + roughness. Not yet known, until [`Surface::with_motion`] /
+    /// [`Surface::with_hit`]: last frame's position (set to this one), the geometric normal (set
+    /// to the shading normal) and the instance (0, or [`NO_INSTANCE`] for sky).
+    #[inline]
+    #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices' elements, not structs.
+    pub fn at(
+        camera: &Camera,
+        x: u32,
+        y: u32,
+        width: u32,
+        height: u32,
+        depth: f32,
+        normal_roughness: u32,
+    ) -> Surface {
+        let (xf, yf) = (x as f32, y as f32);
+        if !has_surface(depth) {
+            return Surface {
+                instance: NO_INSTANCE,
+                roughness: 1.0,
+                prev_x: xf,
+                prev_y: yf,
+                ..Surface::default()
+            };
+        }
+        let p = camera.unproject(xf, yf, depth, width, height);
+        let (n, roughness) = packing::unpack_normal_roughness(normal_roughness);
+        Surface {
+            px: p.x,
+            py: p.y,
+            pz: p.z,
+            depth,
+            nx: n.x,
+            ny: n.y,
+            nz: n.z,
+            instance: 0,
+            gx: n.x,
+            gy: n.y,
+            gz: n.z,
+            roughness,
+            prev_x: xf,
+            prev_y: yf,
+            prev_px: p.x,
+            prev_py: p.y,
+            prev_pz: p.z,
+        }
+    }
+
+    /// [`Surface::at`] with this frame's camera of `view`, plus the pixel's motion.
+    #[inline]
+    #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices' elements, not structs.
+    pub fn current(
+        view: &View,
+        x: u32,
+        y: u32,
+        width: u32,
+        height: u32,
+        depth: f32,
+        normal_roughness: u32,
+        motion: [u32; 2],
+    ) -> Surface {
+        Surface::at(&view.camera, x, y, width, height, depth, normal_roughness).with_motion(
+            motion,
+            &view.prev_camera,
+            width,
+            height,
+        )
+    }
+
+    /// This surface with last frame's pixel and position from packed 2.5D `motion`, through last
+    /// frame's camera.
+    #[inline]
+    pub fn with_motion(
+        self,
+        motion: [u32; 2],
+        prev_camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> Surface {
+        let m = packing::unpack_motion(motion);
+        let (prev_x, prev_y) = (self.prev_x + m.x, self.prev_y + m.y);
+        if !self.is_valid() {
+            return Surface {
+                prev_x,
+                prev_y,
+                ..self
+            };
+        }
+        let q = prev_camera.unproject(prev_x, prev_y, self.depth + m.z, width, height);
+        Surface {
+            prev_x,
+            prev_y,
+            prev_px: q.x,
+            prev_py: q.y,
+            prev_pz: q.z,
+            ..self
+        }
+    }
+
+    /// This surface with the built-in renderer's hit data: geometric normal and instance.
+    #[inline]
+    pub fn with_hit(self, hit: [u32; 2]) -> Surface {
+        if !self.is_valid() {
+            return self;
+        }
+        let (g, instance) = packing::unpack_hit(hit);
+        Surface {
+            gx: g.x,
+            gy: g.y,
+            gz: g.z,
+            instance,
+            ..self
+        }
+    }
+
+    /// The packed inputs of this surface at pixel `(x, y)`, with last frame's depth taken through
+    /// `prev_camera`: what the G-buffer pass writes, and what tests feed the kernels.
+    #[inline]
+    pub fn pack(&self, x: u32, y: u32, prev_camera: &Camera) -> Texel {
+        let (dx, dy) = (self.prev_x - x as f32, self.prev_y - y as f32);
+        if !self.is_valid() {
+            return Texel {
+                depth: 0.0,
+                normal_roughness: 0,
+                motion: packing::pack_motion(dx, dy, 0.0),
+                hit: [0, NO_INSTANCE],
+            };
+        }
+        let dz = prev_camera.depth(self.prev_position()) - self.depth;
+        Texel {
+            depth: self.depth,
+            normal_roughness: packing::pack_normal_roughness(self.normal(), self.roughness),
+            motion: packing::pack_motion(dx, dy, dz),
+            hit: packing::pack_hit(self.geometric_normal(), self.instance),
+        }
+    }
+
     /// World-space position.
     #[inline]
     pub fn position(&self) -> Vec3 {

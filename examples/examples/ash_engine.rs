@@ -59,35 +59,53 @@ fn run(app: &App) -> Result<(), Error> {
     let mut d = Denoiser::new(&mut ex, WIDTH, HEIGHT, settings()).map_err(|e| e.to_string())?;
 
     // The application's host-visible buffers: G-buffer and samples it uploads, the image it reads.
-    let gbuffer_bytes = std::mem::size_of_val(gbuffer(0).as_slice()) as u64;
+    let gbuffer_bytes: Vec<u64> = gbuffer(0)
+        .uploads(d.inputs())
+        .iter()
+        .map(|(_, b)| b.len() as u64)
+        .collect();
     let samples_bytes = std::mem::size_of_val(trace(0, &[0; PIXELS]).as_slice()) as u64;
     let output_bytes = (PIXELS * size_of::<Filtered>()) as u64;
     let src = vk::BufferUsageFlags::TRANSFER_SRC;
-    let staging_gbuffer = app.host_buffer(gbuffer_bytes, src)?;
+    let staging_gbuffer = gbuffer_bytes
+        .iter()
+        .map(|&bytes| app.host_buffer(bytes, src))
+        .collect::<Result<Vec<_>, _>>()?;
     let staging_samples = app.host_buffer(samples_bytes, src)?;
     let readback = app.host_buffer(output_bytes, vk::BufferUsageFlags::TRANSFER_DST)?;
 
     let reference = cpu_frames();
     let mut worst = 0.0f32;
     for (frame, want) in (0..FRAMES).zip(&reference) {
-        d.begin_frame(frame_info(frame));
-        let surfaces = ex.raw_buffer(d.surfaces())?;
+        d.begin_frame(&mut ex, frame_info(frame))?;
+        let images = gbuffer(frame);
+        let uploads = images.uploads(d.inputs());
+        let inputs = uploads
+            .iter()
+            .map(|(id, _)| ex.raw_buffer(*id))
+            .collect::<Result<Vec<_>, _>>()?;
         let samples = ex.raw_buffer(d.samples())?;
 
         // Command buffer 1: the application's G-buffer (a copy here, a raster or compute pass in
         // an engine), then reprojection, requests and load balancing.
-        unsafe { staging_gbuffer.write(bytemuck::cast_slice(&gbuffer(frame))) };
+        for ((_, bytes), staging) in uploads.iter().zip(&staging_gbuffer) {
+            unsafe { staging.write(bytes) };
+        }
         let plan = capture(&mut ex, |e| d.plan_rays(e))?;
         unsafe {
             app.submit(
                 &mut ex,
                 &plan.get(),
                 |cmd| {
-                    // BARRIER (write-after-read): earlier denoiser passes read this G-buffer buffer.
-                    app.barrier(cmd, surfaces, COMPUTE, TRANSFER_WRITE);
-                    app.copy(cmd, staging_gbuffer.buffer, surfaces, gbuffer_bytes);
-                    // BARRIER (read-after-write): the passes read what the copy wrote.
-                    app.barrier(cmd, surfaces, TRANSFER_WRITE, COMPUTE);
+                    for ((&dst, staging), &bytes) in
+                        inputs.iter().zip(&staging_gbuffer).zip(&gbuffer_bytes)
+                    {
+                        // BARRIER (write-after-read): earlier denoiser passes read this input.
+                        app.barrier(cmd, dst, COMPUTE, TRANSFER_WRITE);
+                        app.copy(cmd, staging.buffer, dst, bytes);
+                        // BARRIER (read-after-write): the passes read what the copy wrote.
+                        app.barrier(cmd, dst, TRANSFER_WRITE, COMPUTE);
+                    }
                 },
                 |_| {},
             )
@@ -141,7 +159,10 @@ fn run(app: &App) -> Result<(), Error> {
         worst = worst.max(err);
     }
     drop(ex);
-    for b in [staging_gbuffer, staging_samples, readback] {
+    for b in staging_gbuffer
+        .into_iter()
+        .chain([staging_samples, readback])
+    {
         unsafe { b.destroy(&app.device) };
     }
     let errors = VALIDATION_ERRORS.load(Ordering::Relaxed);

@@ -20,9 +20,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Denoiser::new(&mut cpu, WIDTH, HEIGHT, settings()).map_err(|e| e.to_string())?;
     let (mut raw_error, mut denoised_error) = (0.0, 0.0);
     for frame in 0..FRAMES {
-        // 1. This frame's G-buffer (the application's `&[Surface]`).
-        denoiser.begin_frame(frame_info(frame));
-        cpu.write_buffer(denoiser.surfaces(), bytemuck::cast_slice(&gbuffer(frame)))?;
+        // 1. This frame's cameras and G-buffer (the application's depth, normal + roughness and
+        //    motion images).
+        denoiser.begin_frame(&mut cpu, frame_info(frame))?;
+        for (id, bytes) in gbuffer(frame).uploads(denoiser.inputs()) {
+            cpu.write_buffer(id, bytes)?;
+        }
         // 2. Where the rays go: `rays[i]` rays at pixel `i` this frame.
         denoiser.plan_rays(&mut cpu)?;
         let rays: Vec<u32> = read(&mut cpu, denoiser.rays(), PIXELS)?;

@@ -64,10 +64,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reference = cpu_frames();
     let mut worst = 0.0f32;
     for (frame, want) in (0..FRAMES).zip(&reference) {
-        d.begin_frame(frame_info(frame));
-        // The application's G-buffer pass writes the denoiser's G-buffer buffer (here an upload).
-        let surfaces = buffer(&gpu, d.surfaces());
-        queue.write_buffer(&surfaces, 0, bytemuck::cast_slice(&gbuffer(frame)));
+        d.begin_frame(&mut gpu, frame_info(frame))?;
+        // The application's G-buffer pass writes the denoiser's input buffers (here uploads).
+        for (id, bytes) in gbuffer(frame).uploads(d.inputs()) {
+            queue.write_buffer(&buffer(&gpu, id), 0, bytes);
+        }
 
         // Reprojection, requests and load balancing, recorded into the application's encoder.
         let plan = capture(&mut gpu, |e| d.plan_rays(e))?;

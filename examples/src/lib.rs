@@ -5,18 +5,21 @@
 //! ambient-occlusion "ray tracer" whose rays return 0 or 1 with a known probability per pixel.
 //!
 //! A frame with the denoiser is always the same four steps:
-//! 1. [`Denoiser::begin_frame`], then write this frame's G-buffer into [`Denoiser::surfaces`];
+//! 1. [`Denoiser::begin_frame`] with the cameras, then write this frame's G-buffer into
+//!    [`Denoiser::inputs`] (depth, normal + roughness, motion);
 //! 2. [`Denoiser::plan_rays`]: afterwards [`Denoiser::rays`] says how many rays each pixel traces
 //!    *this* frame (more where history was lost, fewer where it converged, within the budget);
 //! 3. trace them and write the noisy [`Sample`]s into [`Denoiser::samples`];
 //! 4. [`Denoiser::resolve`]: the denoised signal is in [`Denoiser::output`].
 
-use vrrt_core::denoiser::{Denoiser, FrameInfo};
+use vrrt_core::camera::{Camera, View};
+use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
+use vrrt_core::glam::Vec3;
+use vrrt_core::packing;
 use vrrt_core::payload::Filtered;
 use vrrt_core::payload::Sample;
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::settings::Settings;
-use vrrt_core::surface::Surface;
 use vrrt_cpu::CpuExecutor;
 
 /// Image width of the examples.
@@ -33,8 +36,10 @@ const BOX_X: u32 = 12;
 const BOX_W: u32 = 24;
 const BOX_ROWS: std::ops::Range<u32> = 12..36;
 const BOX_SPEED: u32 = 2;
-/// Angle of one pixel for a 60° vertical field of view.
-const PIXEL_ANGLE: f32 = 2.0 * 0.577_350_3 / HEIGHT as f32;
+/// `tan(30°)`: a 60° vertical field of view.
+const TAN_HALF_FOV: f32 = 0.577_350_3;
+/// Angle of one pixel.
+const PIXEL_ANGLE: f32 = 2.0 * TAN_HALF_FOV / HEIGHT as f32;
 
 /// Denoiser settings of the examples: the defaults (full VRRT, 1 ray per pixel), one AO plane.
 pub fn settings() -> Settings {
@@ -51,6 +56,10 @@ pub fn frame_info(index: u32) -> FrameInfo {
         reset: index == 0,
         pixel_angle: PIXEL_ANGLE,
         moved: index > 0,
+        view: View {
+            camera: camera(),
+            prev_camera: camera(),
+        },
         ..FrameInfo::default()
     }
 }
@@ -60,48 +69,58 @@ fn in_box(x: u32, y: u32, frame: u32) -> bool {
     (left..left + BOX_W).contains(&x) && BOX_ROWS.contains(&y)
 }
 
-/// World position of pixel `(x, y)` at view depth `depth` (camera at the origin looking down +z).
-fn world(x: f32, y: f32, depth: f32) -> [f32; 3] {
-    let s = depth * PIXEL_ANGLE;
-    [
-        (x - WIDTH as f32 / 2.0) * s,
-        (y - HEIGHT as f32 / 2.0) * s,
-        depth,
-    ]
+/// The application's camera: at the origin looking down +z, 60° vertical field of view.
+pub fn camera() -> Camera {
+    Camera::from_basis(Vec3::ZERO, Vec3::X, -Vec3::Y, Vec3::Z, TAN_HALF_FOV)
 }
 
-/// The G-buffer of frame `frame`: what an engine's G-buffer pass writes, with motion vectors
-/// (`prev_x`, `prev_y`) and previous world positions for the moving box.
-pub fn gbuffer(frame: u32) -> Vec<Surface> {
-    let mut out = Vec::with_capacity(PIXELS);
+/// One frame of the application's G-buffer in the formats an engine writes and the denoiser
+/// reads (the README's input contract), one image per input buffer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GBufferImages {
+    /// Linear view depth.
+    pub depth: Vec<f32>,
+    /// `packing::pack_normal_roughness` of the shading normal and GGX alpha.
+    pub normal_roughness: Vec<u32>,
+    /// `packing::pack_motion`: pixels to last frame's position, view-depth change.
+    pub motion: Vec<[u32; 2]>,
+}
+
+impl GBufferImages {
+    /// Each image's bytes with the denoiser buffer it goes to.
+    pub fn uploads(&self, inputs: Inputs) -> [(BufferId, &[u8]); 3] {
+        [
+            (inputs.depth, bytemuck::cast_slice(&self.depth)),
+            (
+                inputs.normal_roughness,
+                bytemuck::cast_slice(&self.normal_roughness),
+            ),
+            (inputs.motion, bytemuck::cast_slice(&self.motion)),
+        ]
+    }
+}
+
+/// The G-buffer of frame `frame`: a wall at depth 10 and the box at depth 5, both facing the
+/// camera; the box moves `BOX_SPEED` pixels right per frame, so its motion points left.
+pub fn gbuffer(frame: u32) -> GBufferImages {
+    let facing = packing::pack_normal_roughness(-Vec3::Z, 1.0);
+    let mut g = GBufferImages {
+        depth: Vec::with_capacity(PIXELS),
+        normal_roughness: vec![facing; PIXELS],
+        motion: Vec::with_capacity(PIXELS),
+    };
     for y in 0..HEIGHT {
         for x in 0..WIDTH {
-            let (depth, instance, shift) = if in_box(x, y, frame) {
-                (5.0, 1, BOX_SPEED as f32)
+            let (depth, shift) = if in_box(x, y, frame) {
+                (5.0, BOX_SPEED as f32)
             } else {
-                (10.0, 0, 0.0)
+                (10.0, 0.0)
             };
-            let [px, py, pz] = world(x as f32, y as f32, depth);
-            let [prev_px, prev_py, prev_pz] = world(x as f32 - shift, y as f32, depth);
-            out.push(Surface {
-                px,
-                py,
-                pz,
-                depth,
-                nz: -1.0,
-                instance,
-                gz: -1.0,
-                roughness: 1.0,
-                prev_x: x as f32 - shift,
-                prev_y: y as f32,
-                prev_px,
-                prev_py,
-                prev_pz,
-                ..Surface::default()
-            });
+            g.depth.push(depth);
+            g.motion.push(packing::pack_motion(-shift, 0.0, 0.0));
         }
     }
-    out
+    g
 }
 
 /// The converged AO of frame `frame`: a ramp on the wall, a constant on the box.
@@ -183,9 +202,11 @@ pub fn cpu_frames() -> Vec<FrameResult> {
     let mut d = Denoiser::new(cpu, WIDTH, HEIGHT, settings()).expect("valid settings");
     (0..FRAMES)
         .map(|frame| {
-            d.begin_frame(frame_info(frame));
             let run = |cpu: &mut CpuExecutor, d: &mut Denoiser| {
-                cpu.write_buffer(d.surfaces(), bytemuck::cast_slice(&gbuffer(frame)))?;
+                d.begin_frame(cpu, frame_info(frame))?;
+                for (id, bytes) in gbuffer(frame).uploads(d.inputs()) {
+                    cpu.write_buffer(id, bytes)?;
+                }
                 d.plan_rays(cpu)?;
                 let rays = read::<u32, _>(cpu, d.rays(), PIXELS)?;
                 cpu.write_buffer(d.samples(), bytemuck::cast_slice(&trace(frame, &rays)))?;

@@ -4,8 +4,9 @@
 
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
+use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
-use vrrt_core::frame::{trace_planes, Frame, FrameScene, RaygenTarget};
+use vrrt_core::frame::{trace_planes, Frame, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
 use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::balance::Balance;
@@ -16,7 +17,6 @@ use vrrt_core::payload::{Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
-use vrrt_core::surface::Surface;
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -123,14 +123,15 @@ impl GpuScene {
         }
     }
 
-    /// Records the G-buffer pass into `surfaces`.
+    /// Records the G-buffer pass into `target` (its view is the denoiser's, or written by the
+    /// caller).
     pub fn gbuffer<E: Executor>(
         &self,
         exec: &mut E,
         f: &FrameGeometry,
         width: u32,
         height: u32,
-        surfaces: BufferId,
+        target: GBuffer,
     ) -> Result<(), E::Error> {
         let [nodes, tris, normals, instances, _] = self.ids();
         let p = f.gbuffer_params(width, height);
@@ -139,7 +140,10 @@ impl GpuScene {
             tris,
             normals,
             instances,
-            out: surfaces,
+            depth: target.inputs.depth,
+            normal_roughness: target.inputs.normal_roughness,
+            motion: target.inputs.motion,
+            geometry: target.geometry,
         };
         exec.dispatch(&pass.over_grid(&p, width, height, 1))
     }
@@ -252,8 +256,8 @@ impl Renderer {
         let gpu = &self.gpu;
         let report = self
             .frame
-            .render(exec, &gpu.frame_scene(f), |exec, surfaces| {
-                gpu.gbuffer(exec, f, w, h, surfaces)
+            .render(exec, &gpu.frame_scene(f), |exec, target| {
+                gpu.gbuffer(exec, f, w, h, target)
             })?;
         if report.absent {
             return Ok(FrameOutput {
@@ -351,8 +355,13 @@ pub fn reference<E: Executor>(
     let n = pixels * planes as usize;
     let mut gpu = GpuScene::default();
     gpu.upload(exec, f)?;
-    let surfaces = exec.create_buffer((pixels * std::mem::size_of::<Surface>()) as u64)?;
-    gpu.gbuffer(exec, f, width, height, surfaces)?;
+    let gbuffer = GBuffer::create(exec, width, height)?;
+    let view = View {
+        camera: f.camera,
+        prev_camera: f.prev_camera,
+    };
+    exec.write_buffer(gbuffer.view, bytemuck::bytes_of(&view))?;
+    gpu.gbuffer(exec, f, width, height, gbuffer)?;
     let work_ids: Vec<u32> = (0..pixels as u32).collect();
     let work = exec.create_buffer(pixels as u64 * 4)?;
     exec.write_buffer(work, bytes(&work_ids))?;
@@ -388,7 +397,7 @@ pub fn reference<E: Executor>(
             work,
             args,
             rays,
-            surfaces,
+            gbuffer,
             history,
             out,
             frame: 0,

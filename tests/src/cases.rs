@@ -2,6 +2,7 @@
 //! tiny magnitudes, negatives, sky pixels, and image sizes that are not multiples of the
 //! workgroup size.
 
+use crate::inputs::{self, Images};
 use crate::{BufferSpec, Case, Word};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
@@ -126,13 +127,6 @@ const PAYLOAD: &[Word] = &[Word::F32, Word::F32, Word::F32, Word::U32];
 const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
 const FLOATS: &[Word] = &[Word::F32];
 const INTS: &[Word] = &[Word::U32];
-/// `Surface`: all floats but `instance` (word 7).
-#[rustfmt::skip]
-const SURFACE: &[Word] = &[
-    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::U32,
-    Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32, Word::F32,
-    Word::F32, Word::F32, Word::F32, Word::F32,
-];
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
@@ -203,10 +197,8 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             variance: value(rng).abs(),
         })
         .collect();
-    let surfaces: Vec<Surface> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| surface(rng, x, y))
-        .collect();
+    let view = inputs::test_view();
+    let g = Images::pack(&surfaces(rng, w, h), w, &view);
     let iteration = rng.random_range(0..5);
     let params = atrous::AtrousParams {
         width: w,
@@ -223,7 +215,9 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
             BufferSpec::from_pod(&input, FLOATS),
-            BufferSpec::from_pod(&surfaces, SURFACE),
+            g.depth(),
+            g.normal_roughness(),
+            inputs::view(&view),
             BufferSpec::from_pod(&tiles, INTS),
             BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
         ],
@@ -244,10 +238,7 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             },
         })
         .collect();
-    let surfaces: Vec<Surface> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| surface(rng, x, y))
-        .collect();
+    let g = Images::pack(&surfaces(rng, w, h), w, &inputs::test_view());
     let params = classify::ClassifyParams {
         width: w,
         height: h,
@@ -264,7 +255,7 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ),
         kernel: &vrrt_core::kernels::CLASSIFY,
         buffers: vec![
-            BufferSpec::from_pod(&surfaces, SURFACE),
+            g.depth(),
             BufferSpec::from_pod(&filtered, FLOATS),
             BufferSpec::from_pod(&vec![7u32; (tw * th) as usize], INTS),
             BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
@@ -313,10 +304,25 @@ fn history(rng: &mut Pcg32, n: usize) -> Vec<Payload> {
         .collect()
 }
 
+/// A random G-buffer whose positions lie on the test camera's rays ([`inputs::test_view`]), so
+/// positions reconstructed from depth match the surfaces'.
 fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
+    let camera = inputs::test_view().camera;
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| surface(rng, x, y))
+        .map(|(x, y)| {
+            let s = surface(rng, x, y);
+            let p = camera.unproject(x as f32, y as f32, s.depth, w, h);
+            Surface {
+                px: p.x,
+                py: p.y,
+                pz: p.z,
+                prev_px: p.x,
+                prev_py: p.y,
+                prev_pz: p.z,
+                ..s
+            }
+        })
         .collect()
 }
 
@@ -383,12 +389,21 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             luminance: [0.0, 0.5, 1.0][rng.random_range(0..3)],
         })
         .collect();
+    let view = inputs::test_view();
+    let (cur, prev) = (
+        Images::pack(&current, w, &view),
+        Images::pack(&previous, w, &view),
+    );
     Case {
         name: format!("reproject {w}x{h}x{PLANES} reset {}", params.reset),
         kernel: &vrrt_core::kernels::REPROJECT,
         buffers: vec![
-            BufferSpec::from_pod(&current, SURFACE),
-            BufferSpec::from_pod(&previous, SURFACE),
+            cur.depth(),
+            cur.normal_roughness(),
+            cur.motion(),
+            prev.depth(),
+            prev.normal_roughness(),
+            inputs::view(&view),
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
             BufferSpec::from_pod(&mask, INTS),
             BufferSpec::from_pod(&gradient, FLOATS),
@@ -410,12 +425,16 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         ..Default::default()
     };
+    let view = inputs::test_view();
+    let g = Images::pack(&surfaces(rng, w, h), w, &view);
     Case {
         name: format!("variance {w}x{h}x{PLANES}"),
         kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![
             BufferSpec::from_pod(&history(rng, n), PAYLOAD),
-            BufferSpec::from_pod(&surfaces(rng, w, h), SURFACE),
+            g.depth(),
+            g.normal_roughness(),
+            inputs::view(&view),
             BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),

@@ -3,7 +3,8 @@
 //! samples move, get occluded and change value), and the à-trous reconstruction on hostile values.
 
 use crate::cases::{value, PLANES};
-use crate::trace_cases::surfaces;
+use crate::inputs;
+use crate::trace_cases::{frame_view, images};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -22,10 +23,6 @@ const PAYLOAD: &[Word] = &[F, F, F, U];
 const SAMPLE: &[Word] = &[F, F, U, F];
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
-#[rustfmt::skip]
-const SURFACE: &[Word] = &[
-    F, F, F, F, F, F, F, U, F, F, F, F, F, F, F, F, F, F, F, F,
-];
 
 /// Two consecutive frames of the room (`prev`, `cur`), a random stratum size and the grid.
 struct Pair {
@@ -70,6 +67,7 @@ pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         plane_threshold: 0.02,
         camera: p.cur.camera,
     };
+    let (prev, cur) = (images(&p.prev, w, h), images(&p.cur, w, h));
     Case {
         name: format!(
             "gradient_project {w}x{h} S{} frame {}",
@@ -77,8 +75,13 @@ pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ),
         kernel: &vrrt_core::kernels::GRADIENT_PROJECT,
         buffers: vec![
-            BufferSpec::from_pod(&surfaces(&p.prev, w, h), SURFACE),
-            BufferSpec::from_pod(&surfaces(&p.cur, w, h), SURFACE),
+            prev.depth(),
+            prev.normal_roughness(),
+            prev.geometry(),
+            cur.depth(),
+            cur.normal_roughness(),
+            cur.geometry(),
+            inputs::view(&frame_view(&p.cur)),
             BufferSpec::from_pod(&rays, INTS),
             BufferSpec::from_pod(&next_maps(&p.cur), FLOATS),
             BufferSpec::from_pod(&vec![EMPTY_KEY; (gw * gh) as usize], INTS),
@@ -123,9 +126,13 @@ fn retrace_inputs(rng: &mut Pcg32, p: &Pair, w: u32, h: u32) -> (Vec<BufferSpec>
             first: rng.random_range(0..2) as f32,
         })
         .collect();
+    let prev = images(&p.prev, w, h);
     let buffers = vec![
         BufferSpec::from_pod(&keys, INTS),
-        BufferSpec::from_pod(&surfaces(&p.prev, w, h), SURFACE),
+        prev.depth(),
+        prev.normal_roughness(),
+        prev.geometry(),
+        inputs::view(&frame_view(&p.cur)),
         BufferSpec::from_pod(&next_maps(&p.cur), FLOATS),
         BufferSpec::from_pod(&payload, PAYLOAD),
         BufferSpec::from_pod(&samples, SAMPLE),

@@ -11,6 +11,7 @@
 
 pub mod cases;
 pub mod gradient_cases;
+pub mod inputs;
 pub mod reflect_cases;
 pub mod spirv;
 pub mod trace_cases;

@@ -2,8 +2,9 @@
 //! roughness of each pixel redrawn so mirrors, glossy and too-rough surfaces sit side by side, and
 //! ray records mixing this frame's, stale and empty ones.
 
-use crate::trace_cases::{geometry_buffers, room_frame, surfaces, WorkList, PAYLOAD, SAMPLE};
-use crate::trace_cases::{FLOATS, SURFACE};
+use crate::inputs::{self, Images};
+use crate::trace_cases::{frame_view, geometry_buffers, room_frame, surfaces, WorkList};
+use crate::trace_cases::{FLOATS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -26,6 +27,19 @@ fn glossy_surfaces(rng: &mut Pcg32, frame: &FrameGeometry, w: u32, h: u32) -> Ve
         t.roughness = [0.0, 0.02, 0.15, 0.3, 0.5, 0.8, 1.0][rng.random_range(0..7)];
     }
     s
+}
+
+/// The packed G-buffer of `surfaces` of `frame` and its buffers as the ray-generation kernels
+/// bind them (depth, normal + roughness, geometry, view).
+fn packed(surfaces: &[Surface], frame: &FrameGeometry, w: u32) -> (Images, [BufferSpec; 4]) {
+    let g = Images::pack(surfaces, w, &frame_view(frame));
+    let specs = [
+        g.depth(),
+        g.normal_roughness(),
+        g.geometry(),
+        inputs::view(&frame_view(frame)),
+    ];
+    (g, specs)
 }
 
 fn shading(rng: &mut Pcg32, frame: &FrameGeometry) -> Shading {
@@ -100,6 +114,8 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         shading: shading(rng, &frame),
     };
     let [work, args, rays] = list.buffers();
+    let (_, [depth, normal_roughness, geometry, view]) =
+        packed(&glossy_surfaces(rng, &frame, w, h), &frame, w);
     Case {
         name: format!(
             "raygen_reflect {w}x{h} plane {} frame {} list {}",
@@ -110,7 +126,10 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             work,
             args,
             rays,
-            BufferSpec::from_pod(&glossy_surfaces(rng, &frame, w, h), SURFACE),
+            depth,
+            normal_roughness,
+            geometry,
+            view,
             BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,
@@ -141,16 +160,18 @@ pub fn tiles_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         shading: shading(rng, &frame),
     };
     let (tw, th) = reflect::tile_grid(w, h);
+    let (_, gbuffer) = packed(&glossy_surfaces(rng, &frame, w, h), &frame, w);
+    let mut buffers = gbuffer.to_vec();
+    buffers.extend([
+        nodes,
+        tris,
+        BufferSpec::from_pod(&lights, FLOATS),
+        BufferSpec::from_pod(&vec![0.0f32; (tw * th) as usize], FLOATS),
+    ]);
     Case {
         name: format!("reflect_tiles {w}x{h} frame {}", frame.index),
         kernel: &vrrt_core::kernels::REFLECT_TILES,
-        buffers: vec![
-            BufferSpec::from_pod(&glossy_surfaces(rng, &frame, w, h), SURFACE),
-            nodes,
-            tris,
-            BufferSpec::from_pod(&lights, FLOATS),
-            BufferSpec::from_pod(&vec![0.0f32; (tw * th) as usize], FLOATS),
-        ],
+        buffers,
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_TILES, tw, th, 1),
     }
@@ -173,11 +194,15 @@ pub fn motion_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         max_roughness: [0.3, 0.5, 1.0][rng.random_range(0..3)],
         prev_camera: frame.prev_camera,
     };
+    let (g, [_, _, _, view]) = packed(&surfaces, &frame, w);
     Case {
         name: format!("reflect_motion {w}x{h} frame {}", frame.index),
         kernel: &vrrt_core::kernels::REFLECT_MOTION,
         buffers: vec![
-            BufferSpec::from_pod(&surfaces, SURFACE),
+            g.depth(),
+            g.normal_roughness(),
+            g.motion(),
+            view,
             BufferSpec::from_pod(&hits(rng, &surfaces, stamp), HIT),
             BufferSpec::from_pod(&vec![[0.0f32; 2]; (w * h) as usize], FLOATS),
         ],
@@ -213,6 +238,7 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         _pad: [0; 2],
         shading: shading(rng, &frame),
     };
+    let (_, [depth, normal_roughness, geometry, view]) = packed(&surfaces, &frame, w);
     Case {
         name: format!(
             "reflect_reuse {w}x{h} plane {} radius {}",
@@ -220,7 +246,10 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ),
         kernel: &vrrt_core::kernels::REFLECT_REUSE,
         buffers: vec![
-            BufferSpec::from_pod(&surfaces, SURFACE),
+            depth,
+            normal_roughness,
+            geometry,
+            view,
             BufferSpec::from_pod(&hits(rng, &surfaces, stamp), HIT),
             BufferSpec::from_pod(&samples, SAMPLE),
         ],

@@ -2,9 +2,11 @@
 //! a random frame of the built-in animated `room` (moving objects, thin railing, sky), so rays hit
 //! edges, thin poles and nothing at all.
 
+use crate::inputs::{self, Images};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
+use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
@@ -21,11 +23,6 @@ const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
 pub(crate) const FLOATS: &[Word] = &[F];
 const INTS: &[Word] = &[U];
 pub(crate) const SAMPLE: &[Word] = &[F, F, U, U];
-/// `Surface`: all floats but `instance` (word 7).
-#[rustfmt::skip]
-pub(crate) const SURFACE: &[Word] = &[
-    F, F, F, F, F, F, F, U, F, F, F, F, F, F, F, F, F, F, F, F,
-];
 
 /// A random frame of the animated room.
 pub fn room_frame(rng: &mut Pcg32) -> FrameGeometry {
@@ -51,6 +48,30 @@ pub fn surfaces(frame: &FrameGeometry, w: u32, h: u32) -> Vec<Surface> {
             )
         })
         .collect()
+}
+
+/// The cameras of `frame`.
+pub fn frame_view(frame: &FrameGeometry) -> View {
+    View {
+        camera: frame.camera,
+        prev_camera: frame.prev_camera,
+    }
+}
+
+/// The packed G-buffer of `frame` at `w × h` (its `surfaces`).
+pub fn images(frame: &FrameGeometry, w: u32, h: u32) -> Images {
+    Images::pack(&surfaces(frame, w, h), w, &frame_view(frame))
+}
+
+/// What the renderer's ray generation binds of a G-buffer: depth, normal + roughness, the
+/// renderer's geometry, and the view.
+pub(crate) fn raygen_inputs(g: &Images, frame: &FrameGeometry) -> [BufferSpec; 4] {
+    [
+        g.depth(),
+        g.normal_roughness(),
+        g.geometry(),
+        inputs::view(&frame_view(frame)),
+    ]
 }
 
 pub(crate) fn groups(
@@ -83,7 +104,10 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             tris,
             BufferSpec::from_pod(&frame.geometry.normals, FLOATS),
             BufferSpec::from_pod(&frame.instances, FLOATS),
-            BufferSpec::from_pod(&vec![Surface::default(); (w * h) as usize], SURFACE),
+            BufferSpec::from_pod(&vec![0f32; (w * h) as usize], FLOATS),
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
+            BufferSpec::from_pod(&vec![[0u32; 2]; (w * h) as usize], &[U, U]),
+            BufferSpec::from_pod(&vec![[0u32; 2]; (w * h) as usize], &[U, U]),
         ],
         params: bytemuck::bytes_of(&frame.gbuffer_params(w, h)).to_vec(),
         groups: groups(&vrrt_core::kernels::GBUFFER, w, h, 1),
@@ -162,6 +186,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         max_distance: rng.random_range(0.2..4.0),
     };
     let [work, args, rays] = list.buffers();
+    let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
             "raygen_ao {w}x{h}x{planes} frame {} list {}",
@@ -172,7 +197,10 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             work,
             args,
             rays,
-            BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
+            depth,
+            normal_roughness,
+            geometry,
+            view,
             BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,
@@ -207,6 +235,7 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         first_plane,
     };
     let [work, args, rays] = list.buffers();
+    let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
             "raygen_shadow {w}x{h}x{planes} frame {} list {}",
@@ -217,7 +246,10 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             work,
             args,
             rays,
-            BufferSpec::from_pod(&surfaces(&frame, w, h), SURFACE),
+            depth,
+            normal_roughness,
+            geometry,
+            view,
             BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,

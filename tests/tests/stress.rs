@@ -10,7 +10,9 @@
 
 use std::time::Instant;
 use vrrt_cli::backend::{Backend, BackendKind};
+use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo};
+use vrrt_core::glam::Vec3;
 use vrrt_core::payload::Filtered;
 use vrrt_core::payload::{self, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
@@ -19,6 +21,7 @@ use vrrt_core::settings::{
     FilterSettings, Settings, SettingsError, StoragePrecision, TemporalSettings,
 };
 use vrrt_core::surface::{Surface, NO_INSTANCE};
+use vrrt_tests::inputs::Images;
 
 /// Storage-buffer binding range of software Vulkan (lavapipe's `maxStorageBufferRange`, 2^27).
 const LAVAPIPE_MAX_BINDING: u64 = 1 << 27;
@@ -73,6 +76,15 @@ fn noise(x: u32, y: u32, z: u32, f: u32) -> f32 {
     (hash(x, y, z, f) >> 8) as f32 / (1u32 << 23) as f32 - 1.0
 }
 
+/// The camera of every case: at the origin looking down +z, so the plane at depth 1 faces it.
+fn view() -> View {
+    let camera = Camera::from_basis(Vec3::ZERO, Vec3::X, -Vec3::Y, Vec3::Z, 0.5);
+    View {
+        camera,
+        prev_camera: camera,
+    }
+}
+
 /// A flat plane facing the camera at depth 1: every pixel valid, static (reprojects onto itself).
 fn plane(w: u32, h: u32) -> Vec<Surface> {
     let mut out = Vec::with_capacity((w * h) as usize);
@@ -125,7 +137,7 @@ struct Rig {
     h: u32,
     planes: u32,
     frame: u32,
-    surfaces: Vec<Surface>,
+    gbuffer: Images,
 }
 
 impl Rig {
@@ -137,7 +149,7 @@ impl Rig {
             planes: settings.planes,
             d,
             frame: 0,
-            surfaces,
+            gbuffer: Images::pack(&surfaces, w, &view()),
         }
     }
 
@@ -152,14 +164,25 @@ impl Rig {
         sample: impl Fn(u32, u32, u32, u32) -> (f32, f32),
     ) -> u64 {
         let (w, h) = (self.w, self.h);
-        self.d.begin_frame(FrameInfo {
+        let info = FrameInfo {
             index: self.frame,
             reset: reset || self.frame == 0,
             pixel_angle: 1.0 / h as f32,
             use_mask: false,
+            view: view(),
             ..Default::default()
-        });
-        exec.write_buffer(self.d.surfaces(), bytemuck::cast_slice(&self.surfaces))
+        };
+        self.d.begin_frame(exec, info).unwrap();
+        let inputs = self.d.inputs();
+        let g = &self.gbuffer;
+        exec.write_buffer(inputs.depth, bytemuck::cast_slice(&g.depth))
+            .unwrap();
+        exec.write_buffer(
+            inputs.normal_roughness,
+            bytemuck::cast_slice(&g.normal_roughness),
+        )
+        .unwrap();
+        exec.write_buffer(inputs.motion, bytemuck::cast_slice(&g.motion))
             .unwrap();
         self.d.plan_rays(exec).unwrap();
         let rays: Vec<u32> = read(exec, self.d.rays(), (w * h) as usize);

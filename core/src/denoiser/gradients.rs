@@ -41,11 +41,17 @@ impl Denoiser {
             index_mask,
             normal_threshold: s.temporal.normal_threshold,
             plane_threshold: s.temporal.plane_threshold,
-            camera: scene.camera,
+            camera: self.frame.view.camera,
         };
+        let (inputs, prev) = (self.inputs(), self.prev_inputs());
         let project = kernels::GradientProjectBindings {
-            prev_surfaces: self.surfaces[1 - self.cur],
-            surfaces: self.surfaces[self.cur],
+            prev_depth: prev.depth,
+            prev_normal_roughness: prev.normal_roughness,
+            prev_geometry: scene.geometry[1],
+            depth: inputs.depth,
+            normal_roughness: inputs.normal_roughness,
+            geometry: scene.geometry[0],
+            view: self.view,
             rays: self.rays,
             next: scene.next,
             keys: self.gradient_keys,
@@ -65,7 +71,10 @@ impl Denoiser {
         // from, and `samples` last frame's 0th ray values.
         let ao = kernels::GradientAoBindings {
             keys: self.gradient_keys,
-            prev_surfaces: self.surfaces[1 - self.cur],
+            prev_depth: prev.depth,
+            prev_normal_roughness: prev.normal_roughness,
+            prev_geometry: scene.geometry[1],
+            view: self.view,
             next: scene.next,
             prev_payload: self.reprojected,
             prev_samples: self.samples,
@@ -81,7 +90,10 @@ impl Denoiser {
             GradientRays::Shadows { lights } => {
                 let shadow = kernels::GradientShadowBindings {
                     keys: ao.keys,
-                    prev_surfaces: ao.prev_surfaces,
+                    prev_depth: ao.prev_depth,
+                    prev_normal_roughness: ao.prev_normal_roughness,
+                    prev_geometry: ao.prev_geometry,
+                    view: ao.view,
                     next: ao.next,
                     prev_payload: ao.prev_payload,
                     prev_samples: ao.prev_samples,

@@ -32,7 +32,7 @@ mod resolve;
 
 use crate::blue_noise;
 use crate::buffers::{self, TooLarge};
-use crate::camera::Camera;
+use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, fill, reproject, variance,
@@ -89,6 +89,21 @@ pub struct FrameInfo {
     /// Scale each pixel's ray request by its tile's [`Denoiser::importance`], which the caller
     /// wrote this frame (the reflection tile classification).
     pub use_importance: bool,
+    /// This frame's and last frame's camera: positions are reconstructed from view depth through
+    /// them, and last frame's from the motion's depth change.
+    pub view: View,
+}
+
+/// The engine's per-pixel inputs, one buffer each (formats in [`crate::packing`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Inputs {
+    /// Linear view depth, `f32` per pixel; 0 or +∞ where there is no surface.
+    pub depth: BufferId,
+    /// Shading normal (octahedral 11+11 bits) and linear roughness (10 bits), `u32` per pixel.
+    pub normal_roughness: BufferId,
+    /// 2.5D motion to last frame as RGBA16F (`dx, dy` in pixels, view-depth change, 0), two
+    /// `u32` per pixel.
+    pub motion: BufferId,
 }
 
 /// What the temporal-gradient prepass re-traces against: this frame's scene on the executor.
@@ -100,8 +115,8 @@ pub struct GradientScene {
     pub tris: BufferId,
     /// Per-instance previous→current maps (`InstanceData`, the inverse of the G-buffer's).
     pub next: BufferId,
-    /// This frame's camera.
-    pub camera: Camera,
+    /// The renderer's `geometry` (geometric normal, instance) of this frame and last frame.
+    pub geometry: [BufferId; 2],
     /// The signal's rays.
     pub rays: GradientRays,
 }
@@ -127,7 +142,10 @@ pub struct Denoiser {
     settings: Settings,
     width: u32,
     height: u32,
-    surfaces: [BufferId; 2],
+    depth: [BufferId; 2],
+    normal_roughness: [BufferId; 2],
+    motion: BufferId,
+    view: BufferId,
     history: [BufferId; 2],
     reprojected: BufferId,
     flags: BufferId,
@@ -198,7 +216,10 @@ impl Denoiser {
             settings,
             width,
             height,
-            surfaces: id("surfaces"),
+            depth: id("depth"),
+            normal_roughness: id("normal_roughness"),
+            motion: id("motion")[0],
+            view: id("view")[0],
             history: id("history"),
             reprojected: id("reprojected")[0],
             flags: id("flags")[0],
@@ -231,6 +252,7 @@ impl Denoiser {
                 use_mask: false,
                 moved: true,
                 use_importance: false,
+                view: View::default(),
             },
         })
     }
@@ -250,14 +272,29 @@ impl Denoiser {
         (self.width, self.height)
     }
 
-    /// This frame's G-buffer (`Surface` per pixel): the caller fills it before [`Self::plan_rays`].
-    pub fn surfaces(&self) -> BufferId {
-        self.surfaces[self.cur]
+    /// This frame's input buffers (the engine's G-buffer, see the README's input contract): the
+    /// caller fills them after [`Self::begin_frame`] and before [`Self::plan_rays`].
+    pub fn inputs(&self) -> Inputs {
+        Inputs {
+            depth: self.depth[self.cur],
+            normal_roughness: self.normal_roughness[self.cur],
+            motion: self.motion,
+        }
     }
 
-    /// Last frame's G-buffer.
-    pub fn prev_surfaces(&self) -> BufferId {
-        self.surfaces[1 - self.cur]
+    /// Last frame's depth and normal + roughness, which the denoiser keeps (its motion is not).
+    pub fn prev_inputs(&self) -> Inputs {
+        Inputs {
+            depth: self.depth[1 - self.cur],
+            normal_roughness: self.normal_roughness[1 - self.cur],
+            motion: self.motion,
+        }
+    }
+
+    /// The one-element [`View`] buffer (this and last frame's camera), written by
+    /// [`Self::begin_frame`].
+    pub fn view(&self) -> BufferId {
+        self.view
     }
 
     /// Reprojected history (`Payload` per pixel and plane): raygen reads each pixel's rng index
@@ -396,10 +433,16 @@ impl Denoiser {
         self.gradient_ran
     }
 
-    /// Starts a frame: swaps the ping-pong G-buffer and history so last frame's become `prev`.
-    pub fn begin_frame(&mut self, frame: FrameInfo) {
+    /// Starts a frame: swaps the ping-pong inputs and history so last frame's become `prev`, and
+    /// uploads the frame's cameras ([`FrameInfo::view`]).
+    pub fn begin_frame<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        frame: FrameInfo,
+    ) -> Result<(), E::Error> {
         self.cur = 1 - self.cur;
         self.frame = frame;
         self.gradient_ran = false;
+        exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))
     }
 }

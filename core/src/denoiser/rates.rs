@@ -59,8 +59,12 @@ impl Denoiser {
             ..Default::default()
         };
         let reproject = kernels::ReprojectBindings {
-            surfaces: self.surfaces[self.cur],
-            prev_surfaces: self.surfaces[1 - self.cur],
+            depth: self.depth[self.cur],
+            normal_roughness: self.normal_roughness[self.cur],
+            motion: self.motion,
+            prev_depth: self.depth[1 - self.cur],
+            prev_normal_roughness: self.normal_roughness[1 - self.cur],
+            view: self.view,
             history: self.history[1 - self.cur],
             mask: self.mask,
             gradient: self.gradient(),

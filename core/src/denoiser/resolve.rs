@@ -43,7 +43,9 @@ impl Denoiser {
         };
         let variance = kernels::VarianceBindings {
             payload: self.history[self.cur],
-            surfaces: self.surfaces[self.cur],
+            depth: self.depth[self.cur],
+            normal_roughness: self.normal_roughness[self.cur],
+            view: self.view,
             out: self.filtered[0],
         };
         exec.dispatch(&variance.over_grid(&var, w, h, planes))?;
@@ -66,7 +68,7 @@ impl Denoiser {
         };
         let (tw, th) = classify::tile_grid(w, h);
         let classify = kernels::ClassifyBindings {
-            surfaces: self.surfaces[self.cur],
+            depth: self.depth[self.cur],
             filtered: self.filtered[0],
             tiles: self.tiles,
             histogram: self.tile_histogram,
@@ -87,7 +89,9 @@ impl Denoiser {
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],
-                surfaces: self.surfaces[self.cur],
+                depth: self.depth[self.cur],
+                normal_roughness: self.normal_roughness[self.cur],
+                view: self.view,
                 tiles: self.tiles,
                 out: self.filtered[1 - self.out],
             };

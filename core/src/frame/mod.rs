@@ -23,10 +23,10 @@
 mod planes;
 mod signal;
 
-pub use planes::{trace_planes, RaygenTarget};
+pub use planes::{trace_planes, GBuffer, RaygenTarget};
 pub use signal::{PlaneLayout, Signal};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, View};
 use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
 use crate::kernels::gbuffer::InstanceData;
 use crate::kernels::raygen::AreaLight;
@@ -73,7 +73,8 @@ impl FrameScene<'_> {
 
     /// What the temporal-gradient prepass re-traces against for `signal`; `None` for signals it
     /// cannot re-trace (reflections, and so the multi-signal frame).
-    pub fn gradient_scene(&self, signal: Signal) -> Option<GradientScene> {
+    /// `geometry` is the renderer's geometry buffer of this frame and last frame.
+    pub fn gradient_scene(&self, signal: Signal, geometry: [BufferId; 2]) -> Option<GradientScene> {
         let rays = match signal {
             Signal::Ao { max_distance } => GradientRays::Ao { max_distance },
             Signal::Shadows => GradientRays::Shadows {
@@ -85,7 +86,7 @@ impl FrameScene<'_> {
             nodes: self.nodes,
             tris: self.tris,
             next: self.next,
-            camera: self.camera,
+            geometry,
             rays,
         })
     }
@@ -134,6 +135,9 @@ pub struct Frame {
     layout: PlaneLayout,
     denoiser: Denoiser,
     reflections: Option<Reflections>,
+    /// The built-in renderer's own per-pixel data beside the engine inputs (geometric normal,
+    /// instance: [`crate::packing::pack_hit`]), this frame's and last frame's.
+    geometry: [BufferId; 2],
     frames: u32,
     prev_lights: u64,
     /// The last frame ran no passes (its signal was absent): history is stale.
@@ -170,11 +174,17 @@ impl Frame {
             (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
             _ => None,
         };
+        let geometry_bytes = width as u64 * height as u64 * 8;
+        let geometry = [
+            exec.create_buffer(geometry_bytes)?,
+            exec.create_buffer(geometry_bytes)?,
+        ];
         Ok(Frame {
             signal,
             layout,
             denoiser,
             reflections,
+            geometry,
             frames: 0,
             prev_lights: lights_hash(&[]),
             resume: false,
@@ -201,13 +211,19 @@ impl Frame {
         self.reflections.as_ref()
     }
 
-    /// Records one frame. `gbuffer(exec, surfaces)` records the renderer's G-buffer into the
-    /// denoiser's surface buffer; it is not called when the signal is absent.
+    /// This frame's G-buffer: the denoiser's inputs and the renderer's geometry.
+    pub fn gbuffer(&self) -> GBuffer {
+        GBuffer::of(&self.denoiser, self.geometry[(self.frames % 2) as usize])
+    }
+
+    /// Records one frame. `gbuffer(exec, target)` records the renderer's G-buffer into the
+    /// denoiser's input buffers and the renderer's geometry; it is not called when the signal is
+    /// absent.
     pub fn render<E: Executor>(
         &mut self,
         exec: &mut E,
         scene: &FrameScene<'_>,
-        gbuffer: impl FnOnce(&mut E, BufferId) -> Result<(), E::Error>,
+        gbuffer: impl FnOnce(&mut E, GBuffer) -> Result<(), E::Error>,
     ) -> Result<FrameReport, E::Error> {
         if self.signal.needs_lights() && scene.light_list.is_empty() {
             self.resume = true;
@@ -217,19 +233,21 @@ impl Frame {
                 ..FrameReport::default()
             });
         }
-        let info = self.temporal(scene);
-        gbuffer(exec, self.denoiser.surfaces())?;
+        let info = self.temporal(exec, scene)?;
+        let target = self.gbuffer();
+        gbuffer(exec, target)?;
         let gradient_ran = self.gradients(exec, scene)?;
         let reflection_scene = scene.reflection_scene();
         if let Some(r) = &self.reflections {
-            r.prepare(exec, &self.denoiser, &reflection_scene)?;
+            r.prepare(exec, &self.denoiser, &target, &reflection_scene)?;
         }
         self.denoiser.plan_rays(exec)?;
-        let target = RaygenTarget::of(&self.denoiser);
+        let gb = target;
+        let target = RaygenTarget::of(&self.denoiser, gb.geometry);
         let reflections = self.reflections.as_ref();
         trace_planes(exec, self.signal, &self.layout, scene, reflections, &target)?;
         if let Some(r) = reflections {
-            r.reuse(exec, &self.denoiser, &reflection_scene)?;
+            r.reuse(exec, &self.denoiser, &gb, &reflection_scene)?;
         }
         self.denoiser.resolve(exec)?;
         Ok(FrameReport {
@@ -241,7 +259,11 @@ impl Frame {
     }
 
     /// The temporal stage: the reset and still-frame rules, then the denoiser's frame begins.
-    fn temporal(&mut self, scene: &FrameScene<'_>) -> FrameInfo {
+    fn temporal<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        scene: &FrameScene<'_>,
+    ) -> Result<FrameInfo, E::Error> {
         let moved = scene.moved(self.prev_lights);
         self.prev_lights = lights_hash(scene.light_list);
         let (_, height) = self.denoiser.size();
@@ -252,11 +274,16 @@ impl Frame {
             use_mask: false,
             moved,
             use_importance: self.reflections.is_some(),
+            view: View {
+                camera: scene.camera,
+                prev_camera: scene.prev_camera,
+            },
         };
-        self.denoiser.begin_frame(info);
+        // `gbuffer()` indexes the geometry pair by the frame count: this frame's is written next.
         self.frames += 1;
+        self.denoiser.begin_frame(exec, info)?;
         self.resume = false;
-        info
+        Ok(info)
     }
 
     /// The gradient stage: the A-SVGF prepass where the signal can be re-traced.
@@ -265,7 +292,9 @@ impl Frame {
         exec: &mut E,
         scene: &FrameScene<'_>,
     ) -> Result<bool, E::Error> {
-        match scene.gradient_scene(self.signal) {
+        let cur = (self.frames % 2) as usize;
+        let geometry = [self.geometry[cur], self.geometry[1 - cur]];
+        match scene.gradient_scene(self.signal, geometry) {
             Some(g) => self.denoiser.temporal_gradients(exec, &g),
             None => Ok(false),
         }

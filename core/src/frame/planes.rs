@@ -1,13 +1,51 @@
 //! The raygen stage: which raygen kernel traces which plane of a [`Signal`], over a work list.
 
 use super::{FrameScene, PlaneLayout, Signal};
-use crate::denoiser::Denoiser;
+use crate::denoiser::{Denoiser, Inputs};
 use crate::kernels::{self, raygen};
 use crate::plan::{BufferId, Executor, Groups};
 use crate::reflections::Reflections;
 
+/// What the renderer's ray generation reads of the G-buffer: the denoiser's inputs, the
+/// renderer's own `geometry` (geometric normal, instance) and the cameras.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct GBuffer {
+    /// Depth, normal + roughness, motion.
+    pub inputs: Inputs,
+    /// `[u32; 2]` per pixel: [`crate::packing::pack_hit`].
+    pub geometry: BufferId,
+    /// The one-element [`crate::camera::View`].
+    pub view: BufferId,
+}
+
+impl GBuffer {
+    /// A G-buffer of its own (no denoiser): for references and tests. Write the cameras into
+    /// `view` before use.
+    pub fn create<E: Executor>(exec: &mut E, width: u32, height: u32) -> Result<Self, E::Error> {
+        let pixels = width as u64 * height as u64;
+        Ok(GBuffer {
+            inputs: Inputs {
+                depth: exec.create_buffer(pixels * 4)?,
+                normal_roughness: exec.create_buffer(pixels * 4)?,
+                motion: exec.create_buffer(pixels * 8)?,
+            },
+            geometry: exec.create_buffer(pixels * 8)?,
+            view: exec.create_buffer(core::mem::size_of::<crate::camera::View>() as u64)?,
+        })
+    }
+
+    /// This frame's inputs and view of `denoiser`, with the renderer's `geometry`.
+    pub fn of(denoiser: &Denoiser, geometry: BufferId) -> Self {
+        GBuffer {
+            inputs: denoiser.inputs(),
+            geometry,
+            view: denoiser.view(),
+        }
+    }
+}
+
 /// What a raygen pass traces and where it writes, besides the scene: a compacted work list
-/// (dispatched indirectly from `args` at byte offset 4), the surfaces, the history whose rng
+/// (dispatched indirectly from `args` at byte offset 4), the G-buffer, the history whose rng
 /// indices seed the rays, and the `Sample`s of a `size` image.
 #[derive(Copy, Clone, Debug)]
 pub struct RaygenTarget {
@@ -20,7 +58,7 @@ pub struct RaygenTarget {
     /// Rays per pixel.
     pub rays: BufferId,
     /// The G-buffer.
-    pub surfaces: BufferId,
+    pub gbuffer: GBuffer,
     /// Payloads whose rng indices seed the rays.
     pub history: BufferId,
     /// Samples written.
@@ -30,14 +68,15 @@ pub struct RaygenTarget {
 }
 
 impl RaygenTarget {
-    /// The denoiser's own work list, reprojected history and samples this frame.
-    pub fn of(denoiser: &Denoiser) -> Self {
+    /// The denoiser's own work list, inputs, reprojected history and samples this frame, with
+    /// the renderer's `geometry` (geometric normal, instance).
+    pub fn of(denoiser: &Denoiser, geometry: BufferId) -> Self {
         RaygenTarget {
             size: denoiser.size(),
             work: denoiser.work(),
             args: denoiser.args(),
             rays: denoiser.rays(),
-            surfaces: denoiser.surfaces(),
+            gbuffer: GBuffer::of(denoiser, geometry),
             history: denoiser.reprojected(),
             out: denoiser.samples(),
             frame: denoiser.frame().index,
@@ -68,7 +107,10 @@ pub fn trace_planes<E: Executor>(
         work: target.work,
         args: target.args,
         rays: target.rays,
-        surfaces: target.surfaces,
+        depth: target.gbuffer.inputs.depth,
+        normal_roughness: target.gbuffer.inputs.normal_roughness,
+        geometry: target.gbuffer.geometry,
+        view: target.gbuffer.view,
         history: target.history,
         nodes: scene.nodes,
         tris: scene.tris,
@@ -94,7 +136,10 @@ pub fn trace_planes<E: Executor>(
             work: ao.work,
             args: ao.args,
             rays: ao.rays,
-            surfaces: ao.surfaces,
+            depth: ao.depth,
+            normal_roughness: ao.normal_roughness,
+            geometry: ao.geometry,
+            view: ao.view,
             history: ao.history,
             nodes: ao.nodes,
             tris: ao.tris,

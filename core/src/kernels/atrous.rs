@@ -93,7 +93,9 @@ fn blurred_variance(input: &[Filtered], x: u32, y: u32, plane: u32, p: &AtrousPa
 pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     let AtrousIo {
         input,
-        surfaces,
+        depth,
+        normal_roughness,
+        view,
         tiles,
         out,
     } = io;
@@ -102,7 +104,16 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     }
     let i = plane_index(id, p.width, p.height);
     let center = input[i];
-    let c = surfaces[pixel_index(id.x, id.y, p.width)];
+    let camera = view[0].camera;
+    let c = surface::load(
+        &camera,
+        id.x,
+        id.y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    );
     if !c.is_valid() || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
         out[i] = center;
         return;
@@ -122,8 +133,9 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             let inside = q.x >= 0 && q.y >= 0 && q.x < p.width as i32 && q.y < p.height as i32;
             if (tx != 0 || ty != 0) && inside {
                 let (qx, qy) = (q.x as u32, q.y as u32);
-                let s = surfaces[pixel_index(qx, qy, p.width)];
-                if s.is_valid() {
+                if surface::has_surface(depth[pixel_index(qx, qy, p.width)]) {
+                    let s =
+                        surface::load(&camera, qx, qy, p.width, p.height, depth, normal_roughness);
                     let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
                     let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
                     let w_n = surface::normal_weight(c.normal(), s.normal(), p.normal_power);

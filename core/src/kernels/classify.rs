@@ -78,7 +78,7 @@ pub fn iterations_needed(variance: f32, p: &ClassifyParams) -> u32 {
 /// `histogram` (cleared by the host before).
 pub fn classify(id: UVec3, p: &ClassifyParams, io: ClassifyIo<'_>) {
     let ClassifyIo {
-        surfaces,
+        depth,
         filtered,
         tiles,
         histogram,
@@ -96,7 +96,7 @@ pub fn classify(id: UVec3, p: &ClassifyParams, io: ClassifyIo<'_>) {
         let mut x = id.x * TILE;
         while x < (id.x + 1) * TILE && x < p.width {
             let pix = pixel_index(x, y, p.width);
-            if surfaces[pix].is_valid() {
+            if crate::surface::has_surface(depth[pix]) {
                 any = true;
                 let mut z = 0;
                 while z < p.planes {

@@ -1,5 +1,6 @@
-//! G-buffer: one primary ray per pixel through its centre, writing the [`Surface`] every later
-//! pass reads, including the pixel's motion vector (where the surface point was last frame).
+//! G-buffer: one primary ray per pixel through its centre, writing what an engine's G-buffer
+//! holds (view depth, normal + roughness, 2.5D motion; [`crate::packing`]) plus the built-in
+//! renderer's own `geometry` (geometric normal, instance) for its ray generation.
 //!
 //! Conventions (what an independent renderer must match):
 //! - `position` is the barycentric interpolation of the hit triangle's vertices (on the surface,
@@ -7,10 +8,10 @@
 //! - Surfaces are two-sided. The geometric normal is the normalized face normal, flipped to face
 //!   the camera (`g · dir < 0`); the shading normal (interpolated vertex normals, normalized) is
 //!   flipped together with it. A degenerate shading normal (zero or non-finite) is replaced by `g`.
-//! - Motion: `prev = prev_from_current(instance) · position` (stored as `prev_p*`), projected
-//!   with the previous frame's camera (pixel centres at integer coordinates, [`crate::camera::OFFSCREEN`] when behind it).
-//! - Sky pixels get [`NO_INSTANCE`], zero position/normals/depth, and the previous pixel of their
-//!   view direction under the previous camera's rotation.
+//! - Motion: `prev = prev_from_current(instance) · position`, projected with the previous
+//!   frame's camera; the view-depth change is `prev_camera.depth(prev) − depth` (pixel centres at integer coordinates, [`crate::camera::OFFSCREEN`] when behind it).
+//! - Sky pixels get depth 0, instance [`NO_INSTANCE`], and the previous pixel of their view
+//!   direction under the previous camera's rotation.
 
 use super::pixel_index;
 use super::GbufferIo;
@@ -217,24 +218,30 @@ pub fn surface_at(
         prev_px: prev_position.x,
         prev_py: prev_position.y,
         prev_pz: prev_position.z,
-        _pad0: 0.0,
-        _pad1: 0.0,
-        _pad2: 0.0,
     }
 }
 
-/// One invocation per pixel (`id.z` must be 0): `out[pixel] = surface_at(pixel)`.
+/// One invocation per pixel (`id.z` must be 0): [`surface_at`] the pixel, packed as an engine
+/// writes its G-buffer ([`Surface::pack`]).
 pub fn gbuffer(id: UVec3, p: &GbufferParams, io: GbufferIo<'_>) {
     let GbufferIo {
         nodes,
         tris,
         normals,
         instances,
-        out,
+        depth,
+        normal_roughness,
+        motion,
+        geometry,
     } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
-    out[pixel_index(id.x, id.y, p.width)] =
-        surface_at(id.x, id.y, p, nodes, tris, normals, instances);
+    let pix = pixel_index(id.x, id.y, p.width);
+    let t =
+        surface_at(id.x, id.y, p, nodes, tris, normals, instances).pack(id.x, id.y, &p.prev_camera);
+    depth[pix] = t.depth;
+    normal_roughness[pix] = t.normal_roughness;
+    motion[pix] = t.motion;
+    geometry[pix] = t.hit;
 }

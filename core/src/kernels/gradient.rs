@@ -37,10 +37,11 @@ use super::GradientProjectIo;
 use super::GradientShadowIo;
 use crate::atomic;
 use crate::camera::Camera;
+use crate::camera::View;
 use crate::math;
 use crate::payload::{Payload, Sample};
 use crate::sampling::{pcg_hash, pixel_seed};
-use crate::surface::Surface;
+use crate::surface::{self, Surface};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -186,8 +187,13 @@ pub fn visible(c: &Surface, m: &Surface, p: &ProjectParams) -> bool {
 /// [`EMPTY_KEY`] before.
 pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let GradientProjectIo {
-        prev_surfaces,
-        surfaces,
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         rays,
         next,
         keys,
@@ -212,7 +218,7 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let mut j = 0u32;
     while j < n {
         let pix = pixel_index(x0 + j % sw, y0 + j / sw, p.width);
-        if rays[pix] > 0 && prev_surfaces[pix].is_valid() {
+        if rays[pix] > 0 && surface::has_surface(prev_depth[pix]) {
             traced += 1;
         }
         j += 1;
@@ -226,7 +232,7 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let mut j = 0u32;
     while j < n {
         let pix = pixel_index(x0 + j % sw, y0 + j / sw, p.width);
-        if rays[pix] > 0 && prev_surfaces[pix].is_valid() {
+        if rays[pix] > 0 && surface::has_surface(prev_depth[pix]) {
             if seen == pick {
                 chosen = pix;
             }
@@ -234,14 +240,33 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
         }
         j += 1;
     }
-    let moved = move_surface(&prev_surfaces[chosen], next);
+    let prev = previous_surface(
+        chosen,
+        p.width,
+        p.height,
+        &view[0],
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+    );
+    let moved = move_surface(&prev, next);
     let (fx, fy) = p.camera.project_point(moved.position(), p.width, p.height);
     let (cx, cy) = (math::floor(fx + 0.5), math::floor(fy + 0.5));
     if !(cx >= 0.0 && cy >= 0.0 && cx < p.width as f32 && cy < p.height as f32) {
         return;
     }
     let (cx, cy) = (cx as u32, cy as u32);
-    if !visible(&surfaces[pixel_index(cx, cy, p.width)], &moved, p) {
+    let c = surface::load(
+        &view[0].camera,
+        cx,
+        cy,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    )
+    .with_hit(geometry[pixel_index(cx, cy, p.width)]);
+    if !visible(&c, &moved, p) {
         return;
     }
     let cell = pixel_index(cx / p.stratum, cy / p.stratum, p.grid_width);
@@ -249,21 +274,49 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     atomic::min(&mut keys[cell], priority | chosen as u32);
 }
 
+/// Last frame's surface at pixel index `pix`, from last frame's inputs and camera: bit for bit the
+/// surface last frame's raygen built, so a still scene re-traces the very same ray.
+#[inline]
+fn previous_surface(
+    pix: usize,
+    width: u32,
+    height: u32,
+    view: &View,
+    prev_depth: &[f32],
+    prev_normal_roughness: &[u32],
+    prev_geometry: &[[u32; 2]],
+) -> Surface {
+    let (x, y) = (pix as u32 % width, pix as u32 / width);
+    surface::load(
+        &view.prev_camera,
+        x,
+        y,
+        width,
+        height,
+        prev_depth,
+        prev_normal_roughness,
+    )
+    .with_hit(prev_geometry[pix])
+}
+
 /// The previous pixel a cell re-traces, if any: `(pixel index, moved surface)`.
 #[inline]
-fn cell_sample(
-    id: UVec3,
-    p: &RetraceParams,
-    keys: &[u32],
-    prev_surfaces: &[Surface],
-    next: &[InstanceData],
-) -> Option<(usize, Surface)> {
-    let key = keys[pixel_index(id.x, id.y, p.grid_width)];
+fn cell_sample(id: UVec3, p: &RetraceParams, last: &LastFrame<'_>) -> Option<(usize, Surface)> {
+    let key = last.keys[pixel_index(id.x, id.y, p.grid_width)];
     if key == EMPTY_KEY {
         return None;
     }
     let pix = (key & p.index_mask) as usize;
-    Some((pix, move_surface(&prev_surfaces[pix], next)))
+    let prev = previous_surface(
+        pix,
+        p.width,
+        p.height,
+        &last.view[0],
+        last.prev_depth,
+        last.prev_normal_roughness,
+        last.prev_geometry,
+    );
+    Some((pix, move_surface(&prev, last.next)))
 }
 
 /// The gradient sample of a re-traced ray `curr` against last frame's `prev`.
@@ -285,7 +338,10 @@ pub fn cell_index(x: u32, y: u32, z: u32, grid_width: u32, grid_height: u32) -> 
 /// payloads, the instance maps to this frame, and the samples it traced.
 struct LastFrame<'a> {
     keys: &'a [u32],
-    prev_surfaces: &'a [Surface],
+    prev_depth: &'a [f32],
+    prev_normal_roughness: &'a [u32],
+    prev_geometry: &'a [[u32; 2]],
+    view: &'a [View],
     next: &'a [InstanceData],
     prev_payload: &'a [Payload],
     prev_samples: &'a [Sample],
@@ -302,17 +358,15 @@ fn retrace(
     out: &mut [GradientSample],
     trace: impl Fn(&Surface, u32, u32, u32) -> Option<f32>,
 ) {
-    let LastFrame {
-        keys,
-        prev_surfaces,
-        next,
-        prev_payload,
-        prev_samples,
-    } = last;
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
     }
-    let sample = cell_sample(id, p, keys, prev_surfaces, next);
+    let sample = cell_sample(id, p, &last);
+    let LastFrame {
+        prev_payload,
+        prev_samples,
+        ..
+    } = last;
     let mut z = 0;
     while z < p.planes {
         let o = cell_index(id.x, id.y, z, p.grid_width, p.grid_height);
@@ -337,7 +391,10 @@ fn retrace(
 pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
     let GradientAoIo {
         keys,
-        prev_surfaces,
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+        view,
         next,
         prev_payload,
         prev_samples,
@@ -347,7 +404,10 @@ pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
     } = io;
     let last = LastFrame {
         keys,
-        prev_surfaces,
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+        view,
         next,
         prev_payload,
         prev_samples,
@@ -361,7 +421,10 @@ pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
 pub fn retrace_shadow(id: UVec3, p: &RetraceParams, io: GradientShadowIo<'_>) {
     let GradientShadowIo {
         keys,
-        prev_surfaces,
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+        view,
         next,
         prev_payload,
         prev_samples,
@@ -372,7 +435,10 @@ pub fn retrace_shadow(id: UVec3, p: &RetraceParams, io: GradientShadowIo<'_>) {
     } = io;
     let last = LastFrame {
         keys,
-        prev_surfaces,
+        prev_depth,
+        prev_normal_roughness,
+        prev_geometry,
+        view,
         next,
         prev_payload,
         prev_samples,

@@ -57,7 +57,7 @@ pub mod names {
     pub use super::raygen::AreaLight;
     pub use super::reflect::RayHit;
     pub use super::*;
+    pub use crate::camera::View;
     pub use crate::payload::{Filtered, Payload, Sample};
-    pub use crate::surface::Surface;
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 }

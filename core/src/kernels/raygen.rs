@@ -40,7 +40,7 @@ use super::RaygenShadowIo;
 use crate::math;
 use crate::payload::Sample;
 use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
-use crate::surface::{Surface, NO_INSTANCE};
+use crate::surface::{self, Surface, NO_INSTANCE};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
@@ -310,7 +310,10 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         work,
         args,
         rays,
-        surfaces,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         history,
         nodes,
         tris,
@@ -320,7 +323,16 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-    let s = surfaces[pix];
+    let s = surface::load(
+        &view[0].camera,
+        x,
+        y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    )
+    .with_hit(geometry[pix]);
     let mut z = 0;
     while z < p.planes {
         let i = (z * p.width * p.height) as usize + pix;
@@ -344,7 +356,10 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         work,
         args,
         rays,
-        surfaces,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         history,
         nodes,
         tris,
@@ -355,7 +370,16 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-    let s = surfaces[pix];
+    let s = surface::load(
+        &view[0].camera,
+        x,
+        y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    )
+    .with_hit(geometry[pix]);
     let mut z = 0;
     while z < p.planes {
         let plane = p.first_plane + z;

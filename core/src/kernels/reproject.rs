@@ -24,9 +24,10 @@
 use super::buckets::rate_to_bucket;
 use super::ReprojectIo;
 use super::{pixel_index, plane_index};
+use crate::camera::Camera;
 use crate::math;
 use crate::payload::Payload;
-use crate::surface::Surface;
+use crate::surface::{self, Surface};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -175,12 +176,15 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
 /// bilinear weights with every texel that fails [`same_surface`] (or lies off-screen) set to 0,
 /// and whether any survived.
 #[inline]
+#[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices one by one.
 fn footprint(
     c: &Surface,
     x: f32,
     y: f32,
     geometry_ok: bool,
-    prev_surfaces: &[Surface],
+    prev_camera: &Camera,
+    prev_depth: &[f32],
+    prev_normal_roughness: &[u32],
     p: &ReprojectParams,
 ) -> ([usize; 4], [f32; 4], bool) {
     // Texel centres are at integer pixel coordinates.
@@ -202,8 +206,18 @@ fn footprint(
         let ty = y0f + (k >> 1) as f32;
         let inside = tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32;
         if ok && inside {
-            texel[k] = pixel_index(tx as u32, ty as u32, p.width);
-            if same_surface(c, &prev_surfaces[texel[k]], p) {
+            let (ux, uy) = (tx as u32, ty as u32);
+            texel[k] = pixel_index(ux, uy, p.width);
+            let t = surface::load(
+                prev_camera,
+                ux,
+                uy,
+                p.width,
+                p.height,
+                prev_depth,
+                prev_normal_roughness,
+            );
+            if same_surface(c, &t, p) {
                 any = true;
             } else {
                 bilinear[k] = 0.0;
@@ -221,8 +235,12 @@ fn footprint(
 /// ray request (a bucket) to `requests`.
 pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
     let ReprojectIo {
-        surfaces,
-        prev_surfaces,
+        depth,
+        normal_roughness,
+        motion,
+        prev_depth,
+        prev_normal_roughness,
+        view,
         history,
         mask,
         gradient,
@@ -236,7 +254,17 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         return;
     }
     let pix = pixel_index(id.x, id.y, p.width);
-    let c = surfaces[pix];
+    let v = view[0];
+    let c = Surface::current(
+        &v,
+        id.x,
+        id.y,
+        p.width,
+        p.height,
+        depth[pix],
+        normal_roughness[pix],
+        motion[pix],
+    );
     let empty = Payload {
         m1: 0.0,
         m2: 0.0,
@@ -245,11 +273,13 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
     };
 
     let geometry_ok = c.is_valid() && p.reset == 0;
-    let (texel, bilinear, any) = footprint(&c, c.prev_x, c.prev_y, geometry_ok, prev_surfaces, p);
+    let (pd, pn) = (prev_depth, prev_normal_roughness);
+    let cam = v.prev_camera;
+    let (texel, bilinear, any) = footprint(&c, c.prev_x, c.prev_y, geometry_ok, &cam, pd, pn, p);
     // Reflections move with the reflected image, not the surface (`reflect::reflect_motion`).
     let (ptexel, pbilinear, _) = if p.parallax_plane < p.planes {
         let [x, y] = parallax[pix];
-        footprint(&c, x, y, geometry_ok, prev_surfaces, p)
+        footprint(&c, x, y, geometry_ok, &cam, pd, pn, p)
     } else {
         (texel, bilinear, any)
     };

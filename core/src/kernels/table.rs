@@ -23,7 +23,9 @@ crate::kernel_table! {
     atrous => ATROUS, AtrousBindings, AtrousIo: fn atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read Filtered,
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        view: read View,
         tiles: read u32,
         out: write Filtered,
     }
@@ -32,7 +34,7 @@ crate::kernel_table! {
     /// tile.
     classify => CLASSIFY, ClassifyBindings, ClassifyIo: fn classify::classify,
     threads(8, 8, 1), params classify::ClassifyParams {
-        surfaces: read Surface,
+        depth: read f32,
         filtered: read Filtered,
         tiles: write u32,
         histogram: atomic u32,
@@ -47,14 +49,18 @@ crate::kernel_table! {
         counts: atomic u32,
     }
 
-    /// [`gbuffer::gbuffer`]: the built-in renderer's primary rays, one `Surface` per pixel.
+    /// [`gbuffer::gbuffer`]: the built-in renderer's primary rays: the engine inputs (depth, normal +
+    /// roughness, motion) and the renderer's own `geometry` (geometric normal, instance).
     gbuffer => GBUFFER, GbufferBindings, GbufferIo: fn gbuffer::gbuffer,
     threads(8, 8, 1), params gbuffer::GbufferParams {
         nodes: read BvhNode,
         tris: read Triangle,
         normals: read TriangleNormals,
         instances: read InstanceData,
-        out: write Surface,
+        depth: write f32,
+        normal_roughness: write u32,
+        motion: write [u32; 2],
+        geometry: write [u32; 2],
     }
 
     /// [`raygen::raygen_ao`]: AO rays of the compacted work list; dispatch indirectly from `args`
@@ -64,7 +70,10 @@ crate::kernel_table! {
         work: read u32,
         args: read u32,
         rays: read u32,
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         history: read Payload,
         nodes: read BvhNode,
         tris: read Triangle,
@@ -77,7 +86,10 @@ crate::kernel_table! {
         work: read u32,
         args: read u32,
         rays: read u32,
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         history: read Payload,
         nodes: read BvhNode,
         tris: read Triangle,
@@ -89,8 +101,12 @@ crate::kernel_table! {
     /// pixel (planes are looped inside).
     reproject => REPROJECT, ReprojectBindings, ReprojectIo: fn reproject::reproject,
     threads(8, 8, 1), params reproject::ReprojectParams {
-        surfaces: read Surface,
-        prev_surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        motion: read [u32; 2],
+        prev_depth: read f32,
+        prev_normal_roughness: read u32,
+        view: read View,
         history: read Payload,
         mask: read u32,
         gradient: read GradientSample,
@@ -105,7 +121,9 @@ crate::kernel_table! {
     variance => VARIANCE, VarianceBindings, VarianceIo: fn variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read Payload,
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        view: read View,
         out: write Filtered,
     }
 
@@ -145,8 +163,13 @@ crate::kernel_table! {
     /// [`gradient::project`]: forward projection of one previous sample per stratum.
     gradient_project => GRADIENT_PROJECT, GradientProjectBindings, GradientProjectIo: fn gradient::project,
     threads(8, 8, 1), params gradient::ProjectParams {
-        prev_surfaces: read Surface,
-        surfaces: read Surface,
+        prev_depth: read f32,
+        prev_normal_roughness: read u32,
+        prev_geometry: read [u32; 2],
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         rays: read u32,
         next: read InstanceData,
         keys: atomic u32,
@@ -156,7 +179,10 @@ crate::kernel_table! {
     gradient_ao => GRADIENT_AO, GradientAoBindings, GradientAoIo: fn gradient::retrace_ao,
     threads(8, 8, 1), params gradient::RetraceParams {
         keys: read u32,
-        prev_surfaces: read Surface,
+        prev_depth: read f32,
+        prev_normal_roughness: read u32,
+        prev_geometry: read [u32; 2],
+        view: read View,
         next: read InstanceData,
         prev_payload: read Payload,
         prev_samples: read Sample,
@@ -169,7 +195,10 @@ crate::kernel_table! {
     gradient_shadow => GRADIENT_SHADOW, GradientShadowBindings, GradientShadowIo: fn gradient::retrace_shadow,
     threads(8, 8, 1), params gradient::RetraceParams {
         keys: read u32,
-        prev_surfaces: read Surface,
+        prev_depth: read f32,
+        prev_normal_roughness: read u32,
+        prev_geometry: read [u32; 2],
+        view: read View,
         next: read InstanceData,
         prev_payload: read Payload,
         prev_samples: read Sample,
@@ -193,7 +222,10 @@ crate::kernel_table! {
         work: read u32,
         args: read u32,
         rays: read u32,
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         history: read Payload,
         nodes: read BvhNode,
         tris: read Triangle,
@@ -205,7 +237,10 @@ crate::kernel_table! {
     /// [`reflect::reflect_tiles`]: reflection importance per tile of `reflect::tile_grid`.
     reflect_tiles => REFLECT_TILES, ReflectTilesBindings, ReflectTilesIo: fn reflect::reflect_tiles,
     threads(8, 8, 1), params reflect::TileParams {
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         nodes: read BvhNode,
         tris: read Triangle,
         lights: read AreaLight,
@@ -215,16 +250,22 @@ crate::kernel_table! {
     /// [`reflect::reflect_motion`]: parallax motion of the reflected image.
     reflect_motion => REFLECT_MOTION, ReflectMotionBindings, ReflectMotionIo: fn reflect::reflect_motion,
     threads(8, 8, 1), params reflect::MotionParams {
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        motion: read [u32; 2],
+        view: read View,
         hits: read RayHit,
-        motion: write [f32; 2],
+        parallax: write [f32; 2],
     }
 
     /// [`reflect::reflect_reuse`]: ray reuse between neighbours (rewrites plane `plane` of
     /// `samples`).
     reflect_reuse => REFLECT_REUSE, ReflectReuseBindings, ReflectReuseIo: fn reflect::reflect_reuse,
     threads(8, 8, 1), params reflect::ReuseParams {
-        surfaces: read Surface,
+        depth: read f32,
+        normal_roughness: read u32,
+        geometry: read [u32; 2],
+        view: read View,
         hits: read RayHit,
         samples: write Sample,
     }

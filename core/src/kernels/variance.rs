@@ -19,7 +19,7 @@ use super::VarianceIo;
 use super::{pixel_index, plane_index};
 use crate::math;
 use crate::payload::Filtered;
-use crate::surface::geometry_weight;
+use crate::surface::{self, geometry_weight};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -64,7 +64,9 @@ impl Default for VarianceParams {
 pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     let VarianceIo {
         payload,
-        surfaces,
+        depth,
+        normal_roughness,
+        view,
         out,
     } = io;
     if id.x >= p.width || id.y >= p.height {
@@ -77,7 +79,16 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         value: h.m1,
         variance: h.variance() * per_estimate,
     };
-    let c = surfaces[pixel_index(id.x, id.y, p.width)];
+    let camera = view[0].camera;
+    let c = surface::load(
+        &camera,
+        id.x,
+        id.y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    );
     if h.count >= p.spatial_until || !c.is_valid() {
         out[i] = temporal;
         return;
@@ -93,8 +104,9 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
             if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
                 let (qx, qy) = (qx as u32, qy as u32);
                 let q = payload[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
-                let s = surfaces[pixel_index(qx, qy, p.width)];
-                if q.count > 0.0 && s.is_valid() {
+                if q.count > 0.0 && surface::has_surface(depth[pixel_index(qx, qy, p.width)]) {
+                    let s =
+                        surface::load(&camera, qx, qy, p.width, p.height, depth, normal_roughness);
                     let offset = math::sqrt((dx * dx + dy * dy) as f32);
                     let w = geometry_weight(&c, &s, offset, p.plane_scale, p.normal_power);
                     // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.

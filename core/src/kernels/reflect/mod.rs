@@ -41,7 +41,7 @@ use crate::sampling::{
     ggx_reflection_pdf, ggx_vndf, low_discrepancy, parallelogram_point, pixel_seed, rand, reflect,
     MIN_ALPHA,
 };
-use crate::surface::{plane_distance, Surface};
+use crate::surface::{self, plane_distance, Surface};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};

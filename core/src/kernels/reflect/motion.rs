@@ -30,24 +30,38 @@ pub struct MotionParams {
 /// one invocation per pixel: the reflected image lies `d` behind the surface along the view ray,
 /// `d` the mean hit distance of last frame's records within `radius` of where the surface was.
 /// That virtual point, carried by the surface's own motion, projected with last frame's camera is
-/// where the reflection was: `motion[pixel] = (x, y)` in last frame's pixels. Pixels without a
+/// where the reflection was: `parallax[pixel] = (x, y)` in last frame's pixels. Pixels without a
 /// reflecting surface or a nearby record keep the surface motion.
 pub fn reflect_motion(id: UVec3, p: &MotionParams, io: ReflectMotionIo<'_>) {
     let ReflectMotionIo {
-        surfaces,
-        hits,
+        depth,
+        normal_roughness,
         motion,
+        view,
+        hits,
+        parallax,
     } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
     let pix = pixel_index(id.x, id.y, p.width);
-    let s = surfaces[pix];
+    let v = view[0];
+    let s = Surface::current(
+        &v,
+        id.x,
+        id.y,
+        p.width,
+        p.height,
+        depth[pix],
+        normal_roughness[pix],
+        motion[pix],
+    );
     let mut out = [s.prev_x, s.prev_y];
     let (cx, cy) = (math::floor(s.prev_x + 0.5), math::floor(s.prev_y + 0.5));
     // A moving reflector's image does not follow a fixed virtual point: keep its surface motion.
-    let reflective =
-        s.is_valid() && s.roughness <= p.max_roughness && s.prev_position() == s.position();
+    // (Motion arrives as binary16: "still" is within a thousandth of the depth.)
+    let moved = (s.prev_position() - s.position()).length();
+    let reflective = s.is_valid() && s.roughness <= p.max_roughness && moved <= 1e-3 * s.depth;
     if reflective && math::is_finite(cx) && math::is_finite(cy) {
         let r = p.radius as i32;
         let (mut sum, mut n) = (0.0f32, 0.0f32);
@@ -69,11 +83,11 @@ pub fn reflect_motion(id: UVec3, p: &MotionParams, io: ReflectMotionIo<'_>) {
         }
         if n > 0.0 {
             let eye = Vec3::new(p.eye_x, p.eye_y, p.eye_z);
-            let view = normalize(s.position() - eye);
-            let virtual_prev = s.prev_position() + view * (sum / n);
+            let dir = normalize(s.position() - eye);
+            let virtual_prev = s.prev_position() + dir * (sum / n);
             let (x, y) = p.prev_camera.project_point(virtual_prev, p.width, p.height);
             out = [x, y];
         }
     }
-    motion[pix] = out;
+    parallax[pix] = out;
 }

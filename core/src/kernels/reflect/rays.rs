@@ -31,7 +31,10 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         work,
         args,
         rays,
-        surfaces,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         history,
         nodes,
         tris,
@@ -50,9 +53,18 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     }
     let pix = work[id.x as usize] as usize;
     let n = rays[pix];
-    let s = surfaces[pix];
     let i = (p.plane * p.width * p.height) as usize + pix;
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
+    let s = surface::load(
+        &view[0].camera,
+        x,
+        y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    )
+    .with_hit(geometry[pix]);
     let seed = pixel_seed(x, y, p.plane);
     let first_index = history[i].rng_index;
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);

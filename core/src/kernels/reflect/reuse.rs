@@ -36,7 +36,10 @@ pub struct ReuseParams {
 /// resolution estimate.
 pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
     let ReflectReuseIo {
-        surfaces,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         hits,
         samples,
     } = io;
@@ -45,7 +48,17 @@ pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
     }
     let pix = pixel_index(id.x, id.y, p.width);
     let i = (p.plane * p.width * p.height) as usize + pix;
-    let s = surfaces[pix];
+    let camera = view[0].camera;
+    let s = surface::load(
+        &camera,
+        id.x,
+        id.y,
+        p.width,
+        p.height,
+        depth,
+        normal_roughness,
+    )
+    .with_hit(geometry[pix]);
     let Some((n, wo, alpha)) = lobe(&s, &p.shading) else {
         return;
     };
@@ -67,7 +80,16 @@ pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
                 let same = plane_distance(
                     s.position(),
                     s.geometric_normal(),
-                    surfaces[q].position(),
+                    surface::load(
+                        &camera,
+                        qx as u32,
+                        qy as u32,
+                        p.width,
+                        p.height,
+                        depth,
+                        normal_roughness,
+                    )
+                    .position(),
                     p.plane_threshold * s.depth,
                 ) <= 1.0;
                 if h.is_from(p.frame) && same {

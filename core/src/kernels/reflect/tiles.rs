@@ -45,7 +45,10 @@ pub fn tile_index(x: u32, y: u32, width: u32) -> usize {
 /// reprojection requests in the tile ("allocate ray count per tile, between user min and max").
 pub fn reflect_tiles(id: UVec3, p: &TileParams, io: ReflectTilesIo<'_>) {
     let ReflectTilesIo {
-        surfaces,
+        depth,
+        normal_roughness,
+        geometry,
+        view,
         nodes,
         tris,
         lights,
@@ -73,7 +76,16 @@ pub fn reflect_tiles(id: UVec3, p: &TileParams, io: ReflectTilesIo<'_>) {
         let x = id.x * TILE + (h & (TILE - 1));
         let y = id.y * TILE + ((h >> 8) & (TILE - 1));
         if x < p.width && y < p.height {
-            let s = surfaces[pixel_index(x, y, p.width)];
+            let s = surface::load(
+                &view[0].camera,
+                x,
+                y,
+                p.width,
+                p.height,
+                depth,
+                normal_roughness,
+            )
+            .with_hit(geometry[pixel_index(x, y, p.width)]);
             let r = reflection_ray(
                 &s,
                 &p.shading,
