@@ -75,7 +75,12 @@ pub fn denoiser_buffers(
             bytes(classify::HISTOGRAM_LEN as u64, 4),
         ),
         size("importance", 1, bytes(rw as u64 * rh as u64, 4)),
-        size("parallax", 1, bytes(pixels, 8)),
+        // Reflection parallax positions, only with a parallax plane (one element otherwise).
+        size(
+            "parallax",
+            1,
+            bytes(if settings.parallax_plane.is_some() { pixels } else { 1 }, 8),
+        ),
     ]
 }
 

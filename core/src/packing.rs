@@ -148,7 +148,11 @@ mod tests {
             let t = i as f32 * 0.618_034;
             let z = 1.0 - 2.0 * ((i as f32 + 0.5) / 400.0);
             let r = (1.0 - z * z).sqrt();
-            Vec3::new(r * (t * 6.283).cos(), r * (t * 6.283).sin(), z)
+            Vec3::new(
+                r * (t * core::f32::consts::TAU).cos(),
+                r * (t * core::f32::consts::TAU).sin(),
+                z,
+            )
         })
     }
 

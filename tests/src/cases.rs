@@ -114,7 +114,6 @@ pub fn surface(rng: &mut Pcg32, x: u32, y: u32) -> Surface {
         prev_px: p.x,
         prev_py: p.y,
         prev_pz: p.z,
-        ..Surface::default()
     }
 }
 
