@@ -44,6 +44,12 @@ pub fn denoiser_buffers(
     let (tw, th) = classify::tile_grid(width, height);
     let (rw, rh) = reflect::tile_grid(width, height);
     let bytes = |n: u64, elem: usize| n * elem as u64;
+    // Reflection parallax positions exist only with a parallax plane (one element otherwise).
+    let parallax = if settings.parallax_plane.is_some() {
+        pixels
+    } else {
+        1
+    };
     [
         size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4)),
         size("counters", 1, bytes(COUNTERS_LEN as u64, 4)),
@@ -75,12 +81,7 @@ pub fn denoiser_buffers(
             bytes(classify::HISTOGRAM_LEN as u64, 4),
         ),
         size("importance", 1, bytes(rw as u64 * rh as u64, 4)),
-        // Reflection parallax positions, only with a parallax plane (one element otherwise).
-        size(
-            "parallax",
-            1,
-            bytes(if settings.parallax_plane.is_some() { pixels } else { 1 }, 8),
-        ),
+        size("parallax", 1, bytes(parallax, 8)),
     ]
 }
 
