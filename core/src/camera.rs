@@ -50,6 +50,44 @@ pub struct Camera {
     pub tan_half_fov_y: f32,
 }
 
+/// The camera's view directions as a linear function of pixel coordinates: the ray through `(x,
+/// y)` is `d0 + x·dx + y·dy`, scaled so its component along `forward` is 1 (a point at view depth
+/// `z` is `origin + z·dir`). Filters precompute dot products with `d0`, `dx`, `dy` once per pixel
+/// and reconstruct each tap's position term with three multiply-adds, no division.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct PixelRays {
+    /// Direction through pixel coordinates `(0, 0)` minus the centre offsets: `forward + ..`.
+    pub d0: Vec3,
+    /// Change of the direction per pixel along `x`.
+    pub dx: Vec3,
+    /// Change of the direction per pixel along `y`.
+    pub dy: Vec3,
+}
+
+impl PixelRays {
+    /// The rays of `camera` over a `width × height` image.
+    #[inline]
+    pub fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let w = width as f32;
+        let h = height as f32;
+        let tan_y = camera.tan_half_fov_y;
+        let tan_x = tan_y * (w / h);
+        // sx = (2(x + ½)/w − 1)·tan_x and sy = (1 − 2(y + ½)/h)·tan_y, linear in x and y.
+        let (sx0, sy0) = ((1.0 / w - 1.0) * tan_x, (1.0 - 1.0 / h) * tan_y);
+        PixelRays {
+            d0: camera.forward() + camera.right() * sx0 + camera.up() * sy0,
+            dx: camera.right() * (2.0 * tan_x / w),
+            dy: camera.up() * (-2.0 * tan_y / h),
+        }
+    }
+
+    /// The direction through continuous pixel coordinates `(x, y)`.
+    #[inline]
+    pub fn dir(&self, x: f32, y: f32) -> Vec3 {
+        self.d0 + self.dx * x + self.dy * y
+    }
+}
+
 /// This frame's and last frame's camera: the one-element buffer every kernel that reconstructs
 /// positions from view depth binds (too large for push constants beside the other parameters).
 #[repr(C)]
@@ -142,18 +180,12 @@ impl Camera {
     }
 
     /// The world point at view depth `depth` seen through continuous pixel coordinates `(x, y)`
-    /// (centre convention of the module docs): `origin + depth·(forward + sx·right + sy·up)`, the
-    /// inverse of [`Camera::project_point`] and [`Camera::depth`]. How the denoiser reconstructs
+    /// (centre convention of the module docs), the inverse of [`Camera::project_point`] and
+    /// [`Camera::depth`]: `origin + depth · PixelRays::dir(x, y)`. How the denoiser reconstructs
     /// positions from the engine's view depth.
     #[inline]
     pub fn unproject(&self, x: f32, y: f32, depth: f32, width: u32, height: u32) -> Vec3 {
-        let w = width as f32;
-        let h = height as f32;
-        let tan_y = self.tan_half_fov_y;
-        let tan_x = tan_y * (w / h);
-        let sx = (2.0 * (x + 0.5) / w - 1.0) * tan_x;
-        let sy = (1.0 - 2.0 * (y + 0.5) / h) * tan_y;
-        self.origin() + (self.forward() + self.right() * sx + self.up() * sy) * depth
+        self.origin() + PixelRays::new(self, width, height).dir(x, y) * depth
     }
 
     /// Linear view depth of `p`: its distance along `forward`.

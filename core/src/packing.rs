@@ -73,12 +73,17 @@ pub fn pack_normal_roughness(n: Vec3, alpha: f32) -> u32 {
 /// The unit shading normal and GGX alpha of a packed word.
 #[inline]
 pub fn unpack_normal_roughness(w: u32) -> (Vec3, f32) {
-    let e = Vec2::new(
+    let r = from_code(w >> 22, 0.0, 10);
+    (unpack_normal(w), r * r)
+}
+
+/// The unit shading normal of a packed normal + roughness word.
+#[inline]
+pub fn unpack_normal(w: u32) -> Vec3 {
+    oct_decode(Vec2::new(
         from_code(w & 0x7ff, -1.0, 11),
         from_code((w >> 11) & 0x7ff, -1.0, 11),
-    );
-    let r = from_code(w >> 22, 0.0, 10);
-    (oct_decode(e), r * r)
+    ))
 }
 
 /// binary16 code of `x` saturated to `±65504` (NaN gives 0).

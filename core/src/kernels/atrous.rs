@@ -12,9 +12,11 @@
 use super::classify::tile_index;
 use super::AtrousIo;
 use super::{pixel_index, plane_index};
+use crate::camera::PixelRays;
 use crate::math;
+use crate::packing;
 use crate::payload::Filtered;
-use crate::surface::{self};
+use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, UVec3};
 
@@ -104,20 +106,15 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     }
     let i = plane_index(id, p.width, p.height);
     let center = input[i];
-    let camera = view[0].camera;
-    let c = surface::load(
-        &camera,
-        id.x,
-        id.y,
-        p.width,
-        p.height,
-        depth,
-        normal_roughness,
-    );
-    if !c.is_valid() || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
+    let pix = pixel_index(id.x, id.y, p.width);
+    let cd = depth[pix];
+    if !surface::has_surface(cd) || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
         out[i] = center;
         return;
     }
+    let n = packing::unpack_normal(normal_roughness[pix]);
+    let rays = PixelRays::new(&view[0].camera, p.width, p.height);
+    let plane = TangentPlane::new(&rays, n, id.x, id.y, cd);
     let sigma = math::sqrt(math::max(blurred_variance(input, id.x, id.y, id.z, p), 0.0));
     let lum_scale = p.sigma_luminance * sigma + 1e-6;
 
@@ -133,20 +130,18 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             let inside = q.x >= 0 && q.y >= 0 && q.x < p.width as i32 && q.y < p.height as i32;
             if (tx != 0 || ty != 0) && inside {
                 let (qx, qy) = (q.x as u32, q.y as u32);
-                if surface::has_surface(depth[pixel_index(qx, qy, p.width)]) {
-                    let s =
-                        surface::load(&camera, qx, qy, p.width, p.height, depth, normal_roughness);
+                let q = pixel_index(qx, qy, p.width);
+                let qd = depth[q];
+                if surface::has_surface(qd) {
                     let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
                     let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
-                    let w_n = surface::normal_weight(c.normal(), s.normal(), p.normal_power);
+                    let m = packing::unpack_normal(normal_roughness[q]);
+                    let w_n = surface::normal_weight(n, m, p.normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
                     // exponents (the exp was most of the filter's time on the CPU).
-                    let e = surface::plane_distance(
-                        c.position(),
-                        c.normal(),
-                        s.position(),
-                        p.plane_scale * c.depth * offset_len,
-                    ) + math::abs(center.value - tap.value) / lum_scale;
+                    let scale = math::max(p.plane_scale * cd * offset_len, 1e-12);
+                    let e = plane.distance(qx, qy, qd) / scale
+                        + math::abs(center.value - tap.value) / lum_scale;
                     let w = B3[tx.unsigned_abs() as usize]
                         * B3[ty.unsigned_abs() as usize]
                         * (1.0 / (B3[0] * B3[0]))

@@ -17,9 +17,11 @@
 
 use super::VarianceIo;
 use super::{pixel_index, plane_index};
+use crate::camera::PixelRays;
 use crate::math;
+use crate::packing;
 use crate::payload::Filtered;
-use crate::surface::{self, geometry_weight};
+use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -79,20 +81,15 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         value: h.m1,
         variance: h.variance() * per_estimate,
     };
-    let camera = view[0].camera;
-    let c = surface::load(
-        &camera,
-        id.x,
-        id.y,
-        p.width,
-        p.height,
-        depth,
-        normal_roughness,
-    );
-    if h.count >= p.spatial_until || !c.is_valid() {
+    let pix = pixel_index(id.x, id.y, p.width);
+    let cd = depth[pix];
+    if h.count >= p.spatial_until || !surface::has_surface(cd) {
         out[i] = temporal;
         return;
     }
+    let n = packing::unpack_normal(normal_roughness[pix]);
+    let rays = PixelRays::new(&view[0].camera, p.width, p.height);
+    let plane = TangentPlane::new(&rays, n, id.x, id.y, cd);
     let r = p.radius as i32;
     let (mut s1, mut s2, mut sw) = (0.0f32, 0.0f32, 0.0f32);
     let mut dy = -r;
@@ -104,11 +101,14 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
             if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
                 let (qx, qy) = (qx as u32, qy as u32);
                 let q = payload[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
-                if q.count > 0.0 && surface::has_surface(depth[pixel_index(qx, qy, p.width)]) {
-                    let s =
-                        surface::load(&camera, qx, qy, p.width, p.height, depth, normal_roughness);
+                let t = pixel_index(qx, qy, p.width);
+                let qd = depth[t];
+                if q.count > 0.0 && surface::has_surface(qd) {
                     let offset = math::sqrt((dx * dx + dy * dy) as f32);
-                    let w = geometry_weight(&c, &s, offset, p.plane_scale, p.normal_power);
+                    let m = packing::unpack_normal(normal_roughness[t]);
+                    let scale = math::max(p.plane_scale * cd * offset, 1e-12);
+                    let w = surface::normal_weight(n, m, p.normal_power)
+                        * math::exp(-plane.distance(qx, qy, qd) / scale);
                     // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
                     let w = w * q.count;
                     s1 += w * q.m1;
