@@ -18,7 +18,7 @@ use vrrt_core::kernels::atrous::AtrousParams;
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
 use vrrt_core::kernels::classify;
 use vrrt_core::payload::Filtered;
-use vrrt_core::payload::{self, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
@@ -172,7 +172,7 @@ fn accumulate_matches_cpu() {
     let Some(mut ex) = executor() else { return };
     let n = (W * H * PLANES) as usize;
     let mut rng = Rng(0x1234_5678);
-    let history: Vec<Payload> = (0..n)
+    let history: Vec<PackedPayload> = (0..n)
         .map(|_| {
             let m1 = rng.unit() * 4.0;
             Payload {
@@ -181,6 +181,7 @@ fn accumulate_matches_cpu() {
                 count: rng.unit() * 80.0 - 2.0,
                 rng_index: rng.next(),
             }
+            .pack()
         })
         .collect();
     let samples: Vec<Sample> = (0..n)
@@ -201,7 +202,7 @@ fn accumulate_matches_cpu() {
         rng_wrap: 1 << 16,
         ..Default::default()
     };
-    let out = vec![0u8; n * 16];
+    let out = vec![0u8; n * 8];
     let counters = [0u8; payload::COUNTERS_LEN as usize * 4];
     let inputs: [&[u8]; 4] = [
         bytemuck::cast_slice(&history),
@@ -210,7 +211,7 @@ fn accumulate_matches_cpu() {
         &counters,
     ];
     let p = bytemuck::bytes_of(&params);
-    let (gpu, cpu) = run_both::<Payload>(
+    let (gpu, cpu) = run_both::<PackedPayload>(
         &mut ex,
         &Launch {
             kernel: &vrrt_core::kernels::ACCUMULATE,
@@ -222,7 +223,7 @@ fn accumulate_matches_cpu() {
         },
     );
     assert_bits("accumulate", &gpu, &cpu, true, 0);
-    assert!(gpu.iter().any(|p| p.count > 0.0));
+    assert!(gpu.iter().any(|p| p.unpack().count > 0.0));
     ex.finish().unwrap();
     let t = ex.timings();
     assert_eq!(t.len(), usize::from(ex.adapter_info().timestamps));

@@ -8,7 +8,7 @@
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{accumulate, atrous, buckets, classify};
-use vrrt_core::payload::{self, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
@@ -172,7 +172,7 @@ fn both() -> Option<Both> {
     })
 }
 
-fn payloads(rng: &mut Rng, n: u32) -> Vec<Payload> {
+fn payloads(rng: &mut Rng, n: u32) -> Vec<PackedPayload> {
     (0..n)
         .map(|_| {
             let m1 = rng.value();
@@ -187,6 +187,7 @@ fn payloads(rng: &mut Rng, n: u32) -> Vec<Payload> {
                 },
                 rng_index: rng.next() as u32,
             }
+            .pack()
         })
         .collect()
 }

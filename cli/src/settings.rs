@@ -88,7 +88,7 @@ mod tests {
             "[filter]",
             "normal_threshold = 0.9\n",
             "variance_threshold = [0.0001, 0.001, 0.01, 0.0]\n",
-            "storage = \"f32\"\n",
+            "storage = \"f16\"\n",
         ] {
             assert!(text.contains(needle), "{needle} missing from\n{text}");
         }

@@ -6,7 +6,7 @@ use crate::camera::View;
 use crate::denoiser::grid_size;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::{apply, balance, buckets, classify, reflect};
-use crate::payload::{Filtered, Payload, Sample, COUNTERS_LEN};
+use crate::payload::{Filtered, PackedPayload, Sample, COUNTERS_LEN};
 use crate::plan::BindingLimit;
 use crate::settings::Settings;
 use core::fmt;
@@ -59,8 +59,8 @@ pub fn denoiser_buffers(
         size("normal_roughness", 2, bytes(pixels, 4)),
         size("motion", 1, bytes(pixels, 8)),
         size("view", 1, size_of::<View>() as u64),
-        size("history", 2, bytes(planes, size_of::<Payload>())),
-        size("reprojected", 1, bytes(planes, size_of::<Payload>())),
+        size("history", 2, bytes(planes, size_of::<PackedPayload>())),
+        size("reprojected", 1, bytes(planes, size_of::<PackedPayload>())),
         size("flags", 1, bytes(pixels, 4)),
         size("samples", 1, bytes(planes, size_of::<Sample>())),
         size("filtered", 2, bytes(planes, size_of::<Filtered>())),

@@ -22,6 +22,7 @@
 //! moments are then stored at the storage precision ([`store`]).
 
 use crate::math;
+use crate::packing;
 use crate::quantize;
 use bytemuck::{Pod, Zeroable};
 
@@ -38,6 +39,41 @@ pub struct Payload {
     /// Index of the next unused number in this pixel's random sequence (point-sampled, never
     /// interpolated).
     pub rng_index: u32,
+}
+
+/// A [`Payload`] as the history buffers hold it (8 bytes): the two moments as binary16 (`m1` in
+/// the low half), the history length as binary16 (exact for whole counts up to 2048, the
+/// longest history allowed) and the rng index's 16 bits (it wraps at 2^16, or 2^8 with unorm8
+/// precision). Conversions are core's integer-op binary16 ([`crate::packing`]), so every backend
+/// stores the same bits; moments are rounded to their storage precision with the stuck correction
+/// before packing ([`store`]), so packing them is exact.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PackedPayload {
+    /// `m1 | m2 << 16`, binary16.
+    pub moments: u32,
+    /// `count | rng_index << 16`, count as binary16.
+    pub count_rng: u32,
+}
+
+impl PackedPayload {
+    /// The payload, widened to f32.
+    #[inline]
+    pub fn unpack(self) -> Payload {
+        let (m1, m2) = packing::unpack_f16x2(self.moments);
+        Payload {
+            m1,
+            m2,
+            count: quantize::f16_to_f32(self.count_rng & 0xffff),
+            rng_index: self.count_rng >> 16,
+        }
+    }
+
+    /// The rng index alone (ray generation reads nothing else).
+    #[inline]
+    pub fn rng_index(self) -> u32 {
+        self.count_rng >> 16
+    }
 }
 
 /// What raygen traced this frame at one pixel for one signal.
@@ -57,6 +93,16 @@ pub struct Sample {
 }
 
 impl Payload {
+    /// The payload as stored ([`PackedPayload`]): moments and count rounded to binary16 (to
+    /// nearest, saturating at 65504), the rng index to its low 16 bits.
+    #[inline]
+    pub fn pack(&self) -> PackedPayload {
+        PackedPayload {
+            moments: packing::pack_f16x2(self.m1, self.m2),
+            count_rng: (packing::pack_f16x2(self.count, 0.0) & 0xffff) | (self.rng_index << 16),
+        }
+    }
+
     /// Temporal variance from the moments, never negative.
     #[inline]
     pub fn variance(&self) -> f32 {

@@ -8,9 +8,10 @@
 //! of 1.0). The correction: if the f32 value changed but its quantized value did not, step the
 //! quantized value one unit toward the f32 value.
 //!
-//! This module models the *precision* of a storage format only: history buffers keep their f32
-//! layout, but every stored moment holds exactly a value of the chosen format. Packed memory
-//! layouts (half the bandwidth) are not implemented; what is measured is the numerical behaviour.
+//! History buffers are packed ([`crate::payload::PackedPayload`]: binary16 fields); a moment
+//! is rounded here to its storage precision (binary16, or unorm8 for signals in `[0, 1]`, which
+//! binary16 then holds to well within half a unorm8 step) with the correction against the value
+//! actually stored last frame.
 //!
 //! Conversions use integer operations only (plus exact float scalings), so they give the same bits
 //! on the CPU and on every GPU, independent of the target's `f32tof16` rounding mode. Stored
@@ -19,17 +20,14 @@
 use crate::math;
 
 /// Precision of the stored history moments
-/// ([`TemporalSettings::storage`](crate::settings::TemporalSettings::storage)). Only the precision
-/// is modelled: buffers keep their f32 layout (see the module docs). In settings files: `"f32"`,
-/// `"f16"` or `"unorm8"`.
+/// ([`TemporalSettings::storage`](crate::settings::TemporalSettings::storage)); the buffers are
+/// packed binary16 either way (see the module docs). In settings files: `"f16"` or `"unorm8"`.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum StoragePrecision {
-    /// f32: the reference, nothing is rounded beyond the f32 merge.
-    #[default]
-    F32,
     /// IEEE binary16 precision, `[0, 65504]`; the rng index wraps at 2^16.
+    #[default]
     F16,
     /// 8-bit unsigned normalized precision, `[0, 1]`, for shadow-only signals; the rng index
     /// wraps at 2^8.
@@ -40,16 +38,14 @@ impl StoragePrecision {
     /// The code passed to kernels (`STORAGE_*`).
     pub fn code(self) -> u32 {
         match self {
-            StoragePrecision::F32 => STORAGE_F32,
             StoragePrecision::F16 => STORAGE_F16,
             StoragePrecision::Unorm8 => STORAGE_UNORM8,
         }
     }
 
-    /// Where the rng index wraps when stored alongside the moments in this format (0 = 32 bits).
+    /// Where the rng index wraps when stored alongside the moments in this format.
     pub fn rng_wrap(self) -> u32 {
         match self {
-            StoragePrecision::F32 => 0,
             StoragePrecision::F16 => 1 << 16,
             StoragePrecision::Unorm8 => 1 << 8,
         }

@@ -38,7 +38,7 @@ pub struct Settings {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct TemporalSettings {
-    /// History length clamp in rays (1..=65504; default 64).
+    /// History length clamp in rays (1..=2048; default 64).
     pub max_history: f32,
     /// Reprojection: minimum cosine between this frame's and last frame's normals (-1..=1;
     /// default 0.9).
@@ -53,17 +53,16 @@ pub struct TemporalSettings {
     /// Firefly clamp of this frame's per-pixel mean, in signal units; 0 = off (>= 0; default 0,
     /// off).
     pub firefly_max: f32,
-    /// Storage precision of the history moments (`f32`, `f16` or `unorm8`; default `f32`, the
-    /// reference). f16 and unorm8 round every stored moment to that format's precision, with the
-    /// seed's stuck correction, to measure what a low-precision history does; buffers keep their
-    /// f32 layout (packed formats are not implemented). Unorm8 is for signals in `[0, 1]`
-    /// (shadows, AO) only.
+    /// Precision of the stored history moments (`f16` or `unorm8`; default `f16`, what the seed
+    /// ships). The history is stored packed (8 bytes per pixel and plane: binary16 moments and
+    /// length, 16-bit rng index); every stored moment is rounded to the precision with the
+    /// seed's stuck correction. Unorm8 is for signals in `[0, 1]` (shadows, AO) only.
     pub storage: StoragePrecision,
     /// Width of the stored rng index: it wraps at this value (0 = the width that goes with
-    /// `storage`: 32 bits for f32, 2^16 for f16, 2^8 for unorm8; any u32; default 0).
+    /// `storage`: 2^16 for f16, 2^8 for unorm8; 0..=65536; default 0).
     pub rng_wrap: u32,
     /// The seed's stuck correction when storing low-precision history (default on). Off only to
-    /// demonstrate the pixel that never converges without it; no effect with f32 storage.
+    /// demonstrate the pixel that never converges without it.
     pub stuck_correction: bool,
 }
 
@@ -179,7 +178,7 @@ impl Default for TemporalSettings {
             clamp_radius: 0,
             clamp_gamma: 1.0,
             firefly_max: 0.0,
-            storage: StoragePrecision::F32,
+            storage: StoragePrecision::F16,
             rng_wrap: 0,
             stuck_correction: true,
         }
@@ -288,8 +287,9 @@ pub(crate) fn check(
     }
 }
 
-/// Largest history length in rays (the largest finite f16).
-const MAX_HISTORY: f32 = 65504.0;
+/// Largest history length in rays: the packed history holds it as binary16, whose whole numbers
+/// are consecutive up to 2048.
+const MAX_HISTORY: f32 = 2048.0;
 
 impl Settings {
     /// The SVGF baseline VRRT is measured against (every tile filtered fully, as published): every
@@ -364,7 +364,13 @@ impl TemporalSettings {
             finite(self.max_history) && self.max_history >= 1.0 && self.max_history <= MAX_HISTORY,
             "temporal.max_history",
             self.max_history,
-            "1..=65504",
+            "1..=2048",
+        )?;
+        check(
+            self.rng_wrap <= 1 << 16,
+            "temporal.rng_wrap",
+            self.rng_wrap as f32,
+            "0..=65536 (the packed history holds 16 bits)",
         )?;
         check(
             finite(self.normal_threshold) && (-1.0..=1.0).contains(&self.normal_threshold),

@@ -13,7 +13,7 @@ use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{self, classify};
 use vrrt_core::payload::Filtered;
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
@@ -314,11 +314,11 @@ impl Renderer {
             // Resolve writes neither the requests nor the reprojected history.
             let pixels = (w * h) as usize;
             let requests: Vec<u32> = read(exec, d.requests(), pixels)?;
-            let reprojected: Vec<Payload> = read(exec, d.reprojected(), pixels)?;
-            let history: Vec<Payload> = read(exec, d.history(), pixels)?;
+            let reprojected: Vec<PackedPayload> = read(exec, d.reprojected(), pixels)?;
+            let history: Vec<PackedPayload> = read(exec, d.history(), pixels)?;
             out.requests = requests;
-            out.history_reprojected = reprojected.iter().map(|p| p.count).collect();
-            out.history_accumulated = history.iter().map(|p| p.count).collect();
+            out.history_reprojected = reprojected.iter().map(|p| p.unpack().count).collect();
+            out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
         }
         Ok(out)
     }
@@ -336,8 +336,11 @@ pub struct Reference {
 }
 
 /// rng indices of reference rays start here, far from any index a denoised frame uses, so the
-/// reference is independent of the frames it judges.
-pub const REFERENCE_RNG_BASE: u32 = 1 << 30;
+/// reference is independent of the frames it judges. The packed history holds 16 bits of rng
+/// index: denoised frames start from the frame number and advance by the rays traced (a few
+/// thousand over a bench sequence), references use the upper half (up to 32768 spp without
+/// wrapping).
+pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 
 /// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
 /// denoiser sees) in passes of up to 64 rays, calling `progress(done, spp)` after each.
@@ -371,7 +374,7 @@ pub fn reference<E: Executor>(
         bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
     )?;
     let rays = exec.create_buffer(pixels as u64 * 4)?;
-    let history = exec.create_buffer((n * std::mem::size_of::<Payload>()) as u64)?;
+    let history = exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?;
     let out = exec.create_buffer((n * std::mem::size_of::<Sample>()) as u64)?;
     let layout = signal.layout(f.lights.len());
     let reflections = match (layout.reflections, signal.reflections()) {
@@ -384,11 +387,12 @@ pub fn reference<E: Executor>(
         let batch = (spp - done).min(64);
         exec.write_buffer(rays, bytes(&vec![batch; pixels]))?;
         let start = REFERENCE_RNG_BASE + done;
-        let hist: Vec<Payload> = vec![
+        let hist: Vec<PackedPayload> = vec![
             Payload {
                 rng_index: start,
                 ..Payload::default()
-            };
+            }
+            .pack();
             n
         ];
         exec.write_buffer(history, bytes(&hist))?;

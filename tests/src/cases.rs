@@ -11,7 +11,7 @@ use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
     accumulate, apply, atrous, balance, buckets, classify, copy, fill, reproject, variance,
 };
-use vrrt_core::payload::{self, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
 use vrrt_core::surface::{Surface, NO_INSTANCE};
@@ -122,19 +122,23 @@ fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
     [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
 }
 
-const PAYLOAD: &[Word] = &[Word::F32, Word::F32, Word::F32, Word::U32];
+/// `PackedPayload`: binary16 fields, compared as the words they are.
+const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
 const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
 const FLOATS: &[Word] = &[Word::F32];
 const INTS: &[Word] = &[Word::U32];
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let history: Vec<Payload> = (0..n)
-        .map(|_| Payload {
-            m1: value(rng),
-            m2: value(rng),
-            count: [0.0, 0.5, 1.0, 63.5, 64.0, 70.0][rng.random_range(0..6)],
-            rng_index: rng.random(),
+    let history: Vec<PackedPayload> = (0..n)
+        .map(|_| {
+            Payload {
+                m1: value(rng),
+                m2: value(rng),
+                count: [0.0, 0.5, 1.0, 63.5, 64.0, 70.0][rng.random_range(0..6)],
+                rng_index: rng.random(),
+            }
+            .pack()
         })
         .collect();
     // Some samples are non-finite: the clean-up policy drops and counts them.
@@ -152,11 +156,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             first: 0.0,
         })
         .collect();
-    let storage = [
-        quantize::STORAGE_F32,
-        quantize::STORAGE_F16,
-        quantize::STORAGE_UNORM8,
-    ][rng.random_range(0..3)];
+    let storage = [quantize::STORAGE_F16, quantize::STORAGE_UNORM8][rng.random_range(0..2)];
     let params = accumulate::AccumulateParams {
         width: w,
         height: h,
@@ -180,7 +180,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
             BufferSpec::from_pod(&samples, SAMPLE),
-            BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
+            BufferSpec::from_pod(&vec![PackedPayload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
@@ -292,13 +292,16 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-fn history(rng: &mut Pcg32, n: usize) -> Vec<Payload> {
+fn history(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
     (0..n)
-        .map(|_| Payload {
-            m1: value(rng),
-            m2: value(rng),
-            count: [0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0][rng.random_range(0..8)],
-            rng_index: rng.random(),
+        .map(|_| {
+            Payload {
+                m1: value(rng),
+                m2: value(rng),
+                count: [0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0][rng.random_range(0..8)],
+                rng_index: rng.random(),
+            }
+            .pack()
         })
         .collect()
 }
@@ -408,7 +411,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&gradient, FLOATS),
             BufferSpec::from_pod(&importance, FLOATS),
             BufferSpec::from_pod(&parallax, FLOATS),
-            BufferSpec::from_pod(&vec![Payload::default(); n], PAYLOAD),
+            BufferSpec::from_pod(&vec![PackedPayload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
         ],

@@ -12,14 +12,14 @@ use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::InstanceData;
 use vrrt_core::kernels::gradient::{self, GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{PackedPayload, Payload, Sample};
 use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;
 const U: Word = Word::U32;
 const FLOATS: &[Word] = &[F];
 const INTS: &[Word] = &[U];
-const PAYLOAD: &[Word] = &[F, F, F, U];
+const PAYLOAD: &[Word] = &[U, U];
 const SAMPLE: &[Word] = &[F, F, U, F];
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
@@ -109,13 +109,16 @@ fn retrace_inputs(rng: &mut Pcg32, p: &Pair, w: u32, h: u32) -> (Vec<BufferSpec>
         })
         .collect();
     let n = (w * h * PLANES) as usize;
-    let payload: Vec<Payload> = (0..n)
-        .map(|_| Payload {
-            rng_index: match rng.random_range(0..4) {
-                0 => u32::MAX - rng.random_range(0..4),
-                _ => rng.random(),
-            },
-            ..Payload::default()
+    let payload: Vec<PackedPayload> = (0..n)
+        .map(|_| {
+            Payload {
+                rng_index: match rng.random_range(0..4) {
+                    0 => 0xffff - rng.random_range(0..4),
+                    _ => rng.random(),
+                },
+                ..Payload::default()
+            }
+            .pack()
         })
         .collect();
     let samples: Vec<Sample> = (0..n)

@@ -10,7 +10,7 @@ use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
-use vrrt_core::payload::{Payload, Sample};
+use vrrt_core::payload::{PackedPayload, Payload, Sample};
 use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
@@ -120,7 +120,7 @@ pub(crate) struct WorkList {
     work: Vec<u32>,
     pub(crate) args: [u32; 4],
     rays: Vec<u32>,
-    pub(crate) history: Vec<Payload>,
+    pub(crate) history: Vec<PackedPayload>,
     pub(crate) groups: [u32; 3],
 }
 
@@ -137,13 +137,16 @@ impl WorkList {
         work.resize(pixels as usize, 0);
         let rays = (0..pixels).map(|_| rng.random_range(0..5)).collect();
         let history = (0..pixels * planes)
-            .map(|_| Payload {
-                rng_index: match rng.random_range(0..4) {
-                    0 => 0,
-                    1 => u32::MAX - rng.random_range(0..4),
-                    _ => rng.random(),
-                },
-                ..Payload::default()
+            .map(|_| {
+                Payload {
+                    rng_index: match rng.random_range(0..4) {
+                        0 => 0,
+                        1 => 0xffff - rng.random_range(0..4),
+                        _ => rng.random(),
+                    },
+                    ..Payload::default()
+                }
+                .pack()
             })
             .collect();
         // One group more than the list needs: invocations past the count must do nothing.
@@ -170,7 +173,7 @@ impl WorkList {
     }
 }
 
-pub(crate) const PAYLOAD: &[Word] = &[F, F, F, U];
+pub(crate) const PAYLOAD: &[Word] = &[U, U];
 
 /// `raygen_ao`: AO rays from the room's G-buffer over a work list, two planes.
 pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {

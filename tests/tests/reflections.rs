@@ -6,7 +6,7 @@
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::reflect;
-use vrrt_core::payload::Payload;
+use vrrt_core::payload::{PackedPayload, Payload};
 use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::{Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
@@ -89,12 +89,15 @@ fn run(
             .render(&mut exec, &scene.frame(i), Readback::default())
             .unwrap();
         if let Some(k) = frames.iter().position(|&f| f == i) {
-            let history: Vec<Payload> = read(
+            let history: Vec<Payload> = read::<PackedPayload, _>(
                 &mut exec,
                 r.denoiser().history(),
                 (SIZE.0 * SIZE.1) as usize,
             )
-            .unwrap();
+            .unwrap()
+            .iter()
+            .map(|p| p.unpack())
+            .collect();
             let m1: Vec<f32> = history.iter().map(|p| p.m1).collect();
             e.denoised += rel_mse(&out.denoised, &refs[k]);
             e.samples += rel_mse(&out.raw, &refs[k]);
@@ -128,12 +131,15 @@ fn reflections_converge_to_the_reference_of_the_same_estimator() {
         r.render(&mut exec, &scene.frame(i), Readback::default())
             .unwrap();
         if [7, 31, 127, 255].contains(&i) {
-            let h: Vec<Payload> = read(
+            let h: Vec<Payload> = read::<PackedPayload, _>(
                 &mut exec,
                 r.denoiser().history(),
                 (SIZE.0 * SIZE.1) as usize,
             )
-            .unwrap();
+            .unwrap()
+            .iter()
+            .map(|p| p.unpack())
+            .collect();
             let m1: Vec<f32> = h.iter().map(|p| p.m1).collect();
             let bias = m1
                 .iter()

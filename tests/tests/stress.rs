@@ -14,7 +14,7 @@ use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo};
 use vrrt_core::glam::Vec3;
 use vrrt_core::payload::Filtered;
-use vrrt_core::payload::{self, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::quantize;
 use vrrt_core::settings::{
@@ -216,11 +216,12 @@ impl Rig {
     }
 
     fn history(&self, exec: &mut Backend) -> Vec<Payload> {
-        read(
+        let packed: Vec<PackedPayload> = read(
             exec,
             self.d.history(),
             (self.w * self.h * self.planes) as usize,
-        )
+        );
+        packed.iter().map(|p| p.unpack()).collect()
     }
 
     fn counters(&self, exec: &mut Backend) -> [u32; 2] {
@@ -358,22 +359,20 @@ fn f16_history_does_not_drift_or_stick() {
             },
             ..Settings::svgf(1.0)
         };
-        let mut f32_run = Rig::new(b, w, h, settings(StoragePrecision::F32), plane(w, h));
+        // The packed history is binary16: its mean is held against the truth. The noise alone
+        // leaves about 3e-4 (one standard deviation: 256 pixels, a 64-ray history of ±0.05
+        // uniform noise, relative to the mean); a drift would grow with the frames.
         let mut f16_run = Rig::new(b, w, h, settings(StoragePrecision::F16), plane(w, h));
         let mut worst_drift = 0.0f64;
         for f in 0..frames {
-            f32_run.frame(b, false, noisy);
             f16_run.frame(b, false, noisy);
             if (f + 1) % (frames / 10) == 0 {
-                let m32: Vec<f32> = f32_run.history(b).iter().map(|p| p.m1).collect();
                 let m16: Vec<f32> = f16_run.history(b).iter().map(|p| p.m1).collect();
-                let drift = (mean(&m16) - mean(&m32)).abs() / reference_mean;
+                let drift = (mean(&m16) - reference_mean).abs() / reference_mean;
                 worst_drift = worst_drift.max(drift);
             }
         }
-        let m16: Vec<f32> = f16_run.history(b).iter().map(|p| p.m1).collect();
-        let vs_truth = (mean(&m16) - reference_mean).abs() / reference_mean;
-        assert!(worst_drift < 1e-3, "f16 drift {worst_drift}");
+        assert!(worst_drift < 1.5e-3, "f16 drift {worst_drift}");
 
         // Step: noise-free samples at the new values until every pixel holds its value.
         let limit = 10 * 64;
@@ -400,7 +399,7 @@ fn f16_history_does_not_drift_or_stick() {
         assert_eq!(stuck, 0, "{stuck} pixels stuck after {limit} frames");
         let slowest = reached.iter().flatten().max().unwrap();
         format!(
-            "{frames} frames: drift vs f32 history {worst_drift:.2e}, vs truth {vs_truth:.2e}; \
+            "{frames} frames: packed f16 history vs truth, worst of 10 checks {worst_drift:.2e}; \
              step reached (±1 f16 unit) by every pixel in {slowest} frames (history 64)"
         )
     });
@@ -454,18 +453,13 @@ fn unorm8_shadow_reaches_one_only_with_the_correction() {
     });
 }
 
-/// HDR extremes, all-black and all-white frames, zero variance and denormals, in f32, f16 and
+/// HDR extremes, all-black and all-white frames, zero variance and denormals, in f16 and
 /// (for [0, 1]) unorm8 storage: outputs are finite and their mean is the input quantized to the
 /// format. GPUs may flush f32 denormals to zero; both are accepted there, and reported.
 #[test]
 fn hdr_extremes_black_white_and_denormals() {
     let (w, h) = (9, 7);
     let cases: &[(StoragePrecision, f32)] = &[
-        (StoragePrecision::F32, 0.0),
-        (StoragePrecision::F32, 1e-6),
-        (StoragePrecision::F32, 1.0),
-        (StoragePrecision::F32, 6e4),
-        (StoragePrecision::F32, 1e-40),
         (StoragePrecision::F16, 0.0),
         (StoragePrecision::F16, 1e-6),
         (StoragePrecision::F16, 1.0),
@@ -598,9 +592,14 @@ fn resolutions_resize_cut_sky_and_zero_size() {
         }
         rig.frame(b, true, |_, _, _, _| (0.8, 0.64));
         let hist = rig.history(b);
-        assert!(hist.iter().all(|p| p.m1 == 0.8 && p.count == 1.0));
+        // 0.8 as the f16 history stores it.
+        let stored = quantize::quantize(quantize::STORAGE_F16, 0.8);
+        assert!(hist.iter().all(|p| p.m1 == stored && p.count == 1.0));
         let cut_mean = mean(&rig.output(b));
-        assert!((cut_mean - 0.8).abs() < 1e-6, "after cut {cut_mean}");
+        assert!(
+            (cut_mean - stored as f64).abs() < 1e-6,
+            "after cut {cut_mean}"
+        );
 
         // No geometry: nothing is traced, nothing is NaN.
         let mut rig = Rig::new(b, 31, 15, Settings::default(), sky(31, 15));
@@ -665,11 +664,7 @@ mod properties {
     }
 
     fn storage() -> impl Strategy<Value = u32> {
-        prop_oneof![
-            Just(quantize::STORAGE_F32),
-            Just(quantize::STORAGE_F16),
-            Just(quantize::STORAGE_UNORM8)
-        ]
+        prop_oneof![Just(quantize::STORAGE_F16), Just(quantize::STORAGE_UNORM8)]
     }
 
     proptest! {

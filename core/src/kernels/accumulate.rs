@@ -103,10 +103,10 @@ pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
         curr.m2 = math::min(curr.m2, p.firefly_max * p.firefly_max);
     }
     let prev = if p.clamp_radius > 0 {
-        clamp_history(id, p, samples, history[i])
+        clamp_history(id, p, samples, history[i].unpack())
     } else {
-        history[i]
+        history[i].unpack()
     };
     let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
-    out[i] = payload::store(prev, curr, merged, p.storage);
+    out[i] = payload::store(prev, curr, merged, p.storage).pack();
 }

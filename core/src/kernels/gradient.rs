@@ -39,7 +39,7 @@ use crate::atomic;
 use crate::camera::Camera;
 use crate::camera::View;
 use crate::math;
-use crate::payload::{Payload, Sample};
+use crate::payload::{PackedPayload, Sample};
 use crate::sampling::{pcg_hash, pixel_seed};
 use crate::surface::{self, Surface};
 use bytemuck::{Pod, Zeroable};
@@ -343,7 +343,7 @@ struct LastFrame<'a> {
     prev_geometry: &'a [[u32; 2]],
     view: &'a [View],
     next: &'a [InstanceData],
-    prev_payload: &'a [Payload],
+    prev_payload: &'a [PackedPayload],
     prev_samples: &'a [Sample],
 }
 
@@ -376,7 +376,7 @@ fn retrace(
             if prev_samples[i].rays > 0 {
                 let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
                 let seed = pixel_seed(x, y, z);
-                if let Some(curr) = trace(&s, z, seed, prev_payload[i].rng_index) {
+                if let Some(curr) = trace(&s, z, seed, prev_payload[i].rng_index()) {
                     out[o] = gradient_of(curr, prev_samples[i].first);
                 }
             }

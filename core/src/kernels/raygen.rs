@@ -340,7 +340,7 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         out[i] = ao_pixel(
             &s,
             seed,
-            history[i].rng_index,
+            history[i].rng_index(),
             n,
             p.max_distance,
             nodes,
@@ -389,7 +389,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
                 &s,
                 &lights[z as usize],
                 pixel_seed(x, y, plane),
-                history[i].rng_index,
+                history[i].rng_index(),
                 n,
                 nodes,
                 tris,

@@ -301,7 +301,7 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         let mut k = 0;
         while k < 4 {
             if bilinear[k] > 0.0 {
-                let h = history[z as usize * (p.width * p.height) as usize + texel[k]];
+                let h = history[z as usize * (p.width * p.height) as usize + texel[k]].unpack();
                 // Empty texels (undersampled, never traced) are rejected one by one.
                 let w = if h.count >= 1.0 { bilinear[k] } else { 0.0 };
                 if w > 0.0 {
@@ -351,7 +351,7 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         };
         min_count = math::min(min_count, reprojected.count);
         max_variance = math::max(max_variance, reprojected.variance());
-        out[i] = reprojected;
+        out[i] = reprojected.pack();
         z += 1;
     }
     let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);

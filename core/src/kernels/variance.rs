@@ -75,7 +75,7 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         return;
     }
     let i = plane_index(id, p.width, p.height);
-    let h = payload[i];
+    let h = payload[i].unpack();
     let per_estimate = 1.0 / math::max(h.count, 1.0);
     let temporal = Filtered {
         value: h.m1,
@@ -100,7 +100,7 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
             let qy = id.y as i32 + dy;
             if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
                 let (qx, qy) = (qx as u32, qy as u32);
-                let q = payload[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
+                let q = payload[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)].unpack();
                 let t = pixel_index(qx, qy, p.width);
                 let qd = depth[t];
                 if q.count > 0.0 && surface::has_surface(qd) {

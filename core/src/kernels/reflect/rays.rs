@@ -66,7 +66,7 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     )
     .with_hit(geometry[pix]);
     let seed = pixel_seed(x, y, p.plane);
-    let first_index = history[i].rng_index;
+    let first_index = history[i].rng_index();
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut record = RayHit::default();
     let mut k = 0u32;
