@@ -17,8 +17,8 @@ use vrrt_core::kernels::accumulate::AccumulateParams;
 use vrrt_core::kernels::atrous::AtrousParams;
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
 use vrrt_core::kernels::classify;
-use vrrt_core::payload::Filtered;
 use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
+use vrrt_core::payload::{Filtered, PackedFiltered};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
@@ -124,6 +124,11 @@ fn assert_bits<T: Pod + std::fmt::Debug>(
     if !exact && diff > 0 {
         println!("  (module lacks NoContraction: FMA contraction allowed, not bit-exact)");
     }
+}
+
+/// The filter's packed words as values (compared as floats).
+fn unpacked(f: &[PackedFiltered]) -> Vec<Filtered> {
+    f.iter().map(|p| p.unpack()).collect()
 }
 
 fn check_validation(ex: &AshExecutor) {
@@ -291,10 +296,13 @@ fn atrous_matches_cpu() {
     let Some(mut ex) = executor() else { return };
     let n = (W * H * PLANES) as usize;
     let mut rng = Rng(0x9e37_79b9);
-    let input: Vec<Filtered> = (0..n)
-        .map(|_| Filtered {
-            value: rng.unit() * 3.0,
-            variance: rng.unit() * rng.unit(),
+    let input: Vec<PackedFiltered> = (0..n)
+        .map(|_| {
+            Filtered {
+                value: rng.unit() * 3.0,
+                variance: rng.unit() * rng.unit(),
+            }
+            .pack()
         })
         .collect();
     let (depth, normal_roughness) = packed(&surfaces(&mut rng));
@@ -318,7 +326,7 @@ fn atrous_matches_cpu() {
             &out,
         ];
         let p = bytemuck::bytes_of(&params);
-        let (gpu, cpu) = run_both::<Filtered>(
+        let (gpu, cpu) = run_both::<PackedFiltered>(
             &mut ex,
             &Launch {
                 kernel: &vrrt_core::kernels::ATROUS,
@@ -329,7 +337,13 @@ fn atrous_matches_cpu() {
                 out_len: n,
             },
         );
-        assert_bits(&format!("atrous step {step}"), &gpu, &cpu, true, ATROUS_ULP);
+        assert_bits(
+            &format!("atrous step {step}"),
+            &unpacked(&gpu),
+            &unpacked(&cpu),
+            true,
+            ATROUS_ULP,
+        );
         assert_ne!(gpu, input, "the filter did nothing");
     }
     check_validation(&ex);
@@ -384,7 +398,7 @@ fn tile_levels() -> Vec<u32> {
 
 /// Five dependent à-trous passes (ping-pong) recorded without waits, the fourth launched
 /// indirectly, with a `write_buffer` in the middle of the stream. Returns the final buffer.
-fn chain<E: Executor>(ex: &mut E, input: &[Filtered], surf: &[Surface]) -> BufferId {
+fn chain<E: Executor>(ex: &mut E, input: &[PackedFiltered], surf: &[Surface]) -> BufferId {
     let (depth, normal_roughness) = packed(surf);
     let v = view();
     let zeros = vec![0u8; std::mem::size_of_val(input)];
@@ -450,18 +464,22 @@ fn chained_passes_indirect_and_timestamps() {
     let mut cpu = CpuExecutor::new();
     let n = (W * H * PLANES) as usize;
     let mut rng = Rng(0x0bad_f00d);
-    let input: Vec<Filtered> = (0..n)
-        .map(|_| Filtered {
-            value: rng.unit(),
-            variance: rng.unit() * 0.1,
+    let input: Vec<PackedFiltered> = (0..n)
+        .map(|_| {
+            Filtered {
+                value: rng.unit(),
+                variance: rng.unit() * 0.1,
+            }
+            .pack()
         })
         .collect();
     let surf = surfaces(&mut rng);
     let g = chain(&mut ex, &input, &surf);
     let c = chain(&mut cpu, &input, &surf);
     assert!(ex.timings().is_empty(), "nothing completed yet");
-    let gpu: Vec<Filtered> = read(&mut ex, g, n);
-    let want: Vec<Filtered> = read(&mut cpu, c, n);
+    let (gpu, want): (Vec<PackedFiltered>, Vec<PackedFiltered>) =
+        (read(&mut ex, g, n), read(&mut cpu, c, n));
+    let (gpu, want) = (unpacked(&gpu), unpacked(&want));
     assert_bits("5 chained atrous passes", &gpu, &want, true, ATROUS_ULP * 5);
     if ex.adapter_info().timestamps {
         let t = ex.timings();

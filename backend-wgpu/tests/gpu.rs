@@ -281,10 +281,13 @@ fn surfaces(rng: &mut Rng) -> Vec<Surface> {
 fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
     let mut rng = Rng(2);
     let n = W * H * PLANES;
-    let input: Vec<vrrt_core::payload::Filtered> = (0..n)
-        .map(|_| vrrt_core::payload::Filtered {
-            value: rng.value(),
-            variance: rng.unit() * 2.0,
+    let input: Vec<vrrt_core::payload::PackedFiltered> = (0..n)
+        .map(|_| {
+            vrrt_core::payload::Filtered {
+                value: rng.value(),
+                variance: rng.unit() * 2.0,
+            }
+            .pack()
         })
         .collect();
     let input = b.buffer(bytemuck::cast_slice(&input));

@@ -205,6 +205,34 @@ pub struct Filtered {
     pub variance: f32,
 }
 
+/// A [`Filtered`] as the filter's buffers and the output hold it: value and variance as two
+/// binary16 in one word (value in the low half; RG16F), saturated to ±65504.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PackedFiltered {
+    /// `value | variance << 16`, binary16.
+    pub bits: u32,
+}
+
+impl PackedFiltered {
+    /// Value and variance, widened to f32.
+    #[inline]
+    pub fn unpack(self) -> Filtered {
+        let (value, variance) = packing::unpack_f16x2(self.bits);
+        Filtered { value, variance }
+    }
+}
+
+impl Filtered {
+    /// The packed form, rounded to nearest binary16.
+    #[inline]
+    pub fn pack(&self) -> PackedFiltered {
+        PackedFiltered {
+            bits: packing::pack_f16x2(self.value, self.variance),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

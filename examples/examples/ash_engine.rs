@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use vrrt_ash::ash::{self, vk};
 use vrrt_ash::{AshExecutor, RawVulkan};
 use vrrt_core::denoiser::Denoiser;
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::Pass;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,
@@ -65,7 +65,7 @@ fn run(app: &App) -> Result<(), Error> {
         .map(|(_, b)| b.len() as u64)
         .collect();
     let samples_bytes = std::mem::size_of_val(trace(0, &[0; PIXELS]).as_slice()) as u64;
-    let output_bytes = (PIXELS * size_of::<Filtered>()) as u64;
+    let output_bytes = (PIXELS * size_of::<PackedFiltered>()) as u64;
     let src = vk::BufferUsageFlags::TRANSFER_SRC;
     let staging_gbuffer = gbuffer_bytes
         .iter()
@@ -147,7 +147,7 @@ fn run(app: &App) -> Result<(), Error> {
                 },
             )
         }?;
-        let mut denoised = vec![Filtered::default(); PIXELS];
+        let mut denoised = vec![PackedFiltered::default(); PIXELS];
         unsafe { readback.read(bytemuck::cast_slice_mut(&mut denoised)) };
         // Not bit-exact on every GPU (Vulkan allows looser division and square roots).
         let err = assert_close(

@@ -6,7 +6,7 @@
 
 use vrrt_core::denoiser::Denoiser;
 use vrrt_core::kernels::balance::Balance;
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::Executor;
 use vrrt_cpu::CpuExecutor;
 use vrrt_examples::{
@@ -35,7 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cpu.write_buffer(denoiser.samples(), bytemuck::cast_slice(&samples))?;
         // 4. Accumulate and filter: the denoised image.
         denoiser.resolve(&mut cpu)?;
-        let denoised = values(&read::<Filtered, CpuExecutor>(
+        let denoised = values(&read::<PackedFiltered, CpuExecutor>(
             &mut cpu,
             denoiser.output(),
             PIXELS,

@@ -9,7 +9,7 @@
 //! `VRRT_REQUIRE_VULKAN=1`. `VRRT_VALIDATION=1` runs it under the Khronos validation layer.
 
 use vrrt_core::denoiser::Denoiser;
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,
     validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,
@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let mut gpu = WgpuExecutor::from_device(device.clone(), queue.clone())?;
     let mut d = Denoiser::new(&mut gpu, WIDTH, HEIGHT, settings()).map_err(|e| e.to_string())?;
-    let output_bytes = (PIXELS * size_of::<Filtered>()) as u64;
+    let output_bytes = (PIXELS * size_of::<PackedFiltered>()) as u64;
     // The application's buffer it reads the denoised image back from.
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("app readback"),
@@ -97,7 +97,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
         readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map readback"));
         device.poll(wgpu::PollType::wait_indefinitely())?;
-        let denoised: Vec<Filtered> = bytemuck::pod_collect_to_vec(&readback.get_mapped_range(..)?);
+        let denoised: Vec<PackedFiltered> =
+            bytemuck::pod_collect_to_vec(&readback.get_mapped_range(..)?);
         readback.unmap();
         // Not bit-exact on every GPU (Vulkan allows looser division and square roots).
         let err = assert_close(

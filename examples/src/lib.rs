@@ -16,7 +16,7 @@ use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
 use vrrt_core::glam::Vec3;
 use vrrt_core::packing;
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::Sample;
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::settings::Settings;
@@ -190,9 +190,9 @@ pub struct FrameResult {
     pub denoised: Vec<f32>,
 }
 
-/// The denoised values of a [`Filtered`] buffer's contents.
-pub fn values(filtered: &[Filtered]) -> Vec<f32> {
-    filtered.iter().map(|f| f.value).collect()
+/// The denoised values of a [`PackedFiltered`] buffer's contents (RG16F: value, variance).
+pub fn values(filtered: &[PackedFiltered]) -> Vec<f32> {
+    filtered.iter().map(|f| f.unpack().value).collect()
 }
 
 /// The reference the GPU examples compare with: every frame on the CPU backend, the same loop
@@ -211,7 +211,7 @@ pub fn cpu_frames() -> Vec<FrameResult> {
                 let rays = read::<u32, _>(cpu, d.rays(), PIXELS)?;
                 cpu.write_buffer(d.samples(), bytemuck::cast_slice(&trace(frame, &rays)))?;
                 d.resolve(cpu)?;
-                let denoised = values(&read::<Filtered, _>(cpu, d.output(), PIXELS)?);
+                let denoised = values(&read::<PackedFiltered, _>(cpu, d.output(), PIXELS)?);
                 Ok::<_, vrrt_cpu::CpuError>(FrameResult { rays, denoised })
             };
             run(cpu, &mut d).expect("CPU backend")

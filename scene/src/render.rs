@@ -12,7 +12,7 @@ use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{self, classify};
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
@@ -286,14 +286,14 @@ impl Renderer {
             }
         }
         let n = (w * h * planes) as usize;
-        let denoised: Vec<Filtered> = read(exec, d.output(), n)?;
+        let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = read(exec, d.samples(), n)?;
         let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
         let flags: Vec<u32> = read(exec, d.flags(), (w * h) as usize)?;
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         let mut out = FrameOutput {
-            denoised: denoised.iter().map(|f| f.value).collect(),
+            denoised: denoised.iter().map(|f| f.unpack().value).collect(),
             raw: samples
                 .iter()
                 .map(|s| if s.rays > 0 { s.m1 } else { 0.0 })

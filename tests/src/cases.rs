@@ -11,7 +11,7 @@ use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
     accumulate, apply, atrous, balance, buckets, classify, copy, fill, reproject, variance,
 };
-use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
+use vrrt_core::payload::{self, Filtered, PackedFiltered, PackedPayload, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
 use vrrt_core::surface::{Surface, NO_INSTANCE};
@@ -190,10 +190,13 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let input: Vec<vrrt_core::payload::Filtered> = (0..n)
-        .map(|_| vrrt_core::payload::Filtered {
-            value: value(rng),
-            variance: value(rng).abs(),
+    let input: Vec<PackedFiltered> = (0..n)
+        .map(|_| {
+            Filtered {
+                value: value(rng),
+                variance: value(rng).abs(),
+            }
+            .pack()
         })
         .collect();
     let view = inputs::test_view();
@@ -213,12 +216,12 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         name: format!("atrous {w}x{h}x{PLANES} step {}", params.step),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
-            BufferSpec::from_pod(&input, FLOATS),
+            BufferSpec::from_pod(&input, INTS),
             g.depth(),
             g.normal_roughness(),
             inputs::view(&view),
             BufferSpec::from_pod(&tiles, INTS),
-            BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
@@ -227,14 +230,21 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let filtered: Vec<vrrt_core::payload::Filtered> = (0..n)
-        .map(|_| vrrt_core::payload::Filtered {
-            value: value(rng),
-            variance: match rng.random_range(0..50) {
-                0 => f32::NAN,
-                1 => f32::INFINITY,
-                _ => value(rng) * 1e-3,
-            },
+    // Some stored variances are binary16 NaN or infinity (a buggy writer): classify's guard.
+    let filtered: Vec<PackedFiltered> = (0..n)
+        .map(|_| {
+            let f = Filtered {
+                value: value(rng),
+                variance: value(rng) * 1e-3,
+            }
+            .pack();
+            let hostile = [0x7e00u32, 0x7c00][rng.random_range(0..2)];
+            match rng.random_range(0..25) {
+                0 => PackedFiltered {
+                    bits: (f.bits & 0xffff) | hostile << 16,
+                },
+                _ => f,
+            }
         })
         .collect();
     let g = Images::pack(&surfaces(rng, w, h), w, &inputs::test_view());
@@ -255,7 +265,7 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         kernel: &vrrt_core::kernels::CLASSIFY,
         buffers: vec![
             g.depth(),
-            BufferSpec::from_pod(&filtered, FLOATS),
+            BufferSpec::from_pod(&filtered, INTS),
             BufferSpec::from_pod(&vec![7u32; (tw * th) as usize], INTS),
             BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
         ],
@@ -437,7 +447,7 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             g.depth(),
             g.normal_roughness(),
             inputs::view(&view),
-            BufferSpec::from_pod(&vec![vrrt_core::payload::Filtered::default(); n], FLOATS),
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),

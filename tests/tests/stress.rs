@@ -13,7 +13,7 @@ use vrrt_cli::backend::{Backend, BackendKind};
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, DenoiserError, FrameInfo};
 use vrrt_core::glam::Vec3;
-use vrrt_core::payload::Filtered;
+use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::quantize;
@@ -209,9 +209,9 @@ impl Rig {
 
     fn output(&self, exec: &mut Backend) -> Vec<f32> {
         let n = (self.w * self.h * self.planes) as usize;
-        read::<Filtered>(exec, self.d.output(), n)
+        read::<PackedFiltered>(exec, self.d.output(), n)
             .iter()
-            .map(|f| f.value)
+            .map(|f| f.unpack().value)
             .collect()
     }
 

@@ -15,7 +15,7 @@ use super::{pixel_index, plane_index};
 use crate::camera::PixelRays;
 use crate::math;
 use crate::packing;
-use crate::payload::Filtered;
+use crate::payload::{Filtered, PackedFiltered};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, UVec3};
@@ -74,7 +74,7 @@ fn clamp_coord(v: i32, n: u32) -> u32 {
 
 /// Variance at `(x, y)` blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for the
 /// luminance weight.
-fn blurred_variance(input: &[Filtered], x: u32, y: u32, plane: u32, p: &AtrousParams) -> f32 {
+fn blurred_variance(input: &[PackedFiltered], x: u32, y: u32, plane: u32, p: &AtrousParams) -> f32 {
     let mut sum = 0.0;
     let mut dy = -1;
     while dy <= 1 {
@@ -83,7 +83,8 @@ fn blurred_variance(input: &[Filtered], x: u32, y: u32, plane: u32, p: &AtrousPa
             let qx = clamp_coord(x as i32 + dx, p.width);
             let qy = clamp_coord(y as i32 + dy, p.height);
             let w = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
-            sum += w * input[plane_index(UVec3::new(qx, qy, plane), p.width, p.height)].variance;
+            let q = input[plane_index(UVec3::new(qx, qy, plane), p.width, p.height)];
+            sum += w * q.unpack().variance;
             dx += 1;
         }
         dy += 1;
@@ -105,11 +106,12 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         return;
     }
     let i = plane_index(id, p.width, p.height);
-    let center = input[i];
+    let packed = input[i];
+    let center = packed.unpack();
     let pix = pixel_index(id.x, id.y, p.width);
     let cd = depth[pix];
     if !surface::has_surface(cd) || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
-        out[i] = center;
+        out[i] = packed;
         return;
     }
     let n = packing::unpack_normal(normal_roughness[pix]);
@@ -133,7 +135,8 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 let q = pixel_index(qx, qy, p.width);
                 let qd = depth[q];
                 if surface::has_surface(qd) {
-                    let tap = input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)];
+                    let tap =
+                        input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)].unpack();
                     let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
                     let m = packing::unpack_normal(normal_roughness[q]);
                     let w_n = surface::normal_weight(n, m, p.normal_power);
@@ -159,5 +162,6 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     out[i] = Filtered {
         value: sum / sum_w,
         variance: sum_var / (sum_w * sum_w),
-    };
+    }
+    .pack();
 }

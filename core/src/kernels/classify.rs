@@ -100,7 +100,7 @@ pub fn classify(id: UVec3, p: &ClassifyParams, io: ClassifyIo<'_>) {
                 any = true;
                 let mut z = 0;
                 while z < p.planes {
-                    let v = filtered[z as usize * plane + pix].variance;
+                    let v = filtered[z as usize * plane + pix].unpack().variance;
                     if !(v >= 0.0 && math::is_finite(v)) {
                         bad = true;
                     } else if v > worst {

@@ -22,12 +22,12 @@ crate::kernel_table! {
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
     atrous => ATROUS, AtrousBindings, AtrousIo: fn atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
-        input: read Filtered,
+        input: read PackedFiltered,
         depth: read f32,
         normal_roughness: read u32,
         view: read View,
         tiles: read u32,
-        out: write Filtered,
+        out: write PackedFiltered,
     }
 
     /// [`classify::classify`]: iterations per 8×8 tile and their histogram; one invocation per
@@ -35,7 +35,7 @@ crate::kernel_table! {
     classify => CLASSIFY, ClassifyBindings, ClassifyIo: fn classify::classify,
     threads(8, 8, 1), params classify::ClassifyParams {
         depth: read f32,
-        filtered: read Filtered,
+        filtered: read PackedFiltered,
         tiles: write u32,
         histogram: atomic u32,
     }
@@ -124,7 +124,7 @@ crate::kernel_table! {
         depth: read f32,
         normal_roughness: read u32,
         view: read View,
-        out: write Filtered,
+        out: write PackedFiltered,
     }
 
     /// [`balance::balance`]: the load balancer; `counts` from `count_buckets`, one workgroup.

@@ -84,7 +84,7 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     let pix = pixel_index(id.x, id.y, p.width);
     let cd = depth[pix];
     if h.count >= p.spatial_until || !surface::has_surface(cd) {
-        out[i] = temporal;
+        out[i] = temporal.pack();
         return;
     }
     let n = packing::unpack_normal(normal_roughness[pix]);
@@ -121,7 +121,7 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         dy += 1;
     }
     if sw <= 0.0 {
-        out[i] = temporal;
+        out[i] = temporal.pack();
         return;
     }
     let (m1s, m2s) = (s1 / sw, s2 / sw);
@@ -130,5 +130,6 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     out[i] = Filtered {
         value: math::lerp(m1s, h.m1, t),
         variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
-    };
+    }
+    .pack();
 }
