@@ -17,7 +17,7 @@ use vrrt_core::kernels::accumulate::AccumulateParams;
 use vrrt_core::kernels::atrous::AtrousParams;
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
 use vrrt_core::kernels::classify;
-use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::payload::{Filtered, PackedFiltered};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
@@ -189,7 +189,7 @@ fn accumulate_matches_cpu() {
             .pack()
         })
         .collect();
-    let samples: Vec<Sample> = (0..n)
+    let samples: Vec<PackedSample> = (0..n)
         .map(|_| {
             let m1 = rng.unit() * 8.0;
             Sample {
@@ -199,6 +199,7 @@ fn accumulate_matches_cpu() {
                 first: 0.0,
             }
         })
+        .map(|s| s.pack())
         .collect();
     let params = AccumulateParams {
         width: W,

@@ -8,7 +8,7 @@
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{accumulate, atrous, buckets, classify};
-use vrrt_core::payload::{self, PackedPayload, Payload, Sample};
+use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
@@ -192,7 +192,7 @@ fn payloads(rng: &mut Rng, n: u32) -> Vec<PackedPayload> {
         .collect()
 }
 
-fn samples(rng: &mut Rng, n: u32) -> Vec<Sample> {
+fn samples(rng: &mut Rng, n: u32) -> Vec<PackedSample> {
     (0..n)
         .map(|_| {
             let m1 = rng.value();
@@ -202,6 +202,7 @@ fn samples(rng: &mut Rng, n: u32) -> Vec<Sample> {
                 rays: rng.below(4),
                 first: 0.0,
             }
+            .pack()
         })
         .collect()
 }

@@ -12,7 +12,7 @@ use vrrt_core::camera::Camera;
 use vrrt_core::frame::{Frame, FrameScene, Signal};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::payload::Sample;
+use vrrt_core::payload::PackedSample;
 use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
@@ -134,12 +134,12 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
     );
     out += &format!(
         "\nengine inputs are this frame's view depth, normal + roughness and motion (the README's \
-         input contract); the noisy signal adds {} bytes/pixel per plane (`Sample`, counted in \
+         input contract); the noisy signal adds {} bytes/pixel per plane (`PackedSample`, counted in \
          the denoiser's `samples`). The built-in renderer keeps 16 bytes/pixel of its own beside \
          them (geometric normal and instance of two frames).\nbytes moved count the denoiser's passes \
          (`Pass::bytes_moved`: each bound buffer once); the ray-tracing passes, which also read \
          the BVH, move {:.1} bytes/pixel more.\n",
-        size_of::<Sample>(),
+        size_of::<PackedSample>(),
         per_px(tracing)
     );
     Ok(out)

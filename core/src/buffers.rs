@@ -6,7 +6,7 @@ use crate::camera::View;
 use crate::denoiser::grid_size;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::{apply, balance, buckets, classify, reflect};
-use crate::payload::{PackedFiltered, PackedPayload, Sample, COUNTERS_LEN};
+use crate::payload::{PackedFiltered, PackedPayload, PackedSample, COUNTERS_LEN};
 use crate::plan::BindingLimit;
 use crate::settings::Settings;
 use core::fmt;
@@ -62,7 +62,7 @@ pub fn denoiser_buffers(
         size("history", 2, bytes(planes, size_of::<PackedPayload>())),
         size("reprojected", 1, bytes(planes, size_of::<PackedPayload>())),
         size("flags", 1, bytes(pixels, 4)),
-        size("samples", 1, bytes(planes, size_of::<Sample>())),
+        size("samples", 1, bytes(planes, size_of::<PackedSample>())),
         size("filtered", 2, bytes(planes, size_of::<PackedFiltered>())),
         size("mask", 1, bytes(pixels, 4)),
         size("requests", 1, bytes(pixels, 4)),

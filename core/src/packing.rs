@@ -99,6 +99,24 @@ fn f16_saturated(x: f32) -> u32 {
     f32_to_f16(x)
 }
 
+/// binary16 code of a signal value: finite values saturate to ±65504 (a bright sample keeps its
+/// ceiling instead of becoming ∞ and being dropped), NaN and ±∞ stay NaN and ±∞ so the noisy
+/// signal's clean-up still drops and counts them.
+#[inline]
+fn f16_signal(x: f32) -> u32 {
+    if math::is_finite(x) {
+        f16_saturated(x)
+    } else {
+        f32_to_f16(x)
+    }
+}
+
+/// Two signal values as binary16 in one word (`a` low), by [`f16_signal`].
+#[inline]
+pub fn pack_signal_f16x2(a: f32, b: f32) -> u32 {
+    f16_signal(a) | (f16_signal(b) << 16)
+}
+
 /// Two values as binary16 in one word (`a` in the low half), saturated to ±65504.
 #[inline]
 pub fn pack_f16x2(a: f32, b: f32) -> u32 {

@@ -92,6 +92,44 @@ pub struct Sample {
     pub first: f32,
 }
 
+/// A [`Sample`] as the samples buffer holds it (8 bytes, what the engine's ray tracing writes):
+/// the two moments as binary16 (`m1` low; NaN and ±∞ survive, so the clean-up policy still
+/// drops them), and `rays` (16 bits) with the 0th ray's value as binary16 in the high half.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PackedSample {
+    /// `m1 | m2 << 16`, binary16.
+    pub moments: u32,
+    /// `rays | first << 16`, `first` as binary16.
+    pub rays_first: u32,
+}
+
+impl PackedSample {
+    /// The sample, widened to f32.
+    #[inline]
+    pub fn unpack(self) -> Sample {
+        let (m1, m2) = packing::unpack_f16x2(self.moments);
+        Sample {
+            m1,
+            m2,
+            rays: self.rays_first & 0xffff,
+            first: quantize::f16_to_f32(self.rays_first >> 16),
+        }
+    }
+}
+
+impl Sample {
+    /// The packed form: moments and `first` rounded to binary16, `rays` to 16 bits (at most 16
+    /// rays a pixel are granted).
+    #[inline]
+    pub fn pack(&self) -> PackedSample {
+        PackedSample {
+            moments: packing::pack_signal_f16x2(self.m1, self.m2),
+            rays_first: (self.rays & 0xffff) | (packing::pack_signal_f16x2(self.first, 0.0) << 16),
+        }
+    }
+}
+
 impl Payload {
     /// The payload as stored ([`PackedPayload`]): moments and count rounded to binary16 (to
     /// nearest, saturating at 65504), the rng index to its low 16 bits.

@@ -6,7 +6,7 @@
 
 use vrrt_core::denoiser::Denoiser;
 use vrrt_core::kernels::balance::Balance;
-use vrrt_core::payload::PackedFiltered;
+use vrrt_core::payload::{PackedFiltered, PackedSample};
 use vrrt_core::plan::Executor;
 use vrrt_cpu::CpuExecutor;
 use vrrt_examples::{
@@ -68,14 +68,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// RMSE against the truth of the raw samples (pixels that traced rays) and of the denoised image.
-fn errors(truth: &[f32], samples: &[vrrt_core::payload::Sample], denoised: &[f32]) -> (f32, f32) {
+fn errors(truth: &[f32], samples: &[PackedSample], denoised: &[f32]) -> (f32, f32) {
     let rmse = |pairs: Vec<(f32, f32)>| {
         let n = pairs.len().max(1) as f32;
         (pairs.iter().map(|(a, b)| (a - b) * (a - b)).sum::<f32>() / n).sqrt()
     };
     let raw = truth
         .iter()
-        .zip(samples)
+        .zip(samples.iter().map(|s| s.unpack()))
         .filter(|(_, s)| s.rays > 0)
         .map(|(&t, s)| (t, s.m1));
     let clean = truth.iter().copied().zip(denoised.iter().copied());

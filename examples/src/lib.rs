@@ -17,7 +17,7 @@ use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
 use vrrt_core::glam::Vec3;
 use vrrt_core::packing;
 use vrrt_core::payload::PackedFiltered;
-use vrrt_core::payload::Sample;
+use vrrt_core::payload::{PackedSample, Sample};
 use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
@@ -146,8 +146,9 @@ fn hash(mut x: u32) -> u32 {
 }
 
 /// The application's ray tracer: `rays[i]` AO rays at pixel `i`, each 1 (unoccluded) with the
-/// probability [`truth`] gives, as the moments the denoiser takes.
-pub fn trace(frame: u32, rays: &[u32]) -> Vec<Sample> {
+/// probability [`truth`] gives, as the moments the denoiser takes (packed: binary16 moments,
+/// rays and the 0th ray's value, [`PackedSample`]).
+pub fn trace(frame: u32, rays: &[u32]) -> Vec<PackedSample> {
     let ao = truth(frame);
     rays.iter()
         .zip(&ao)
@@ -166,6 +167,7 @@ pub fn trace(frame: u32, rays: &[u32]) -> Vec<Sample> {
                 rays: n,
                 first: if n > 0 { ray(0) } else { 0.0 },
             }
+            .pack()
         })
         .collect()
 }

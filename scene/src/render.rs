@@ -13,7 +13,7 @@ use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{self, classify};
 use vrrt_core::payload::PackedFiltered;
-use vrrt_core::payload::{PackedPayload, Payload, Sample};
+use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
@@ -287,7 +287,7 @@ impl Renderer {
         }
         let n = (w * h * planes) as usize;
         let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
-        let samples: Vec<Sample> = read(exec, d.samples(), n)?;
+        let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
         let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
         let flags: Vec<u32> = read(exec, d.flags(), (w * h) as usize)?;
@@ -322,6 +322,11 @@ impl Renderer {
         }
         Ok(out)
     }
+}
+
+/// The samples of a packed samples buffer's contents.
+fn unpack_samples(packed: &[PackedSample]) -> Vec<Sample> {
+    packed.iter().map(|s| s.unpack()).collect()
 }
 
 /// A converged reference and its own Monte Carlo error.
@@ -375,7 +380,7 @@ pub fn reference<E: Executor>(
     )?;
     let rays = exec.create_buffer(pixels as u64 * 4)?;
     let history = exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?;
-    let out = exec.create_buffer((n * std::mem::size_of::<Sample>()) as u64)?;
+    let out = exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?;
     let layout = signal.layout(f.lights.len());
     let reflections = match (layout.reflections, signal.reflections()) {
         (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
@@ -408,7 +413,7 @@ pub fn reference<E: Executor>(
         };
         let scene = gpu.frame_scene(f);
         trace_planes(exec, signal, &layout, &scene, reflections.as_ref(), &target)?;
-        let samples: Vec<Sample> = read(exec, out, n)?;
+        let samples = unpack_samples(&read(exec, out, n)?);
         for (i, s) in samples.iter().enumerate() {
             sum[i] += s.m1 as f64 * s.rays as f64;
             sum_sq[i] += s.m2 as f64 * s.rays as f64;

@@ -11,7 +11,9 @@ use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{
     accumulate, apply, atrous, balance, buckets, classify, copy, fill, reproject, variance,
 };
-use vrrt_core::payload::{self, Filtered, PackedFiltered, PackedPayload, Payload, Sample};
+use vrrt_core::payload::{
+    self, Filtered, PackedFiltered, PackedPayload, PackedSample, Payload, Sample,
+};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
 use vrrt_core::surface::{Surface, NO_INSTANCE};
@@ -124,7 +126,8 @@ fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
 
 /// `PackedPayload`: binary16 fields, compared as the words they are.
 const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
-const SAMPLE: &[Word] = &[Word::F32, Word::F32, Word::U32, Word::U32];
+/// `PackedSample`: binary16 fields, compared as the words they are.
+const SAMPLE: &[Word] = &[Word::U32, Word::U32];
 const FLOATS: &[Word] = &[Word::F32];
 const INTS: &[Word] = &[Word::U32];
 
@@ -148,13 +151,14 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         2 => f32::NEG_INFINITY,
         _ => value(rng),
     };
-    let samples: Vec<Sample> = (0..n)
+    let samples: Vec<PackedSample> = (0..n)
         .map(|_| Sample {
             m1: hostile(rng),
             m2: hostile(rng),
             rays: rng.random_range(0..17),
             first: 0.0,
         })
+        .map(|s| s.pack())
         .collect();
     let storage = [quantize::STORAGE_F16, quantize::STORAGE_UNORM8][rng.random_range(0..2)];
     let params = accumulate::AccumulateParams {
@@ -520,13 +524,14 @@ fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (requests, counts) = histogram(rng, w, h);
     let decision = balance::solve(&counts, &balance_params(rng, w, h));
     let n = (w * h) as usize;
-    let samples: Vec<Sample> = (0..n * PLANES as usize)
+    let samples: Vec<PackedSample> = (0..n * PLANES as usize)
         .map(|_| Sample {
             m1: value(rng),
             m2: value(rng),
             rays: rng.random_range(0..5),
             first: 0.0,
         })
+        .map(|s| s.pack())
         .collect();
     let params = apply::ApplyParams {
         width: w,

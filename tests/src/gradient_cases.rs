@@ -12,7 +12,7 @@ use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::InstanceData;
 use vrrt_core::kernels::gradient::{self, GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::payload::{PackedPayload, Payload, Sample};
+use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;
@@ -20,7 +20,7 @@ const U: Word = Word::U32;
 const FLOATS: &[Word] = &[F];
 const INTS: &[Word] = &[U];
 const PAYLOAD: &[Word] = &[U, U];
-const SAMPLE: &[Word] = &[F, F, U, F];
+const SAMPLE: &[Word] = &[U, U];
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
 
@@ -121,13 +121,14 @@ fn retrace_inputs(rng: &mut Pcg32, p: &Pair, w: u32, h: u32) -> (Vec<BufferSpec>
             .pack()
         })
         .collect();
-    let samples: Vec<Sample> = (0..n)
+    let samples: Vec<PackedSample> = (0..n)
         .map(|_| Sample {
             m1: 0.5,
             m2: 0.5,
             rays: rng.random_range(0..3),
             first: rng.random_range(0..2) as f32,
         })
+        .map(|s| s.pack())
         .collect();
     let prev = images(&p.prev, w, h);
     let buffers = vec![

@@ -11,7 +11,7 @@ use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::kernels::reflect::{self, RayHit, Shading};
-use vrrt_core::payload::Sample;
+use vrrt_core::payload::{PackedSample, Sample};
 use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
@@ -134,7 +134,7 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             nodes,
             tris,
             BufferSpec::from_pod(&lights, FLOATS),
-            BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
+            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE),
             BufferSpec::from_pod(&vec![RayHit::default(); (w * h) as usize], HIT),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
@@ -217,7 +217,7 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let planes = crate::cases::PLANES;
     let surfaces = glossy_surfaces(rng, &frame, w, h);
     let stamp: u32 = rng.random();
-    let samples: Vec<Sample> = (0..w * h * planes)
+    let samples: Vec<PackedSample> = (0..w * h * planes)
         .map(|_| {
             let m1 = rng.random_range(0.0..3.0);
             Sample {
@@ -227,6 +227,7 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
                 first: m1,
             }
         })
+        .map(|s| s.pack())
         .collect();
     let params = reflect::ReuseParams {
         width: w,

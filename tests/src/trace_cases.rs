@@ -10,7 +10,7 @@ use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
-use vrrt_core::payload::{PackedPayload, Payload, Sample};
+use vrrt_core::payload::{PackedPayload, PackedSample, Payload};
 use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
@@ -22,7 +22,7 @@ const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
 pub(crate) const FLOATS: &[Word] = &[F];
 const INTS: &[Word] = &[U];
-pub(crate) const SAMPLE: &[Word] = &[F, F, U, U];
+pub(crate) const SAMPLE: &[Word] = &[U, U];
 
 /// A random frame of the animated room.
 pub fn room_frame(rng: &mut Pcg32) -> FrameGeometry {
@@ -207,7 +207,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&list.history, PAYLOAD),
             nodes,
             tris,
-            BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
+            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: list.groups,
@@ -257,7 +257,7 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             nodes,
             tris,
             BufferSpec::from_pod(&lights, FLOATS),
-            BufferSpec::from_pod(&vec![Sample::default(); n], SAMPLE),
+            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: list.groups,

@@ -11,7 +11,7 @@
 
 use super::plane_index;
 use super::AccumulateIo;
-use crate::payload::{self, Payload, Sample};
+use crate::payload::{self, PackedSample, Payload};
 use crate::{atomic, math, quantize};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -42,7 +42,12 @@ pub struct AccumulateParams {
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
 /// keeping the history's own variance (its second moment moves with the mean).
-fn clamp_history(id: UVec3, p: &AccumulateParams, samples: &[Sample], prev: Payload) -> Payload {
+fn clamp_history(
+    id: UVec3,
+    p: &AccumulateParams,
+    samples: &[PackedSample],
+    prev: Payload,
+) -> Payload {
     let r = p.clamp_radius as i32;
     let (mut s1, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
     let mut dy = -r;
@@ -51,8 +56,9 @@ fn clamp_history(id: UVec3, p: &AccumulateParams, samples: &[Sample], prev: Payl
         while dx <= r {
             let (qx, qy) = (id.x as i32 + dx, id.y as i32 + dy);
             if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
-                let q =
-                    samples[plane_index(UVec3::new(qx as u32, qy as u32, id.z), p.width, p.height)];
+                let q = samples
+                    [plane_index(UVec3::new(qx as u32, qy as u32, id.z), p.width, p.height)]
+                .unpack();
                 if q.rays > 0 && math::is_finite(q.m1) {
                     s1 += q.m1;
                     s2 += q.m1 * q.m1;
@@ -92,7 +98,7 @@ pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
         return;
     }
     let i = plane_index(id, p.width, p.height);
-    let (mut curr, what) = payload::clean(samples[i], quantize::max_value(p.storage));
+    let (mut curr, what) = payload::clean(samples[i].unpack(), quantize::max_value(p.storage));
     if what == payload::CLEAN_DROPPED {
         atomic::add(&mut counters[payload::COUNTER_NON_FINITE], 1);
     } else if what == payload::CLEAN_CLAMPED {

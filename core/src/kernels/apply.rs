@@ -13,7 +13,7 @@ use super::ApplyIo;
 use crate::atomic;
 use crate::blue_noise::blue_noise;
 use crate::math;
-use crate::payload::Sample;
+use crate::payload::PackedSample;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -77,7 +77,7 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     if n == 0 {
         let mut z = 0;
         while z < p.planes {
-            samples[(z * p.width * p.height) as usize + pix] = Sample::default();
+            samples[(z * p.width * p.height) as usize + pix] = PackedSample::default();
             z += 1;
         }
         return;

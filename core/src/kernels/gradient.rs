@@ -39,7 +39,7 @@ use crate::atomic;
 use crate::camera::Camera;
 use crate::camera::View;
 use crate::math;
-use crate::payload::{PackedPayload, Sample};
+use crate::payload::{PackedPayload, PackedSample};
 use crate::sampling::{pcg_hash, pixel_seed};
 use crate::surface::{self, Surface};
 use bytemuck::{Pod, Zeroable};
@@ -344,7 +344,7 @@ struct LastFrame<'a> {
     view: &'a [View],
     next: &'a [InstanceData],
     prev_payload: &'a [PackedPayload],
-    prev_samples: &'a [Sample],
+    prev_samples: &'a [PackedSample],
 }
 
 /// The loop both re-traces share. For every plane whose pixel traced last frame, `trace(surface,
@@ -373,11 +373,12 @@ fn retrace(
         out[o] = GradientSample::default();
         if let Some((pix, s)) = sample {
             let i = (z * p.width * p.height) as usize + pix;
-            if prev_samples[i].rays > 0 {
+            let prev = prev_samples[i].unpack();
+            if prev.rays > 0 {
                 let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
                 let seed = pixel_seed(x, y, z);
                 if let Some(curr) = trace(&s, z, seed, prev_payload[i].rng_index()) {
-                    out[o] = gradient_of(curr, prev_samples[i].first);
+                    out[o] = gradient_of(curr, prev.first);
                 }
             }
         }

@@ -58,6 +58,6 @@ pub mod names {
     pub use super::reflect::RayHit;
     pub use super::*;
     pub use crate::camera::View;
-    pub use crate::payload::{PackedFiltered, PackedPayload, Sample};
+    pub use crate::payload::{PackedFiltered, PackedPayload, PackedSample};
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 }

@@ -345,7 +345,8 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
             p.max_distance,
             nodes,
             tris,
-        );
+        )
+        .pack();
         z += 1;
     }
 }
@@ -403,7 +404,8 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
             }
         } else {
             Sample::default()
-        };
+        }
+        .pack();
         z += 1;
     }
 }

@@ -14,7 +14,7 @@ crate::kernel_table! {
     accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
         history: read PackedPayload,
-        samples: read Sample,
+        samples: read PackedSample,
         out: write PackedPayload,
         counters: atomic u32,
     }
@@ -77,7 +77,7 @@ crate::kernel_table! {
         history: read PackedPayload,
         nodes: read BvhNode,
         tris: read Triangle,
-        out: write Sample,
+        out: write PackedSample,
     }
 
     /// [`raygen::raygen_shadow`]: shadow rays toward each area light; dispatch as `raygen_ao`.
@@ -94,7 +94,7 @@ crate::kernel_table! {
         nodes: read BvhNode,
         tris: read Triangle,
         lights: read AreaLight,
-        out: write Sample,
+        out: write PackedSample,
     }
 
     /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
@@ -144,7 +144,7 @@ crate::kernel_table! {
         rays: write u32,
         work: write u32,
         args: atomic u32,
-        samples: write Sample,
+        samples: write PackedSample,
     }
 
     /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.
@@ -185,7 +185,7 @@ crate::kernel_table! {
         view: read View,
         next: read InstanceData,
         prev_payload: read PackedPayload,
-        prev_samples: read Sample,
+        prev_samples: read PackedSample,
         nodes: read BvhNode,
         tris: read Triangle,
         out: write GradientSample,
@@ -201,7 +201,7 @@ crate::kernel_table! {
         view: read View,
         next: read InstanceData,
         prev_payload: read PackedPayload,
-        prev_samples: read Sample,
+        prev_samples: read PackedSample,
         nodes: read BvhNode,
         tris: read Triangle,
         lights: read AreaLight,
@@ -230,7 +230,7 @@ crate::kernel_table! {
         nodes: read BvhNode,
         tris: read Triangle,
         lights: read AreaLight,
-        out: write Sample,
+        out: write PackedSample,
         hits: write RayHit,
     }
 
@@ -267,6 +267,6 @@ crate::kernel_table! {
         geometry: read [u32; 2],
         view: read View,
         hits: read RayHit,
-        samples: write Sample,
+        samples: write PackedSample,
     }
 }

@@ -93,5 +93,6 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
             rays: n,
             first,
         }
-    };
+    }
+    .pack();
 }

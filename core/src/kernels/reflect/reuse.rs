@@ -62,7 +62,7 @@ pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
     let Some((n, wo, alpha)) = lobe(&s, &p.shading) else {
         return;
     };
-    let own = samples[i];
+    let own = samples[i].unpack();
     let own_rays = own.rays as f32;
     let (mut w_sum, mut s1, mut s2) = (own_rays, own.m1 * own_rays, own.m2 * own_rays);
     let origin = ray_origin(&s);
@@ -117,6 +117,7 @@ pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
             m2: s2 / w_sum,
             rays: if own.rays == 0 { 1 } else { own.rays },
             first: own.first,
-        };
+        }
+        .pack();
     }
 }
