@@ -111,7 +111,8 @@ fn f16_signal(x: f32) -> u32 {
     }
 }
 
-/// Two signal values as binary16 in one word (`a` low), by [`f16_signal`].
+/// Two signal values as binary16 in one word (`a` low): finite values saturate to ±65504, NaN
+/// and ±∞ stay NaN and ±∞.
 #[inline]
 pub fn pack_signal_f16x2(a: f32, b: f32) -> u32 {
     f16_signal(a) | (f16_signal(b) << 16)

@@ -3,7 +3,7 @@
 //!
 //! Seed: vrrt-call-of-duty-2026, "VRRT Apply / Produce ray args" (`VrrtApply`) and "Undersampling"
 //! (fractional rates realised by a spatio-temporal blue-noise test, `rate > noise ? 1 : 0`).
-//! Pixels that trace nothing get an empty [`Sample`] in every plane here, so accumulation sees
+//! Pixels that trace nothing get an empty [`crate::payload::Sample`] in every plane here, so accumulation sees
 //! "no ray" instead of last frame's sample.
 
 use super::balance::{granted_rate, Balance};

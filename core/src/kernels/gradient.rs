@@ -19,7 +19,7 @@
 //!    pixel), same rng index (last frame's reprojected `rng_index`, which raygen started from),
 //!    same origin/direction derivation ([`ao_ray`] / [`shadow_ray`]) from the moved surface, but
 //!    against the current scene (geometry, lights). It is compared with last frame's value of that
-//!    ray, which raygen kept in [`Sample::first`]. Output per cell and plane: `|curr − prev|` and
+//!    ray, which raygen kept in [`crate::payload::Sample::first`]. Output per cell and plane: `|curr − prev|` and
 //!    `max(curr, prev)` ([`GradientSample`]); `λ = |curr − prev| / max(curr, prev)`.
 //! 3. [`atrous`]: à-trous blur of both channels at cell resolution, **without** bilateral weights
 //!    (seed: "better overestimate than underestimate"; VRRT supersamples what it flags). `λ` is
