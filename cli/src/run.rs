@@ -13,7 +13,7 @@ use crate::{outdir, plot};
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use vrrt_core::kernels::buckets::{bucket_to_rate, NO_RAYS};
+use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
 use vrrt_core::settings::Settings;
 use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
 
@@ -404,7 +404,13 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
     let requested: Vec<f32> = o
         .requests
         .iter()
-        .map(|&b| if b == NO_RAYS { 0.0 } else { bucket_to_rate(b) })
+        .map(|&b| {
+            if b >= BUCKET_COUNT {
+                0.0
+            } else {
+                bucket_to_rate(b)
+            }
+        })
         .collect();
     let granted: Vec<f32> = o.rays.iter().map(|&r| r as f32).collect();
     let max_rays = requested

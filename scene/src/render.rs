@@ -11,7 +11,7 @@ pub use vrrt_core::frame::{PlaneLayout, Signal};
 use vrrt_core::kernels::apply::LIST_GROUP;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{self, classify};
+use vrrt_core::kernels::{self, classify, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
@@ -171,7 +171,7 @@ pub struct FrameOutput {
     pub decision: Balance,
     /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
     pub flags: Vec<u32>,
-    /// Overlays, when asked for: requested bucket per pixel.
+    /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none).
     pub requests: Vec<u32>,
     /// Overlays: history length (plane 0) after reprojection.
     pub history_reprojected: Vec<f32>,
@@ -290,7 +290,9 @@ impl Renderer {
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
         let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
-        let flags: Vec<u32> = read(exec, d.flags(), (w * h) as usize)?;
+        // Resolve writes neither the requests (with the flags) nor the reprojected history.
+        let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
+        let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.unpack().value).collect(),
@@ -311,12 +313,10 @@ impl Renderer {
             ..FrameOutput::default()
         };
         if readback.overlays {
-            // Resolve writes neither the requests nor the reprojected history.
             let pixels = (w * h) as usize;
-            let requests: Vec<u32> = read(exec, d.requests(), pixels)?;
             let reprojected: Vec<PackedPayload> = read(exec, d.reprojected(), pixels)?;
             let history: Vec<PackedPayload> = read(exec, d.history(), pixels)?;
-            out.requests = requests;
+            out.requests = requests.iter().map(|&r| reproject::bucket_of(r)).collect();
             out.history_reprojected = reprojected.iter().map(|p| p.unpack().count).collect();
             out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
         }

@@ -427,7 +427,6 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&parallax, FLOATS),
             BufferSpec::from_pod(&vec![PackedPayload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
-            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REPROJECT, w, h, 1),

@@ -148,7 +148,6 @@ pub struct Denoiser {
     view: BufferId,
     history: [BufferId; 2],
     reprojected: BufferId,
-    flags: BufferId,
     samples: BufferId,
     filtered: [BufferId; 2],
     mask: BufferId,
@@ -222,7 +221,6 @@ impl Denoiser {
             view: id("view")[0],
             history: id("history"),
             reprojected: id("reprojected")[0],
-            flags: id("flags")[0],
             samples: id("samples")[0],
             filtered: id("filtered"),
             mask: id("mask")[0],
@@ -322,7 +320,9 @@ impl Denoiser {
         self.parallax
     }
 
-    /// Requested bucket per pixel (after [`Self::plan_rays`]).
+    /// Per pixel (after [`Self::plan_rays`]): the requested bucket and the reprojection flags
+    /// (`reproject::FLAG_*`) in one word; `reproject::bucket_of` and `reproject::flags_of` read
+    /// them.
     pub fn requests(&self) -> BufferId {
         self.requests
     }
@@ -345,11 +345,6 @@ impl Denoiser {
     /// `[count, groups_x, 1, 1]` of the work list: indirect dispatch arguments at byte offset 4.
     pub fn args(&self) -> BufferId {
         self.args
-    }
-
-    /// Per-pixel reprojection flags (`reproject::FLAG_*`).
-    pub fn flags(&self) -> BufferId {
-        self.flags
     }
 
     /// This frame's raygen output (`Sample` per pixel and plane): the caller fills it between

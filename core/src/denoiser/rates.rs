@@ -71,7 +71,6 @@ impl Denoiser {
             importance: self.importance,
             parallax: self.parallax,
             out: self.reprojected,
-            flags: self.flags,
             requests: self.requests,
         };
         exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;

@@ -72,7 +72,8 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         return;
     }
     let pix = pixel_index(id.x, id.y, p.width);
-    let n = resolve_rays(id.x, id.y, requests[pix], p, &decision[0], noise);
+    let bucket = super::reproject::bucket_of(requests[pix]);
+    let n = resolve_rays(id.x, id.y, bucket, p, &decision[0], noise);
     rays[pix] = n;
     if n == 0 {
         let mut z = 0;

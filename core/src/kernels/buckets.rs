@@ -126,7 +126,7 @@ pub fn count(
     if id.x >= p.width || id.y >= p.height {
         return;
     }
-    let b = requests[pixel_index(id.x, id.y, p.width)];
+    let b = super::reproject::bucket_of(requests[pixel_index(id.x, id.y, p.width)]);
     if b < BUCKET_COUNT {
         atomic::add_workgroup(&mut local[b as usize], 1);
     }

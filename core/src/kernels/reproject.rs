@@ -247,7 +247,6 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         importance,
         parallax,
         out,
-        flags,
         requests,
     } = io;
     if id.x >= p.width || id.y >= p.height {
@@ -355,7 +354,7 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         z += 1;
     }
     let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
-    requests[pix] = if wanted {
+    let bucket = if wanted {
         let scale = if p.use_importance != 0 {
             importance[super::reflect::tile_index(id.x, id.y, p.width)]
         } else {
@@ -365,11 +364,33 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
     } else {
         super::buckets::NO_RAYS
     };
-    flags[pix] = if !c.is_valid() {
+    let flags = if !c.is_valid() {
         FLAG_SKY
     } else if lost {
         FLAG_DISOCCLUDED
     } else {
         0
     };
+    requests[pix] = request_word(bucket, flags);
+}
+
+/// The word reprojection writes per pixel: the requested bucket in the low 16 bits
+/// ([`buckets::NO_RAYS`](super::buckets::NO_RAYS) becomes `0xffff`, still no bucket) and the
+/// pixel's `FLAG_*` in the high 16 bits, so one buffer carries both.
+#[inline]
+pub fn request_word(bucket: u32, flags: u32) -> u32 {
+    let bucket = if bucket < 0xffff { bucket } else { 0xffff };
+    bucket | (flags << 16)
+}
+
+/// The requested bucket of a [`request_word`] (`0xffff`: none).
+#[inline]
+pub fn bucket_of(word: u32) -> u32 {
+    word & 0xffff
+}
+
+/// The `FLAG_*` bits of a [`request_word`].
+#[inline]
+pub fn flags_of(word: u32) -> u32 {
+    word >> 16
 }

@@ -113,7 +113,6 @@ crate::kernel_table! {
         importance: read f32,
         parallax: read [f32; 2],
         out: write PackedPayload,
-        flags: write u32,
         requests: write u32,
     }
 
