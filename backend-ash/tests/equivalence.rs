@@ -208,12 +208,10 @@ fn accumulate_matches_cpu() {
         rng_wrap: 1 << 16,
         ..Default::default()
     };
-    let out = vec![0u8; n * 8];
     let counters = [0u8; payload::COUNTERS_LEN as usize * 4];
-    let inputs: [&[u8]; 4] = [
+    let inputs: [&[u8]; 3] = [
         bytemuck::cast_slice(&history),
         bytemuck::cast_slice(&samples),
-        &out,
         &counters,
     ];
     let p = bytemuck::bytes_of(&params);
@@ -224,7 +222,7 @@ fn accumulate_matches_cpu() {
             inputs: &inputs,
             params: p,
             grid: [W, H, PLANES],
-            out: 2,
+            out: 0,
             out_len: n,
         },
     );

@@ -224,10 +224,9 @@ fn accumulate_matches_cpu() {
     let n = W * H * PLANES;
     let history = b.buffer(bytemuck::cast_slice(&payloads(&mut rng, n)));
     let samples = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
-    let out = b.buffer(&vec![0u8; n as usize * 16]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
-    let buffers = [history, samples, out, counters];
+    let buffers = [history, samples, counters];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &buffers,
@@ -236,7 +235,7 @@ fn accumulate_matches_cpu() {
         H,
         PLANES,
     ));
-    b.assert_same(out, n as usize * 16, "accumulate");
+    b.assert_same(history, n as usize * 8, "accumulate");
     assert_clean(&b.gpu);
 }
 
@@ -407,9 +406,10 @@ fn buckets_match_cpu() {
     assert_clean(&b.gpu);
 }
 
-/// Writes are ordered with recorded passes: the second pass sees the rewritten samples, the
-/// first one does not. Also covers indirect dispatch and a write of a length that is not a
-/// multiple of 4.
+/// Writes are ordered with recorded passes: the second pass sees the rewritten samples and the
+/// first pass's history (accumulation is in place; a copy snapshots it in between), the first
+/// one does not see the rewrite. Also covers indirect dispatch and a write of a length that is
+/// not a multiple of 4.
 #[test]
 fn writes_stay_ordered_and_indirect_dispatch_works() {
     let Some(mut b) = both() else { return };
@@ -417,12 +417,11 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let n = W * H * PLANES;
     let history = b.buffer(bytemuck::cast_slice(&payloads(&mut rng, n)));
     let samples_buf = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
-    let out1 = b.buffer(&vec![0u8; n as usize * 16]);
-    let out2 = b.buffer(&vec![0u8; n as usize * 16]);
+    let snapshot = b.buffer(&vec![0u8; n as usize * 8]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
     let params = bytemuck::bytes_of(&params);
-    let first = [history, samples_buf, out1, counters];
+    let first = [history, samples_buf, counters];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &first,
@@ -430,6 +429,19 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
         W,
         H,
         PLANES,
+    ));
+    let words = n * 2;
+    let copy = vrrt_core::kernels::copy::CopyParams {
+        row: 64,
+        len: words,
+    };
+    b.dispatch(&Pass::over_grid(
+        &vrrt_core::kernels::COPY,
+        &[history, snapshot],
+        bytemuck::bytes_of(&copy),
+        64,
+        words.div_ceil(64),
+        1,
     ));
     b.write(samples_buf, bytemuck::cast_slice(&samples(&mut rng, n)));
     let Groups::Direct(groups) = Pass::over_grid(
@@ -447,7 +459,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let mut args = vec![0u32; 4];
     args[1..].copy_from_slice(&groups);
     let args = b.buffer(bytemuck::cast_slice(&args));
-    let second = [out1, samples_buf, out2, counters];
+    let second = [history, samples_buf, counters];
     b.dispatch(&Pass {
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: &second,
@@ -457,10 +469,10 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
             offset: 4,
         },
     });
-    b.assert_same(out1, n as usize * 16, "accumulate before the write");
+    b.assert_same(snapshot, n as usize * 8, "accumulate before the write");
     b.assert_same(
-        out2,
-        n as usize * 16,
+        history,
+        n as usize * 8,
         "accumulate after the write (indirect)",
     );
 
@@ -478,7 +490,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
 fn passes_are_timed() {
     let Some(mut gpu) = gpu() else { return };
     let n = W * H * PLANES;
-    let ids: Vec<BufferId> = [16, 16, 16, 4]
+    let ids: Vec<BufferId> = [8, 8, 4]
         .iter()
         .map(|s| gpu.create_buffer(n as u64 * s).unwrap())
         .collect();
@@ -519,7 +531,7 @@ fn plan_errors_are_reported() {
     let Some(mut gpu) = gpu() else { return };
     let a = gpu.create_buffer(64).unwrap();
     let params = accumulate_params();
-    let aliased = [a, a, a, a];
+    let aliased = [a, a, a];
     let err = gpu
         .dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ACCUMULATE,
@@ -545,25 +557,25 @@ fn plan_errors_are_reported() {
         ))
         .unwrap_err();
     assert!(matches!(err, WgpuError::Exec(ExecError::Plan(_))), "{err}");
-    // Indirect counts in a buffer the pass writes (`out`, binding 2).
-    let bufs = [0; 4].map(|_| gpu.create_buffer(64).unwrap());
+    // Indirect counts in a buffer the pass writes (`history`, binding 0, accumulated in place).
+    let bufs = [0; 3].map(|_| gpu.create_buffer(64).unwrap());
     let err = gpu
         .dispatch(&Pass {
             kernel: &vrrt_core::kernels::ACCUMULATE,
             buffers: &bufs,
             params: bytemuck::bytes_of(&params),
             groups: Groups::Indirect {
-                buffer: bufs[2],
+                buffer: bufs[0],
                 offset: 0,
             },
         })
         .unwrap_err();
     assert_eq!(
         err.to_string(),
-        ExecError::IndirectWritten(bufs[2]).to_string()
+        ExecError::IndirectWritten(bufs[0]).to_string()
     );
     assert!(
-        matches!(err, WgpuError::Exec(ExecError::IndirectWritten(b)) if b == bufs[2]),
+        matches!(err, WgpuError::Exec(ExecError::IndirectWritten(b)) if b == bufs[0]),
         "{err}"
     );
     assert!(matches!(
@@ -665,27 +677,28 @@ fn embedded_in_an_engine() {
     let n = W * H * PLANES;
     let history = payloads(&mut rng, n);
     let samples = samples(&mut rng, n);
-    let mut ids = Vec::new();
-    for data in [
-        bytemuck::cast_slice::<_, u8>(&history),
-        bytemuck::cast_slice(&samples),
-    ] {
-        let g = gpu.create_buffer(data.len() as u64).unwrap();
-        gpu.write_buffer(g, data).unwrap();
-        let c = cpu.create_buffer(data.len() as u64).unwrap();
-        cpu.write_buffer(c, data).unwrap();
-        ids.push(g);
-    }
-    // The output is the application's buffer.
-    let out_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("engine output"),
-        size: n as u64 * 16,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    // The history, accumulated in place, is the application's buffer.
+    let history_bytes: &[u8] = bytemuck::cast_slice(&history);
+    let app_history = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("engine history"),
+        size: history_bytes.len() as u64,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    ids.push(gpu.import_buffer(out_buffer.clone()).unwrap());
-    ids.push(cpu.create_buffer(n as u64 * 16).unwrap());
-    assert_eq!(gpu.buffer(ids[2]).unwrap(), &out_buffer);
+    queue.write_buffer(&app_history, 0, history_bytes);
+    let history_g = gpu.import_buffer(app_history.clone()).unwrap();
+    assert_eq!(gpu.buffer(history_g).unwrap(), &app_history);
+    let history_c = cpu.create_buffer(history_bytes.len() as u64).unwrap();
+    cpu.write_buffer(history_c, history_bytes).unwrap();
+    let samples_bytes: &[u8] = bytemuck::cast_slice(&samples);
+    let (samples_g, samples_c) = (
+        gpu.create_buffer(samples_bytes.len() as u64).unwrap(),
+        cpu.create_buffer(samples_bytes.len() as u64).unwrap(),
+    );
+    gpu.write_buffer(samples_g, samples_bytes).unwrap();
+    cpu.write_buffer(samples_c, samples_bytes).unwrap();
     let counters = payload::COUNTERS_LEN as u64 * 4;
     let (counters_g, counters_c) = (
         gpu.create_buffer(counters).unwrap(),
@@ -693,7 +706,7 @@ fn embedded_in_an_engine() {
     );
 
     let params = accumulate_params();
-    let gpu_buffers = [ids[0], ids[1], ids[2], counters_g];
+    let gpu_buffers = [history_g, samples_g, counters_g];
     let gpu_pass = Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &gpu_buffers,
@@ -706,15 +719,15 @@ fn embedded_in_an_engine() {
     gpu.encode(&mut encoder, &[gpu_pass]).unwrap();
     queue.submit([encoder.finish()]);
     cpu.dispatch(&Pass {
-        buffers: &[ids[0], ids[1], ids[3], counters_c],
+        buffers: &[history_c, samples_c, counters_c],
         ..gpu_pass
     })
     .unwrap();
 
-    let mut g = vec![0u8; n as usize * 16];
-    let mut c = vec![0u8; n as usize * 16];
-    gpu.read_buffer(ids[2], &mut g).unwrap();
-    cpu.read_buffer(ids[3], &mut c).unwrap();
+    let mut g = vec![0u8; history_bytes.len()];
+    let mut c = vec![0u8; history_bytes.len()];
+    gpu.read_buffer(history_g, &mut g).unwrap();
+    cpu.read_buffer(history_c, &mut c).unwrap();
     assert!(g == c, "embedded accumulate differs from the CPU");
     assert_clean(&gpu);
 }

@@ -432,19 +432,8 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
         size,
         max_rays,
     )?;
-    let max_history = o
-        .history_reprojected
-        .iter()
-        .chain(&o.history_accumulated)
-        .copied()
-        .fold(1.0f32, f32::max);
-    if !o.history_reprojected.is_empty() {
-        heatmap(
-            &out.join(format!("frame{i:04}_history_reprojected.png")),
-            &o.history_reprojected,
-            size,
-            max_history,
-        )?;
+    if !o.history_accumulated.is_empty() {
+        let max_history = o.history_accumulated.iter().copied().fold(1.0f32, f32::max);
         heatmap(
             &out.join(format!("frame{i:04}_history_accumulated.png")),
             &o.history_accumulated,

@@ -28,7 +28,7 @@ const fn size(name: &'static str, count: u32, bytes: u64) -> BufferSize {
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 24;
+pub const DENOISER_BUFFERS: usize = 23;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -60,7 +60,6 @@ pub fn denoiser_buffers(
         size("motion", 1, bytes(pixels, 8)),
         size("view", 1, size_of::<View>() as u64),
         size("history", 2, bytes(planes, size_of::<PackedPayload>())),
-        size("reprojected", 1, bytes(planes, size_of::<PackedPayload>())),
         size("samples", 1, bytes(planes, size_of::<PackedSample>())),
         size("filtered", 2, bytes(planes, size_of::<PackedFiltered>())),
         size("mask", 1, bytes(pixels, 4)),

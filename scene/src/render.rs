@@ -173,8 +173,6 @@ pub struct FrameOutput {
     pub flags: Vec<u32>,
     /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none).
     pub requests: Vec<u32>,
-    /// Overlays: history length (plane 0) after reprojection.
-    pub history_reprojected: Vec<f32>,
     /// Overlays: history length (plane 0) after accumulation.
     pub history_accumulated: Vec<f32>,
     /// Whether the temporal-gradient prepass ran this frame (false: off, reset, or skipped
@@ -290,7 +288,7 @@ impl Renderer {
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
         let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
-        // Resolve writes neither the requests (with the flags) nor the reprojected history.
+        // Resolve does not write the requests (with the flags).
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
         let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
@@ -314,10 +312,8 @@ impl Renderer {
         };
         if readback.overlays {
             let pixels = (w * h) as usize;
-            let reprojected: Vec<PackedPayload> = read(exec, d.reprojected(), pixels)?;
             let history: Vec<PackedPayload> = read(exec, d.history(), pixels)?;
             out.requests = requests.iter().map(|&r| reproject::bucket_of(r)).collect();
-            out.history_reprojected = reprojected.iter().map(|p| p.unpack().count).collect();
             out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
         }
         Ok(out)

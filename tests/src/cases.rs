@@ -184,7 +184,6 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
             BufferSpec::from_pod(&samples, SAMPLE),
-            BufferSpec::from_pod(&vec![PackedPayload::default(); n], PAYLOAD),
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),

@@ -156,7 +156,7 @@ fn retrace_params(p: &Pair, w: u32, h: u32, max_distance: f32) -> gradient::Retr
         grid_height: p.grid.1,
         index_mask: gradient::index_mask(w * h),
         max_distance,
-        _pad: 0,
+        rng_wrap: 1 << 16,
     }
 }
 

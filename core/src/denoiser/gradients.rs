@@ -7,7 +7,7 @@ impl Denoiser {
     /// The temporal-gradient prepass (A-SVGF), between the G-buffer and [`Self::plan_rays`]:
     /// forward projection of one previous-frame sample per stratum, re-trace of its 0th ray
     /// against `scene`, and the à-trous reconstruction. It reads last frame's rays, samples and
-    /// reprojected history, which [`Self::plan_rays`] overwrites, so it must run first. Returns
+    /// history, which [`Self::plan_rays`] overwrites, so it must run first. Returns
     /// whether it ran: it is skipped when off, on reset frames, and when [`FrameInfo::moved`] is
     /// false (nothing can have changed, so every `λ` would be 0).
     pub fn temporal_gradients<E: Executor>(
@@ -65,10 +65,10 @@ impl Denoiser {
             grid_height: gh,
             index_mask,
             max_distance: 0.0,
-            _pad: 0,
+            rng_wrap: self.rng_wrap(),
         };
-        // Last frame's reprojected history still holds the rng index each pixel's raygen started
-        // from, and `samples` last frame's 0th ray values.
+        // Last frame's accumulated history holds the rng index each pixel's raygen started from
+        // plus the rays it traced (`samples`, which also keeps last frame's 0th ray values).
         let ao = kernels::GradientAoBindings {
             keys: self.gradient_keys,
             prev_depth: prev.depth,
@@ -76,7 +76,7 @@ impl Denoiser {
             prev_geometry: scene.geometry[1],
             view: self.view,
             next: scene.next,
-            prev_payload: self.reprojected,
+            prev_payload: self.history[1 - self.cur],
             prev_samples: self.samples,
             nodes: scene.nodes,
             tris: scene.tris,

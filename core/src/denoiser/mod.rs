@@ -6,7 +6,7 @@
 //! ```text
 //! G-buffer ─► reproject ─► fill ─► count_buckets ─► balance ─► apply ─► raygen ─► accumulate ─► variance ─► atrous × N
 //! (caller)    + requests   counts=0   histogram      thresholds  rays,      (caller,   history[cur]   filtered ping-pong
-//!             history[prev] → reprojected                        work list  indirect)
+//!             history[prev] → history[cur]                       work list  indirect)  in place
 //! ```
 //!
 //! The ray budget is decided before raygen: reprojection asks for a rate per pixel (refill lost
@@ -22,8 +22,9 @@
 //! changed, and VRRT supersamples there. It is skipped when nothing moved (the host says so in
 //! [`FrameInfo::moved`]).
 //!
-//! History is ping-ponged explicitly: `history[prev]` is read by reprojection and
-//! `history[cur]` written by accumulation; the spatial filter's output never feeds back into
+//! History is ping-ponged explicitly: reprojection reads `history[prev]` (its 2×2 footprints
+//! need last frame's intact) and writes `history[cur]`, which raygen reads for its rng indices
+//! and accumulation then updates in place; the spatial filter's output never feeds back into
 //! history (seed: "spatial output is NOT being fed to temporal").
 
 mod gradients;
@@ -147,7 +148,6 @@ pub struct Denoiser {
     motion: BufferId,
     view: BufferId,
     history: [BufferId; 2],
-    reprojected: BufferId,
     samples: BufferId,
     filtered: [BufferId; 2],
     mask: BufferId,
@@ -220,7 +220,6 @@ impl Denoiser {
             motion: id("motion")[0],
             view: id("view")[0],
             history: id("history"),
-            reprojected: id("reprojected")[0],
             samples: id("samples")[0],
             filtered: id("filtered"),
             mask: id("mask")[0],
@@ -295,12 +294,6 @@ impl Denoiser {
         self.view
     }
 
-    /// Reprojected history (`Payload` per pixel and plane): raygen reads each pixel's rng index
-    /// from it.
-    pub fn reprojected(&self) -> BufferId {
-        self.reprojected
-    }
-
     /// Optional VRS-style mask (`u32` per pixel, 0 = needs no ray), used when
     /// [`FrameInfo::use_mask`] is set; the caller writes it.
     pub fn mask(&self) -> BufferId {
@@ -353,7 +346,9 @@ impl Denoiser {
         self.samples
     }
 
-    /// Accumulated history after [`Self::resolve`] (`Payload` per pixel and plane).
+    /// This frame's history (`PackedPayload` per pixel and plane): reprojected after
+    /// [`Self::plan_rays`] (raygen reads each pixel's rng index from it), accumulated after
+    /// [`Self::resolve`].
     pub fn history(&self) -> BufferId {
         self.history[self.cur]
     }

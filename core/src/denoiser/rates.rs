@@ -27,7 +27,8 @@ impl Denoiser {
             reset: self.frame.reset as u32,
             normal_threshold: s.temporal.normal_threshold,
             plane_threshold: s.temporal.plane_threshold,
-            frame_index: self.frame.index,
+            // Within the stored index's range, so the gradient re-trace can step back to it.
+            frame_index: self.frame.index % self.rng_wrap(),
             supersample_target: s.rates.supersample_target,
             // On a still frame history stays valid, so it is completed before any undersampling.
             full_history: if still {
@@ -70,7 +71,7 @@ impl Denoiser {
             gradient: self.gradient(),
             importance: self.importance,
             parallax: self.parallax,
-            out: self.reprojected,
+            out: self.history[self.cur],
             requests: self.requests,
         };
         exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;

@@ -24,9 +24,8 @@ impl Denoiser {
                 },
         };
         let accumulate = kernels::AccumulateBindings {
-            history: self.reprojected,
+            history: self.history[self.cur],
             samples: self.samples,
-            out: self.history[self.cur],
             counters: self.counters,
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;

@@ -77,7 +77,7 @@ impl RaygenTarget {
             args: denoiser.args(),
             rays: denoiser.rays(),
             gbuffer: GBuffer::of(denoiser, geometry),
-            history: denoiser.reprojected(),
+            history: denoiser.history(),
             out: denoiser.samples(),
             frame: denoiser.frame().index,
         }

@@ -86,12 +86,11 @@ fn clamp_history(
     }
 }
 
-/// One invocation per pixel and signal plane: `out = merge(history, samples)`.
+/// One invocation per pixel and signal plane: `history = merge(history, samples)`, in place.
 pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
     let AccumulateIo {
         history,
         samples,
-        out,
         counters,
     } = io;
     if id.x >= p.width || id.y >= p.height {
@@ -114,5 +113,5 @@ pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
         history[i].unpack()
     };
     let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
-    out[i] = payload::store(prev, curr, merged, p.storage).pack();
+    history[i] = payload::store(prev, curr, merged, p.storage).pack();
 }

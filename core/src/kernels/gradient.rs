@@ -16,7 +16,8 @@
 //!    writer wins"). The hash in the high bits keeps the winner unbiased across the cell.
 //! 2. [`retrace_ao`] / [`retrace_shadow`] (one invocation per cell): decodes the winner and
 //!    re-traces *last frame's 0th ray of that pixel*: same seed (`pixel_seed` of the previous
-//!    pixel), same rng index (last frame's reprojected `rng_index`, which raygen started from),
+//!    pixel), same rng index (the one raygen started from: last frame's accumulated `rng_index`
+//!    less the rays it traced),
 //!    same origin/direction derivation ([`ao_ray`] / [`shadow_ray`]) from the moved surface, but
 //!    against the current scene (geometry, lights). It is compared with last frame's value of that
 //!    ray, which raygen kept in [`crate::payload::Sample::first`]. Output per cell and plane: `|curr − prev|` and
@@ -116,8 +117,9 @@ pub struct RetraceParams {
     pub index_mask: u32,
     /// AO radius (unused by shadows).
     pub max_distance: f32,
-    /// Reserved.
-    pub _pad: u32,
+    /// Where the rng index wraps (nonzero): last frame's start index is recovered from the
+    /// accumulated history as `stored − rays` modulo this.
+    pub rng_wrap: u32,
 }
 
 /// Push constants of [`atrous`].
@@ -377,7 +379,10 @@ fn retrace(
             if prev.rays > 0 {
                 let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
                 let seed = pixel_seed(x, y, z);
-                if let Some(curr) = trace(&s, z, seed, prev_payload[i].rng_index()) {
+                // Accumulation advanced the index by the rays traced: step back to the 0th.
+                let wrap = p.rng_wrap;
+                let start = (prev_payload[i].rng_index() % wrap + wrap - prev.rays % wrap) % wrap;
+                if let Some(curr) = trace(&s, z, seed, start) {
                     out[o] = gradient_of(curr, prev.first);
                 }
             }
@@ -387,7 +392,8 @@ fn retrace(
 }
 
 /// One invocation per cell: re-trace last frame's 0th AO ray of the cell's sample in every plane.
-/// `prev_payload` is last frame's reprojected history (its `rng_index` is the 0th ray's index),
+/// `prev_payload` is last frame's accumulated history (its `rng_index`, less the rays traced, is
+/// the 0th ray's index),
 /// `prev_samples` last frame's raygen output.
 pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
     let GradientAoIo {

@@ -10,12 +10,12 @@ use super::names::*;
 
 crate::kernel_table! {
     /// [`accumulate::accumulate`]: temporal accumulation of the new samples into the reprojected
-    /// history; `counters` has `payload::COUNTERS_LEN` words.
+    /// history, in place (each invocation reads and writes its own element); `counters` has
+    /// `payload::COUNTERS_LEN` words.
     accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
-        history: read PackedPayload,
+        history: write PackedPayload,
         samples: read PackedSample,
-        out: write PackedPayload,
         counters: atomic u32,
     }
 
