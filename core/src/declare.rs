@@ -181,9 +181,9 @@ macro_rules! kernel_table {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            for id in b.invocations(group) {
+            b.for_each_invocation(group, |id| {
                 $kfn(id, &params, $io { $($bn: &$($m)? *$bn),* });
-            }
+            });
         }
         run
     }};

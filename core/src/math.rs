@@ -176,6 +176,7 @@ pub fn log2(x: f32) -> f32 {
 /// (as [`exp2`] does) so GPUs that flush denormals agree bit for bit.
 // Plain comparisons rather than `RangeInclusive::contains`: the same instructions on every target.
 #[allow(clippy::manual_range_contains)]
+#[inline]
 pub fn pow(x: f32, y: f32) -> f32 {
     if y == 0.0 {
         return 1.0;

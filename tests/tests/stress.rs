@@ -29,6 +29,11 @@ fn long() -> bool {
 
 /// The CPU backend, then wgpu and ash where a Vulkan adapter exists.
 fn backends() -> Vec<Backend> {
+    // The cases run on parallel test threads; Vulkan instances and devices (with the validation
+    // layer) are created one at a time: a CI run once died of SIGSEGV before any case had
+    // finished, while they were being created concurrently.
+    static OPENING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = OPENING.lock().unwrap_or_else(|e| e.into_inner());
     let require = std::env::var("VRRT_REQUIRE_VULKAN").is_ok_and(|v| v == "1");
     let mut out = vec![Backend::open(BackendKind::Cpu, false).unwrap().0];
     for kind in [BackendKind::Wgpu, BackendKind::Ash] {
