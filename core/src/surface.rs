@@ -79,6 +79,22 @@ pub fn load(
     Surface::at(camera, x, y, width, height, depth[i], normal_roughness[i])
 }
 
+/// What the renderer's ray generation sees at pixel index `pix`: [`load`] through this frame's
+/// camera, with the renderer's `geometry` (geometric normal, instance).
+#[inline]
+pub fn load_with_hit(
+    view: &View,
+    pix: usize,
+    width: u32,
+    height: u32,
+    depth: &[f32],
+    normal_roughness: &[u32],
+    geometry: &[[u32; 2]],
+) -> Surface {
+    let (x, y) = (pix as u32 % width, pix as u32 / width);
+    load(&view.camera, x, y, width, height, depth, normal_roughness).with_hit(geometry[pix])
+}
+
 /// The engine's inputs at one pixel, packed as the buffers hold them.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Texel {

@@ -323,16 +323,15 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-    let s = surface::load(
-        &view[0].camera,
-        x,
-        y,
+    let s = surface::load_with_hit(
+        &view[0],
+        pix,
         p.width,
         p.height,
         depth,
         normal_roughness,
-    )
-    .with_hit(geometry[pix]);
+        geometry,
+    );
     let mut z = 0;
     while z < p.planes {
         let i = (z * p.width * p.height) as usize + pix;
@@ -371,16 +370,15 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-    let s = surface::load(
-        &view[0].camera,
-        x,
-        y,
+    let s = surface::load_with_hit(
+        &view[0],
+        pix,
         p.width,
         p.height,
         depth,
         normal_roughness,
-    )
-    .with_hit(geometry[pix]);
+        geometry,
+    );
     let mut z = 0;
     while z < p.planes {
         let plane = p.first_plane + z;

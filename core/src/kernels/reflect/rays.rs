@@ -55,16 +55,15 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     let n = rays[pix];
     let i = (p.plane * p.width * p.height) as usize + pix;
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-    let s = surface::load(
-        &view[0].camera,
-        x,
-        y,
+    let s = surface::load_with_hit(
+        &view[0],
+        pix,
         p.width,
         p.height,
         depth,
         normal_roughness,
-    )
-    .with_hit(geometry[pix]);
+        geometry,
+    );
     let seed = pixel_seed(x, y, p.plane);
     let first_index = history[i].rng_index();
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);

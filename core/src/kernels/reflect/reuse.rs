@@ -49,16 +49,15 @@ pub fn reflect_reuse(id: UVec3, p: &ReuseParams, io: ReflectReuseIo<'_>) {
     let pix = pixel_index(id.x, id.y, p.width);
     let i = (p.plane * p.width * p.height) as usize + pix;
     let camera = view[0].camera;
-    let s = surface::load(
-        &camera,
-        id.x,
-        id.y,
+    let s = surface::load_with_hit(
+        &view[0],
+        pix,
         p.width,
         p.height,
         depth,
         normal_roughness,
-    )
-    .with_hit(geometry[pix]);
+        geometry,
+    );
     let Some((n, wo, alpha)) = lobe(&s, &p.shading) else {
         return;
     };

@@ -76,16 +76,15 @@ pub fn reflect_tiles(id: UVec3, p: &TileParams, io: ReflectTilesIo<'_>) {
         let x = id.x * TILE + (h & (TILE - 1));
         let y = id.y * TILE + ((h >> 8) & (TILE - 1));
         if x < p.width && y < p.height {
-            let s = surface::load(
-                &view[0].camera,
-                x,
-                y,
+            let s = surface::load_with_hit(
+                &view[0],
+                pixel_index(x, y, p.width),
                 p.width,
                 p.height,
                 depth,
                 normal_roughness,
-            )
-            .with_hit(geometry[pixel_index(x, y, p.width)]);
+                geometry,
+            );
             let r = reflection_ray(
                 &s,
                 &p.shading,
