@@ -114,7 +114,6 @@ impl Surface {
     /// [`Surface::with_hit`]: last frame's position (set to this one), the geometric normal (set
     /// to the shading normal) and the instance (0, or [`NO_INSTANCE`] for sky).
     #[inline]
-    #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices' elements, not structs.
     pub fn at(
         camera: &Camera,
         x: u32,
@@ -159,7 +158,7 @@ impl Surface {
 
     /// [`Surface::at`] with this frame's camera of `view`, plus the pixel's motion.
     #[inline]
-    #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices' elements, not structs.
+    #[allow(clippy::too_many_arguments)] // A pixel, the image size and its three inputs.
     pub fn current(
         view: &View,
         x: u32,
