@@ -13,8 +13,8 @@
 //!   history is carried) and counted in [`COUNTER_NON_FINITE`];
 //! - the signals are non-negative (visibility, occlusion, radiance), so negative moments are
 //!   **clamped** to 0, and moments above the storage format's largest value
-//!   ([`quantize::max_value`]: 65504 for f16, 1 for unorm8, 2^50 for f32 so the merged second
-//!   moment cannot overflow) are clamped to it; both count in [`COUNTER_CLAMPED`];
+//!   ([`quantize::max_value`]: 65504 for f16, 1 for unorm8) are
+//!   clamped to it; both count in [`COUNTER_CLAMPED`];
 //! - `m2` is raised to `m1²` (within the format's range) if it is below: a mean of squares is
 //!   never below the square of the mean, and raygen's rounding may break that. Not counted.
 //!
@@ -401,11 +401,7 @@ mod tests {
             count: 3.0,
             rng_index: 0,
         };
-        for storage in [
-            quantize::STORAGE_F32,
-            quantize::STORAGE_F16,
-            quantize::STORAGE_UNORM8,
-        ] {
+        for storage in [quantize::STORAGE_F16, quantize::STORAGE_UNORM8] {
             let merged = Payload {
                 m1: 0.3337,
                 m2: 0.1,

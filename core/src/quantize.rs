@@ -57,8 +57,6 @@ impl StoragePrecision {
     }
 }
 
-/// f32, the reference precision (the stored value is the merged value).
-pub const STORAGE_F32: u32 = 0;
 /// IEEE binary16 (half), range `[0, 65504]`.
 pub const STORAGE_F16: u32 = 1;
 /// 8-bit unsigned normalized, range `[0, 1]` (shadow visibility and other signals in `[0, 1]`).
@@ -72,9 +70,6 @@ pub const STORAGE_NO_CORRECTION: u32 = 0x100;
 pub const F16_MAX: f32 = 65504.0;
 /// Largest binary16 code below infinity (`0x7BFF` = 65504).
 pub const F16_MAX_CODE: u32 = 0x7bff;
-/// Samples are clamped to this in f32 storage: `MAX²` times any history length (≤ 65520 rays)
-/// stays finite, so merging the second moment cannot overflow (2^50 ≈ 1.1e15).
-pub const F32_SIGNAL_MAX: f32 = 1_125_899_906_842_624.0;
 
 /// binary16 code of `x`, rounded to nearest, ties to even (as IEEE conversion does). Overflow
 /// gives infinity (`0x7C00`), NaN a quiet NaN; [`quantize`] never lets either through.
@@ -156,13 +151,12 @@ pub fn unorm8_to_f32(q: u32) -> f32 {
 /// Largest value format `storage` holds (and the ceiling samples are clamped to).
 pub fn max_value(storage: u32) -> f32 {
     match storage & 0xff {
-        STORAGE_F16 => F16_MAX,
         STORAGE_UNORM8 => 1.0,
-        _ => F32_SIGNAL_MAX,
+        _ => F16_MAX,
     }
 }
 
-/// Code of `x` in format `storage` (not meaningful for f32), clamped to `[0, max_value]`.
+/// Code of `x` in format `storage`, clamped to `[0, max_value]`.
 fn encode(storage: u32, x: f32) -> u32 {
     if storage & 0xff == STORAGE_UNORM8 {
         f32_to_unorm8(x)
@@ -187,21 +181,14 @@ fn max_code(storage: u32) -> u32 {
     }
 }
 
-/// `x` rounded to format `storage` (to nearest, clamped to its range). f32 storage clamps to
-/// `[0, F32_SIGNAL_MAX]` and keeps the value otherwise.
+/// `x` rounded to format `storage` (to nearest, clamped to its range).
 pub fn quantize(storage: u32, x: f32) -> f32 {
-    if storage & 0xff == STORAGE_F32 {
-        return math::clamp(x, 0.0, F32_SIGNAL_MAX);
-    }
     decode(storage, encode(storage, x))
 }
 
 /// The smallest value of format `storage` that is `>= x` (clamped to the format's range): used to
 /// keep the stored second moment at or above the square of the stored mean.
 pub fn quantize_up(storage: u32, x: f32) -> f32 {
-    if storage & 0xff == STORAGE_F32 {
-        return math::clamp(x, 0.0, F32_SIGNAL_MAX);
-    }
     let q = encode(storage, x);
     let q = if decode(storage, q) < x && q < max_code(storage) {
         q + 1
@@ -223,9 +210,6 @@ pub fn quantize_up(storage: u32, x: f32) -> f32 {
 /// with the guard it stays on the nearest code, and a value far from its target still moves one
 /// unit a frame. With [`STORAGE_NO_CORRECTION`] set this is plain [`quantize`].
 pub fn store_with_correction(storage: u32, accum: f32, prev: f32, target: f32) -> f32 {
-    if storage & 0xff == STORAGE_F32 {
-        return quantize(storage, accum);
-    }
     let qa = encode(storage, accum);
     let qp = encode(storage, prev);
     let correct = storage & STORAGE_NO_CORRECTION == 0;
