@@ -11,6 +11,7 @@ use vrrt_core::buffers::denoiser_buffers;
 use vrrt_core::camera::Camera;
 use vrrt_core::frame::{Frame, FrameScene, Signal};
 use vrrt_core::glam::Vec3;
+use vrrt_core::kernels::names::format_of;
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::payload::PackedSample;
 use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
@@ -52,8 +53,8 @@ impl Executor for PlanOnly {
     fn clear_timings(&mut self) {}
 }
 
-/// The buffers whose current copy the engine writes.
-const ENGINE_INPUTS: [&str; 3] = ["depth", "normal_roughness", "motion"];
+/// The buffers whose current copy the engine writes (the VRS mask only when it keeps one).
+const ENGINE_INPUTS: [&str; 4] = ["depth", "normal_roughness", "motion", "mask"];
 
 /// The memory report of a `size` frame of `signal` (called `label`) with `lights` lights, default
 /// settings at 1 ray per pixel.
@@ -68,19 +69,26 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
         "{w}x{h}, signal {label}, {} planes, 1 rpp\n\n",
         frame.layout().planes
     );
-    out += "| buffer | copies | bytes each | bytes/pixel |\n|---|---:|---:|---:|\n";
-    let mut sizes: Vec<(&str, u32, u64)> = denoiser_buffers(w, h, frame.denoiser().settings())
-        .iter()
-        .map(|b| (b.name, b.count, b.bytes))
-        .collect();
+    out += "| buffer | format | copies | bytes each | bytes/pixel |\n|---|---|---:|---:|---:|\n";
+    let mut sizes: Vec<(&str, &str, u32, u64)> =
+        denoiser_buffers(w, h, frame.denoiser().settings())
+            .iter()
+            .map(|b| (b.name, b.ty, b.count, b.bytes))
+            .collect();
     if frame.reflections().is_some() {
-        sizes.push(("reflection hits", 1, Reflections::hits_bytes(w, h)));
+        sizes.push((
+            "reflection hits",
+            "RayHit",
+            1,
+            Reflections::hits_bytes(w, h),
+        ));
     }
     let mut total = 0u64;
-    for (name, count, bytes) in &sizes {
+    for (name, ty, count, bytes) in &sizes {
         total += *count as u64 * bytes;
+        let format = format_of(ty).unwrap_or(ty);
         out += &format!(
-            "| {name} | {count} | {bytes} | {:.2} |\n",
+            "| {name} | {format} | {count} | {bytes} | {:.2} |\n",
             (*count as u64 * bytes) as f64 / pixels
         );
     }
@@ -121,7 +129,7 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
     let inputs: u64 = sizes
         .iter()
         .filter(|(name, ..)| ENGINE_INPUTS.contains(name))
-        .map(|(_, _, bytes)| bytes)
+        .map(|(.., bytes)| bytes)
         .sum();
     out += &format!(
         "\ndenoiser memory: {:.1} bytes/pixel\n",
@@ -176,8 +184,8 @@ mod tests {
         }
         assert!(figure(&all, "denoiser memory:") > figure(&ao, "denoiser memory:"));
         assert!(figure(&all, "bytes moved per frame:") > figure(&ao, "bytes moved per frame:"));
-        assert!(ao.contains("| depth | 2 |"), "{ao}");
+        assert!(ao.contains("| depth | R32F view depth | 2 |"), "{ao}");
         assert_eq!(figure(&ao, "engine inputs:"), 16.0, "{ao}");
-        assert!(all.contains("| reflection hits | 1 |"), "{all}");
+        assert!(all.contains("| reflection hits | struct | 1 |"), "{all}");
     }
 }

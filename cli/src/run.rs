@@ -86,8 +86,8 @@ pub fn check_common(frames: u32, spp: u32, ao_radius: f32) -> Result<()> {
     if frames == 0 {
         bail!("--frames must be at least 1");
     }
-    if spp < 2 {
-        bail!("--spp must be at least 2 (the reference's standard error needs two samples)");
+    if spp == 0 {
+        bail!("--spp must be at least 1");
     }
     if !(ao_radius.is_finite() && ao_radius > 0.0) {
         bail!("--ao-radius must be a positive distance, got {ao_radius}");

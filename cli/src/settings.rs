@@ -121,6 +121,7 @@ mod tests {
                 variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],
                 variance_rate: [1.0 / 64.0, 0.7, 16.0, 1.0 / 3.0],
                 still_sigma: 0.0,
+                vrs_mask: true,
             },
             gradient: GradientSettings {
                 stratum: 5,

@@ -21,14 +21,21 @@ pub struct BufferSize {
     pub count: u32,
     /// Bytes of one copy.
     pub bytes: u64,
+    /// Element type, as the kernels declare it (`kernels::names::format_of` gives its format).
+    pub ty: &'static str,
 }
 
-const fn size(name: &'static str, count: u32, bytes: u64) -> BufferSize {
-    BufferSize { name, count, bytes }
+const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> BufferSize {
+    BufferSize {
+        name,
+        count,
+        bytes,
+        ty,
+    }
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 23;
+pub const DENOISER_BUFFERS: usize = 21;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -51,35 +58,62 @@ pub fn denoiser_buffers(
         1
     };
     [
-        size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4)),
-        size("counters", 1, bytes(COUNTERS_LEN as u64, 4)),
+        size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4), "f32"),
+        size("counters", 1, bytes(COUNTERS_LEN as u64, 4), "u32"),
         // The engine's inputs; the second copy of depth and normal is last frame's, kept by the
         // denoiser for reprojection.
-        size("depth", 2, bytes(pixels, 4)),
-        size("normal_roughness", 2, bytes(pixels, 4)),
-        size("motion", 1, bytes(pixels, 8)),
-        size("view", 1, size_of::<View>() as u64),
-        size("history", 2, bytes(planes, size_of::<PackedPayload>())),
-        size("samples", 1, bytes(planes, size_of::<PackedSample>())),
-        size("filtered", 2, bytes(planes, size_of::<PackedFiltered>())),
-        size("mask", 1, bytes(pixels, 4)),
-        size("requests", 1, bytes(pixels, 4)),
-        size("counts", 1, bytes(buckets::COUNTS_LEN as u64, 4)),
-        size("decision", 1, bytes(1, size_of::<balance::Balance>())),
-        size("rays", 1, bytes(pixels, 4)),
-        size("work", 1, bytes(pixels, 4)),
-        size("args", 1, bytes(apply::ARGS_LEN as u64, 4)),
-        size("gradient_keys", 1, bytes(cells, 4)),
-        size("gradient_raw", 1, gradient),
-        size("gradient", 2, gradient),
-        size("tiles", 1, bytes(tw as u64 * th as u64, 4)),
+        size("depth", 2, bytes(pixels, 4), "Depth"),
+        size("normal_roughness", 2, bytes(pixels, 4), "NormalRoughness"),
+        size("motion", 1, bytes(pixels, 8), "Motion"),
+        size("view", 1, size_of::<View>() as u64, "View"),
+        size(
+            "history",
+            2,
+            bytes(planes, size_of::<PackedPayload>()),
+            "PackedPayload",
+        ),
+        size(
+            "samples",
+            1,
+            bytes(planes, size_of::<PackedSample>()),
+            "PackedSample",
+        ),
+        // The filter's ping-pong and output; the copy the output does not end in also holds the
+        // work list between apply and raygen (one `u32` per pixel, at most).
+        size(
+            "filtered",
+            2,
+            bytes(planes, size_of::<PackedFiltered>()),
+            "PackedFiltered",
+        ),
+        // The engine's optional VRS mask.
+        size(
+            "mask",
+            1,
+            bytes(if settings.rates.vrs_mask { pixels } else { 1 }, 4),
+            "VrsMask",
+        ),
+        size("requests", 1, bytes(pixels, 4), "Request"),
+        size("counts", 1, bytes(buckets::COUNTS_LEN as u64, 4), "u32"),
+        size(
+            "decision",
+            1,
+            bytes(1, size_of::<balance::Balance>()),
+            "Balance",
+        ),
+        size("args", 1, bytes(apply::ARGS_LEN as u64, 4), "u32"),
+        size("gradient_keys", 1, bytes(cells, 4), "GradientKey"),
+        size("gradient_raw", 1, gradient, "GradientSample"),
+        size("gradient", 2, gradient, "GradientSample"),
+        size("tiles", 1, bytes(tw as u64 * th as u64, 4), "TileWord"),
         size(
             "tile_histogram",
             1,
             bytes(classify::HISTOGRAM_LEN as u64, 4),
+            "u32",
         ),
-        size("importance", 1, bytes(rw as u64 * rh as u64, 4)),
-        size("parallax", 1, bytes(parallax, 8)),
+        size("importance", 1, bytes(rw as u64 * rh as u64, 4), "f32"),
+        size("parallax", 1, bytes(parallax, 8), "[f32; 2]"),
     ]
 }
 
@@ -171,6 +205,7 @@ pub fn check_fit(
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
+    use crate::kernels::names::format_of;
     use std::string::ToString;
 
     const LAVAPIPE: BindingLimit = BindingLimit {
@@ -204,5 +239,12 @@ mod tests {
         let depth = b.iter().find(|b| b.name == "depth").unwrap();
         assert_eq!(depth.bytes, 5000 * 4);
         assert_eq!(depth.count, 2);
+    }
+
+    #[test]
+    fn every_buffer_names_a_declared_format() {
+        for b in denoiser_buffers(64, 32, &Settings::default()) {
+            assert!(format_of(b.ty).is_some(), "{}: `{}`", b.name, b.ty);
+        }
     }
 }

@@ -58,6 +58,11 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [mut] $bt)]
             [$($ns)*] [$($more)*] $($rest)*);
     };
+    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: update $bt:ty, $($more:tt)*]
+        $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Update write [mut] $bt)]
+            [$($ns)*] [$($more)*] $($rest)*);
+    };
     (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: atomic $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
         $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [mut] $bt)]

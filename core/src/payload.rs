@@ -116,6 +116,12 @@ impl PackedSample {
             first: quantize::f16_to_f32(self.rays_first >> 16),
         }
     }
+
+    /// The rays the sample holds, without unpacking the rest.
+    #[inline]
+    pub fn rays(self) -> u32 {
+        self.rays_first & 0xffff
+    }
 }
 
 impl Sample {

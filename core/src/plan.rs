@@ -16,8 +16,10 @@ use glam::UVec3;
 pub enum Access {
     /// Read-only storage buffer.
     Read,
-    /// Each invocation writes (and may read) only the elements it owns.
+    /// Each invocation writes only the elements it owns, without reading them.
     Write,
+    /// Each invocation reads and rewrites only the elements it owns (an in-place update).
+    Update,
     /// Invocations contend through integer atomics (`crate::atomic`): counters, histograms,
     /// packed-key min/max.
     Atomic,
@@ -192,7 +194,7 @@ impl<'a> Pass<'a> {
     ///
     /// Rule: every bound buffer moves whole, once — read once if its binding is
     /// [`Access::Read`], written once if [`Access::Write`], read and written once if
-    /// [`Access::Atomic`] (read-modify-write). Neighbourhood taps are assumed to hit in cache
+    /// [`Access::Update`] or [`Access::Atomic`] (read-modify-write). Neighbourhood taps are assumed to hit in cache
     /// and a `Write` binding is a pure write stream, so a pass that moves more (re-reads,
     /// read-before-write, spills) shows it as `ms / floor`. The declaration is all the host knows:
     /// a binding the kernel skips at run time still counts, buffers are taken as sized to what

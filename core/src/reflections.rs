@@ -304,7 +304,6 @@ impl Reflections {
         let pass = kernels::RaygenReflectBindings {
             work: target.work,
             args: target.args,
-            rays: target.rays,
             depth: target.gbuffer.inputs.depth,
             normal_roughness: target.gbuffer.inputs.normal_roughness,
             geometry: target.gbuffer.geometry,

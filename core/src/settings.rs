@@ -107,6 +107,10 @@ pub struct RateSettings {
     /// unspent ("save" mode). Needs `undersample` (>= 0; default 0.045: on the static room the
     /// error rises 1.8% for 77% of the rays saved).
     pub still_sigma: f32,
+    /// The engine writes a VRS-style mask every frame ([`Denoiser::mask`](crate::denoiser::Denoiser::mask),
+    /// `u32` per pixel, 0 = needs no ray) and pixels it rules out ask for none (default off: no
+    /// mask is kept, 4 bytes per pixel saved).
+    pub vrs_mask: bool,
 }
 
 /// Temporal gradients (A-SVGF, `kernels::gradient`): one re-traced sample per stratum tells where
@@ -197,6 +201,7 @@ impl Default for RateSettings {
             variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
             variance_rate: [0.125, 0.25, 0.5, 1.0],
             still_sigma: 0.045,
+            vrs_mask: false,
         }
     }
 }
@@ -229,7 +234,8 @@ impl Default for FilterSettings {
 /// A setting out of its range.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SettingsError {
-    /// Width or height is zero.
+    /// Width or height is zero, or the image has more than 2^28 pixels (the work list's pixel
+    /// index, `kernels::apply::MAX_PIXELS`).
     Resolution {
         /// Width asked for.
         width: u32,
@@ -253,7 +259,8 @@ impl fmt::Display for SettingsError {
             SettingsError::Resolution { width, height } => {
                 write!(
                     f,
-                    "resolution {width}x{height}: width and height must be at least 1"
+                    "resolution {width}x{height}: width and height must be at least 1 and the \
+                     image at most 2^28 pixels (16384x16384)"
                 )
             }
             SettingsError::OutOfRange {

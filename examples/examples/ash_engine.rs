@@ -23,7 +23,7 @@ use vrrt_core::denoiser::Denoiser;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::Pass;
 use vrrt_examples::{
-    assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,
+    assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
     validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,
 };
 
@@ -111,11 +111,11 @@ fn run(app: &App) -> Result<(), Error> {
             )
         }?;
 
-        // An engine's ray-tracing pass would read `d.rays()` on the GPU (`d.work()` and
-        // `d.args()` are the compacted pixel list and its indirect dispatch); this example reads
-        // it back (the executor's own readback, synchronized by its own barriers) and traces on
+        // An engine's ray-tracing pass would read the work list `d.work()` on the GPU (pixels
+        // and their rays, `apply::work_item`; `d.args()` is its indirect dispatch); this example
+        // reads it back (the executor's own readback, synchronized by its own barriers) and traces on
         // the host.
-        let rays: Vec<u32> = read(&mut ex, d.rays(), PIXELS)?;
+        let rays = d.read_rays(&mut ex)?;
         assert_eq!(
             rays, want.rays,
             "frame {frame}: rays differ from the CPU backend"

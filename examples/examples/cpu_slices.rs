@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         // 2. Where the rays go: `rays[i]` rays at pixel `i` this frame.
         denoiser.plan_rays(&mut cpu)?;
-        let rays: Vec<u32> = read(&mut cpu, denoiser.rays(), PIXELS)?;
+        let rays = denoiser.read_rays(&mut cpu)?;
         let decision: Vec<Balance> = read(&mut cpu, denoiser.decision(), 1)?;
         // 3. The application traces them and hands over the noisy samples (`&[Sample]`).
         let samples = trace(frame, &rays);

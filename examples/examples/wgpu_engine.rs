@@ -11,7 +11,7 @@
 use vrrt_core::denoiser::Denoiser;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_examples::{
-    assert_close, capture, cpu_frames, frame_info, gbuffer, read, require_vulkan, settings, trace,
+    assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
     validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,
 };
 use vrrt_wgpu::WgpuExecutor;
@@ -76,10 +76,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         gpu.encode(&mut encoder, &plan.get())?;
         queue.submit([encoder.finish()]);
 
-        // An engine's ray-tracing pass would read `d.rays()` on the GPU (`d.work()` and
-        // `d.args()` are the compacted pixel list and its indirect dispatch); this example
-        // traces on the host.
-        let rays: Vec<u32> = read(&mut gpu, d.rays(), PIXELS)?;
+        // An engine's ray-tracing pass would read the work list `d.work()` on the GPU (pixels
+        // and their rays, `apply::work_item`; `d.args()` is its indirect dispatch); this
+        // example traces on the host.
+        let rays = d.read_rays(&mut gpu)?;
         assert_eq!(
             rays, want.rays,
             "frame {frame}: rays differ from the CPU backend"

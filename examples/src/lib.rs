@@ -7,8 +7,9 @@
 //! A frame with the denoiser is always the same four steps:
 //! 1. [`Denoiser::begin_frame`] with the cameras, then write this frame's G-buffer into
 //!    [`Denoiser::inputs`] (depth, normal + roughness, motion);
-//! 2. [`Denoiser::plan_rays`]: afterwards [`Denoiser::rays`] says how many rays each pixel traces
-//!    *this* frame (more where history was lost, fewer where it converged, within the budget);
+//! 2. [`Denoiser::plan_rays`]: afterwards the work list [`Denoiser::work`] (or, on the host,
+//!    [`Denoiser::read_rays`]) says how many rays each pixel traces *this* frame (more where
+//!    history was lost, fewer where it converged, within the budget);
 //! 3. trace them and write the noisy [`Sample`]s into [`Denoiser::samples`];
 //! 4. [`Denoiser::resolve`]: the denoised signal is in [`Denoiser::output`].
 
@@ -210,7 +211,7 @@ pub fn cpu_frames() -> Vec<FrameResult> {
                     cpu.write_buffer(id, bytes)?;
                 }
                 d.plan_rays(cpu)?;
-                let rays = read::<u32, _>(cpu, d.rays(), PIXELS)?;
+                let rays = d.read_rays(cpu)?;
                 cpu.write_buffer(d.samples(), bytemuck::cast_slice(&trace(frame, &rays)))?;
                 d.resolve(cpu)?;
                 let denoised = values(&read::<PackedFiltered, _>(cpu, d.output(), PIXELS)?);

@@ -8,8 +8,9 @@ use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
-use vrrt_core::kernels::apply::LIST_GROUP;
+use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
+use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::{self, classify, reproject};
 use vrrt_core::payload::PackedFiltered;
@@ -286,7 +287,7 @@ impl Renderer {
         let n = (w * h * planes) as usize;
         let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
-        let rays: Vec<u32> = read(exec, d.rays(), (w * h) as usize)?;
+        let rays = d.read_rays(exec)?;
         let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
         // Resolve does not write the requests (with the flags).
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
@@ -330,7 +331,7 @@ fn unpack_samples(packed: &[PackedSample]) -> Vec<Sample> {
 pub struct Reference {
     /// Mean per pixel and plane.
     pub mean: Vec<f32>,
-    /// Standard error of the mean per pixel and plane.
+    /// Standard error of the mean per pixel and plane (NaN from a single sample: unknown).
     pub stderr: Vec<f32>,
     /// Samples per pixel.
     pub spp: u32,
@@ -344,7 +345,7 @@ pub struct Reference {
 pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 
 /// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
-/// denoiser sees) in passes of up to 64 rays, calling `progress(done, spp)` after each.
+/// denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling `progress(done, spp)` after each.
 pub fn reference<E: Executor>(
     exec: &mut E,
     f: &FrameGeometry,
@@ -366,15 +367,12 @@ pub fn reference<E: Executor>(
     };
     exec.write_buffer(gbuffer.view, bytemuck::bytes_of(&view))?;
     gpu.gbuffer(exec, f, width, height, gbuffer)?;
-    let work_ids: Vec<u32> = (0..pixels as u32).collect();
     let work = exec.create_buffer(pixels as u64 * 4)?;
-    exec.write_buffer(work, bytes(&work_ids))?;
     let args = exec.create_buffer(16)?;
     exec.write_buffer(
         args,
         bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
     )?;
-    let rays = exec.create_buffer(pixels as u64 * 4)?;
     let history = exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?;
     let out = exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?;
     let layout = signal.layout(f.lights.len());
@@ -385,8 +383,10 @@ pub fn reference<E: Executor>(
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
     let mut done = 0u32;
     while done < spp {
-        let batch = (spp - done).min(64);
-        exec.write_buffer(rays, bytes(&vec![batch; pixels]))?;
+        // A work-list entry carries at most `MAX_RATE` rays.
+        let batch = (spp - done).min(MAX_RATE);
+        let entries: Vec<u32> = (0..pixels as u32).map(|i| work_entry(i, batch)).collect();
+        exec.write_buffer(work, bytes(&entries))?;
         let start = REFERENCE_RNG_BASE + done;
         let hist: Vec<PackedPayload> = vec![
             Payload {
@@ -401,7 +401,6 @@ pub fn reference<E: Executor>(
             size: (width, height),
             work,
             args,
-            rays,
             gbuffer,
             history,
             out,
@@ -419,14 +418,16 @@ pub fn reference<E: Executor>(
     }
     let k = spp.max(1) as f64;
     let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
+    // One sample has no spread to measure: its standard error is unknown (NaN), not 0.
     let stderr = sum
         .iter()
         .zip(&sum_sq)
         .map(|(s, q)| {
             let m = s / k;
             let var = (q / k - m * m).max(0.0);
-            (var / (k - 1.0).max(1.0)).sqrt() as f32
+            (var / (k - 1.0)).sqrt() as f32
         })
+        .map(|se| if spp < 2 { f32::NAN } else { se })
         .collect();
     Ok(Reference { mean, stderr, spp })
 }

@@ -232,44 +232,30 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 }
 
 fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let n = (w * h * PLANES) as usize;
-    // Some stored variances are binary16 NaN or infinity (a buggy writer): classify's guard.
-    let filtered: Vec<PackedFiltered> = (0..n)
-        .map(|_| {
-            let f = Filtered {
-                value: value(rng),
-                variance: value(rng) * 1e-3,
-            }
-            .pack();
-            let hostile = [0x7e00u32, 0x7c00][rng.random_range(0..2)];
-            match rng.random_range(0..25) {
-                0 => PackedFiltered {
-                    bits: (f.bits & 0xffff) | hostile << 16,
-                },
-                _ => f,
-            }
+    let (tw, th) = classify::tile_grid(w, h);
+    // Tile words as the variance pass leaves them: empty tiles, worst variances, and NaN or
+    // infinite ones (a buggy writer): classify's guard.
+    let tiles: Vec<u32> = (0..tw * th)
+        .map(|_| match rng.random_range(0..8) {
+            0 => 0,
+            1 => classify::tile_key([f32::NAN, f32::INFINITY][rng.random_range(0..2)]),
+            _ => classify::tile_key(value(rng).abs() * 1e-3),
         })
         .collect();
-    let g = Images::pack(&surfaces(rng, w, h), w, &inputs::test_view());
     let params = classify::ClassifyParams {
         width: w,
         height: h,
-        planes: PLANES,
         iterations: rng.random_range(0..6),
         skip_sigma: [0.0, 0.004, 0.02, 0.3][rng.random_range(0..4)],
-        ..Default::default()
     };
-    let (tw, th) = classify::tile_grid(w, h);
     Case {
         name: format!(
-            "classify {w}x{h}x{PLANES} sigma {} cap {}",
+            "classify {w}x{h} sigma {} cap {}",
             params.skip_sigma, params.iterations
         ),
         kernel: &vrrt_core::kernels::CLASSIFY,
         buffers: vec![
-            g.depth(),
-            BufferSpec::from_pod(&filtered, INTS),
-            BufferSpec::from_pod(&vec![7u32; (tw * th) as usize], INTS),
+            BufferSpec::from_pod(&tiles, INTS),
             BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
@@ -441,6 +427,13 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     };
     let view = inputs::test_view();
     let g = Images::pack(&surfaces(rng, w, h), w, &view);
+    let (tw, th) = classify::tile_grid(w, h);
+    let tiles: Vec<u32> = (0..tw * th)
+        .map(|_| match rng.random_range(0..8) {
+            0 => classify::tile_key(f32::NAN),
+            _ => 0,
+        })
+        .collect();
     Case {
         name: format!("variance {w}x{h}x{PLANES}"),
         kernel: &vrrt_core::kernels::VARIANCE,
@@ -450,6 +443,8 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             g.normal_roughness(),
             inputs::view(&view),
             BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
+            // Tile words, zeroed as the host does, with a few left high to stay the maximum.
+            BufferSpec::from_pod(&tiles, INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
@@ -544,7 +539,6 @@ fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&[decision], BALANCE),
             BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
-            BufferSpec::from_pod(&vec![0u32; n], INTS),
             BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
             BufferSpec::from_pod(&[0u32, 0, 1, 1], INTS),
             BufferSpec::from_pod(&samples, SAMPLE),

@@ -51,8 +51,16 @@ fn next_maps(f: &FrameGeometry) -> Vec<InstanceData> {
 /// `gradient_project`: real surfaces of two frames, last frame's rays random (a third untraced).
 pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let p = pair(rng, w, h);
-    let rays: Vec<u32> = (0..w * h)
-        .map(|_| [0, 0, 1, 1, 2, 16][rng.random_range(0..6)])
+    let samples: Vec<PackedSample> = (0..w * h)
+        .map(|_| {
+            Sample {
+                m1: rng.random(),
+                m2: rng.random(),
+                rays: [0, 0, 1, 1, 2, 16][rng.random_range(0..6)],
+                first: rng.random(),
+            }
+            .pack()
+        })
         .collect();
     let (gw, gh) = p.grid;
     let params = gradient::ProjectParams {
@@ -82,7 +90,7 @@ pub fn project_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             cur.normal_roughness(),
             cur.geometry(),
             inputs::view(&frame_view(&p.cur)),
-            BufferSpec::from_pod(&rays, INTS),
+            BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&next_maps(&p.cur), FLOATS),
             BufferSpec::from_pod(&vec![EMPTY_KEY; (gw * gh) as usize], INTS),
         ],

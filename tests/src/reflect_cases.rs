@@ -113,7 +113,7 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         _pad: [0; 3],
         shading: shading(rng, &frame),
     };
-    let [work, args, rays] = list.buffers();
+    let [work, args] = list.buffers();
     let (_, [depth, normal_roughness, geometry, view]) =
         packed(&glossy_surfaces(rng, &frame, w, h), &frame, w);
     Case {
@@ -125,7 +125,6 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             work,
             args,
-            rays,
             depth,
             normal_roughness,
             geometry,

@@ -8,6 +8,7 @@ use rand::Rng;
 use rand_pcg::Pcg32;
 use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
+use vrrt_core::kernels::apply;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload};
@@ -114,12 +115,11 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-/// A work list over a random subset of pixels in random order, the rays each traces (0..=4) and
-/// the reprojected history holding each pixel's rng index (including indices about to wrap).
+/// A work list over a random subset of pixels in random order, each entry with the rays it traces
+/// (1..=4, `apply::work_entry`), and the reprojected history holding each pixel's rng index (including indices about to wrap).
 pub(crate) struct WorkList {
     work: Vec<u32>,
     pub(crate) args: [u32; 4],
-    rays: Vec<u32>,
     pub(crate) history: Vec<PackedPayload>,
     pub(crate) groups: [u32; 3],
 }
@@ -129,13 +129,15 @@ impl WorkList {
         let pixels = w * h;
         let mut work: Vec<u32> = (0..pixels)
             .filter(|_| rng.random_range(0..4) != 0)
+            .collect::<Vec<u32>>()
+            .into_iter()
+            .map(|pix| apply::work_entry(pix, rng.random_range(1..5)))
             .collect();
         for i in (1..work.len()).rev() {
             work.swap(i, rng.random_range(0..=i));
         }
         let count = work.len() as u32;
         work.resize(pixels as usize, 0);
-        let rays = (0..pixels).map(|_| rng.random_range(0..5)).collect();
         let history = (0..pixels * planes)
             .map(|_| {
                 Payload {
@@ -158,17 +160,15 @@ impl WorkList {
         WorkList {
             work,
             args: [count, groups[0] - 1, 1, 1],
-            rays,
             history,
             groups,
         }
     }
 
-    pub(crate) fn buffers(&self) -> [BufferSpec; 3] {
+    pub(crate) fn buffers(&self) -> [BufferSpec; 2] {
         [
             BufferSpec::from_pod(&self.work, INTS),
             BufferSpec::from_pod(&self.args, INTS),
-            BufferSpec::from_pod(&self.rays, INTS),
         ]
     }
 }
@@ -188,7 +188,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes,
         max_distance: rng.random_range(0.2..4.0),
     };
-    let [work, args, rays] = list.buffers();
+    let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
@@ -199,7 +199,6 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             work,
             args,
-            rays,
             depth,
             normal_roughness,
             geometry,
@@ -237,7 +236,7 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes: planes - first_plane,
         first_plane,
     };
-    let [work, args, rays] = list.buffers();
+    let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
@@ -248,7 +247,6 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             work,
             args,
-            rays,
             depth,
             normal_roughness,
             geometry,

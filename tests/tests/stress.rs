@@ -170,7 +170,6 @@ impl Rig {
             index: self.frame,
             reset: reset || self.frame == 0,
             pixel_angle: 1.0 / h as f32,
-            use_mask: false,
             view: view(),
             ..Default::default()
         };
@@ -187,7 +186,7 @@ impl Rig {
         exec.write_buffer(inputs.motion, bytemuck::cast_slice(&g.motion))
             .unwrap();
         self.d.plan_rays(exec).unwrap();
-        let rays: Vec<u32> = read(exec, self.d.rays(), (w * h) as usize);
+        let rays = self.d.read_rays(exec).unwrap();
         let mut samples = vec![Sample::default(); (w * h * self.planes) as usize];
         for z in 0..self.planes {
             for y in 0..h {
@@ -620,8 +619,9 @@ fn resolutions_resize_cut_sky_and_zero_size() {
         assert_eq!(non_finite(&rig.output(b)), 0);
         assert_eq!(rig.counters(b), [0, 0]);
 
-        // Zero sizes are a settings error, not a panic.
-        for (w, h) in [(0, 4), (4, 0), (0, 0)] {
+        // Zero sizes, and more pixels than a work-list entry can index, are a settings error
+        // (before any buffer is made), not a panic.
+        for (w, h) in [(0, 4), (4, 0), (0, 0), (16385, 16384)] {
             match Denoiser::new(b, w, h, Settings::default()) {
                 Err(DenoiserError::Settings(e @ SettingsError::Resolution { .. })) => {
                     if w == 0 && h == 0 {

@@ -6,7 +6,7 @@ use super::*;
 impl Denoiser {
     /// The temporal-gradient prepass (A-SVGF), between the G-buffer and [`Self::plan_rays`]:
     /// forward projection of one previous-frame sample per stratum, re-trace of its 0th ray
-    /// against `scene`, and the à-trous reconstruction. It reads last frame's rays, samples and
+    /// against `scene`, and the à-trous reconstruction. It reads last frame's samples and
     /// history, which [`Self::plan_rays`] overwrites, so it must run first. Returns
     /// whether it ran: it is skipped when off, on reset frames, and when [`FrameInfo::moved`] is
     /// false (nothing can have changed, so every `λ` would be 0).
@@ -52,7 +52,7 @@ impl Denoiser {
             normal_roughness: inputs.normal_roughness,
             geometry: scene.geometry[0],
             view: self.view,
-            rays: self.rays,
+            prev_samples: self.samples,
             next: scene.next,
             keys: self.gradient_keys,
         };

@@ -5,8 +5,8 @@
 //!
 //! ```text
 //! G-buffer ─► reproject ─► fill ─► count_buckets ─► balance ─► apply ─► raygen ─► accumulate ─► variance ─► atrous × N
-//! (caller)    + requests   counts=0   histogram      thresholds  rays,      (caller,   history[cur]   filtered ping-pong
-//!             history[prev] → history[cur]                       work list  indirect)  in place
+//! (caller)    + requests   counts=0   histogram      thresholds  work list  (caller,   history[cur]   filtered ping-pong
+//!             history[prev] → history[cur]                       + rays     indirect)  in place
 //! ```
 //!
 //! The ray budget is decided before raygen: reprojection asks for a rate per pixel (refill lost
@@ -82,8 +82,6 @@ pub struct FrameInfo {
     pub reset: bool,
     /// Angle one pixel subtends, radians (`2·tan(fov_y/2) / height`): scales plane tolerances.
     pub pixel_angle: f32,
-    /// Read [`Denoiser::mask`] this frame.
-    pub use_mask: bool,
     /// Something moved since last frame (camera, objects or lights). When false the
     /// temporal-gradient prepass is skipped: every re-trace would return last frame's value.
     pub moved: bool,
@@ -155,8 +153,6 @@ pub struct Denoiser {
     counts: BufferId,
     decision: BufferId,
     noise: BufferId,
-    rays: BufferId,
-    work: BufferId,
     args: BufferId,
     counters: BufferId,
     gradient_keys: BufferId,
@@ -190,7 +186,7 @@ impl Denoiser {
         height: u32,
         settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
-        if width == 0 || height == 0 {
+        if width == 0 || height == 0 || width as u64 * height as u64 > apply::MAX_PIXELS {
             return Err(DenoiserError::Settings(SettingsError::Resolution {
                 width,
                 height,
@@ -227,8 +223,6 @@ impl Denoiser {
             counts: id("counts")[0],
             decision: id("decision")[0],
             noise,
-            rays: id("rays")[0],
-            work: id("work")[0],
             args: id("args")[0],
             counters,
             gradient_keys: id("gradient_keys")[0],
@@ -246,7 +240,6 @@ impl Denoiser {
                 index: 0,
                 reset: true,
                 pixel_angle: 1.0 / height as f32,
-                use_mask: false,
                 moved: true,
                 use_importance: false,
                 view: View::default(),
@@ -294,8 +287,9 @@ impl Denoiser {
         self.view
     }
 
-    /// Optional VRS-style mask (`u32` per pixel, 0 = needs no ray), used when
-    /// [`FrameInfo::use_mask`] is set; the caller writes it.
+    /// Optional VRS-style mask (`u32` per pixel, 0 = needs no ray): with
+    /// [`RateSettings::vrs_mask`](crate::settings::RateSettings::vrs_mask) the engine writes it
+    /// every frame; otherwise it is one unused word.
     pub fn mask(&self) -> BufferId {
         self.mask
     }
@@ -325,14 +319,35 @@ impl Denoiser {
         self.decision
     }
 
-    /// Rays granted per pixel (`u32`, after [`Self::plan_rays`]): raygen traces exactly these.
-    pub fn rays(&self) -> BufferId {
-        self.rays
+    /// Compacted list of tracing pixels and their granted rays (one `u32` each,
+    /// `apply::work_entry`, decoded by `apply::work_item`): raygen traces exactly these,
+    /// `args[0]` of them. Valid from [`Self::plan_rays`] to [`Self::resolve`]: it lives in the
+    /// filter's scratch copy, which is free until the variance pass (the copy that does not hold
+    /// the output).
+    pub fn work(&self) -> BufferId {
+        self.filtered[1 - self.settings.filter.atrous_iterations as usize % 2]
     }
 
-    /// Compacted list of tracing pixels (`u32` pixel indices, after [`Self::plan_rays`]).
-    pub fn work(&self) -> BufferId {
-        self.work
+    /// Rays granted per pixel this frame (after [`Self::plan_rays`], until the next frame's):
+    /// apply's own rule ([`apply::resolve_rays`]) on the host, from the requests, the decision
+    /// and the blue noise, which outlive the work list. For hosts that trace on the CPU or
+    /// inspect the plan; a GPU ray pass reads the work list itself.
+    #[cfg(feature = "std")]
+    pub fn read_rays<E: Executor>(&self, exec: &mut E) -> Result<std::vec::Vec<u32>, E::Error> {
+        let (w, h) = (self.width, self.height);
+        let mut requests = std::vec![0u32; w as usize * h as usize];
+        exec.read_buffer(self.requests, bytemuck::cast_slice_mut(&mut requests))?;
+        let mut decision = [balance::Balance::default()];
+        exec.read_buffer(self.decision, bytemuck::cast_slice_mut(&mut decision))?;
+        let mut noise = std::vec![0.0f32; blue_noise::LEN];
+        exec.read_buffer(self.noise, bytemuck::cast_slice_mut(&mut noise))?;
+        let p = self.apply_params();
+        Ok((0..w * h)
+            .map(|i| {
+                let bucket = reproject::bucket_of(requests[i as usize]);
+                apply::resolve_rays(i % w, i / w, bucket, &p, &decision[0], &noise)
+            })
+            .collect())
     }
 
     /// `[count, groups_x, 1, 1]` of the work list: indirect dispatch arguments at byte offset 4.

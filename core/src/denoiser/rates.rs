@@ -5,7 +5,7 @@ use super::*;
 
 impl Denoiser {
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
-    /// and apply. Afterwards [`Self::rays`], [`Self::work`] and [`Self::args`] say what to trace.
+    /// and apply. Afterwards [`Self::work`] and [`Self::args`] say what to trace.
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h) = (self.width, self.height);
@@ -37,7 +37,7 @@ impl Denoiser {
                 s.rates.undersample_after
             },
             base_rate,
-            use_mask: self.frame.use_mask as u32,
+            use_mask: s.rates.vrs_mask as u32,
             variance_threshold: if s.rates.undersample {
                 s.rates.variance_threshold
             } else {
@@ -111,21 +111,25 @@ impl Denoiser {
         };
         exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
 
-        let app = apply::ApplyParams {
-            width: w,
-            height: h,
-            planes: s.planes,
-            frame_index: self.frame.index,
-        };
+        let app = self.apply_params();
         let apply = kernels::ApplyBindings {
             requests: self.requests,
             decision: self.decision,
             noise: self.noise,
-            rays: self.rays,
-            work: self.work,
+            work: self.work(),
             args: self.args,
             samples: self.samples,
         };
         exec.dispatch(&apply.over_grid(&app, w, h, 1))
+    }
+
+    /// The parameters of this frame's apply pass (also how [`Self::read_rays`] repeats it).
+    pub(super) fn apply_params(&self) -> apply::ApplyParams {
+        apply::ApplyParams {
+            width: self.width,
+            height: self.height,
+            planes: self.settings.planes,
+            frame_index: self.frame.index,
+        }
     }
 }

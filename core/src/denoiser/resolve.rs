@@ -30,6 +30,18 @@ impl Denoiser {
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
 
+        // The variance pass gathers each tile's worst variance, the classification turns it into
+        // iterations and counts them: both start from zero.
+        let (tw, th) = classify::tile_grid(w, h);
+        for (buf, len) in [
+            (self.tiles, tw * th),
+            (self.tile_histogram, classify::HISTOGRAM_LEN),
+        ] {
+            let clear = fill::FillParams { len, value: 0 };
+            let fill = kernels::FillBindings { buf };
+            exec.dispatch(&fill.over_grid(&clear, len, 1, 1))?;
+        }
+
         let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
         let var = variance::VarianceParams {
             width: w,
@@ -46,29 +58,17 @@ impl Denoiser {
             normal_roughness: self.normal_roughness[self.cur],
             view: self.view,
             out: self.filtered[0],
+            tiles: self.tiles,
         };
         exec.dispatch(&variance.over_grid(&var, w, h, planes))?;
 
-        let clear = fill::FillParams {
-            len: classify::HISTOGRAM_LEN,
-            value: 0,
-        };
-        let histogram = kernels::FillBindings {
-            buf: self.tile_histogram,
-        };
-        exec.dispatch(&histogram.over_grid(&clear, clear.len, 1, 1))?;
         let cls = classify::ClassifyParams {
             width: w,
             height: h,
-            planes,
             iterations: s.filter.atrous_iterations,
             skip_sigma: s.filter.skip_sigma,
-            ..Default::default()
         };
-        let (tw, th) = classify::tile_grid(w, h);
         let classify = kernels::ClassifyBindings {
-            depth: self.depth[self.cur],
-            filtered: self.filtered[0],
             tiles: self.tiles,
             histogram: self.tile_histogram,
         };

@@ -271,7 +271,6 @@ impl Frame {
             index: self.frames,
             reset: self.frames == 0 || scene.camera_cut || self.resume,
             pixel_angle: 2.0 * scene.camera.tan_half_fov_y / height as f32,
-            use_mask: false,
             moved,
             use_importance: self.reflections.is_some(),
             view: View {

@@ -55,8 +55,6 @@ pub struct RaygenTarget {
     pub work: BufferId,
     /// Indirect dispatch arguments of the work list.
     pub args: BufferId,
-    /// Rays per pixel.
-    pub rays: BufferId,
     /// The G-buffer.
     pub gbuffer: GBuffer,
     /// Payloads whose rng indices seed the rays.
@@ -75,7 +73,6 @@ impl RaygenTarget {
             size: denoiser.size(),
             work: denoiser.work(),
             args: denoiser.args(),
-            rays: denoiser.rays(),
             gbuffer: GBuffer::of(denoiser, geometry),
             history: denoiser.history(),
             out: denoiser.samples(),
@@ -106,7 +103,6 @@ pub fn trace_planes<E: Executor>(
     let ao = kernels::RaygenAoBindings {
         work: target.work,
         args: target.args,
-        rays: target.rays,
         depth: target.gbuffer.inputs.depth,
         normal_roughness: target.gbuffer.inputs.normal_roughness,
         geometry: target.gbuffer.geometry,
@@ -135,7 +131,6 @@ pub fn trace_planes<E: Executor>(
         let shadow = kernels::RaygenShadowBindings {
             work: ao.work,
             args: ao.args,
-            rays: ao.rays,
             depth: ao.depth,
             normal_roughness: ao.normal_roughness,
             geometry: ao.geometry,

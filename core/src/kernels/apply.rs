@@ -1,5 +1,7 @@
 //! VRRT apply: turns each pixel's requested bucket and the balancer's thresholds into the rays it
 //! traces this frame, and compacts the pixels that trace into a work list for an indirect raygen.
+//! Each work entry carries its pixel and its ray count ([`work_entry`]), so ray generation needs
+//! no per-pixel ray buffer: it reads only the list.
 //!
 //! Seed: vrrt-call-of-duty-2026, "VRRT Apply / Produce ray args" (`VrrtApply`) and "Undersampling"
 //! (fractional rates realised by a spatio-temporal blue-noise test, `rate > noise ? 1 : 0`).
@@ -21,6 +23,27 @@ use glam::UVec3;
 pub const LIST_GROUP: u32 = 64;
 /// Words of the indirect-arguments buffer: `[count, groups_x, groups_y, groups_z]`.
 pub const ARGS_LEN: u32 = 4;
+
+/// Bits of a [`work_entry`] holding the pixel index: images up to 2^28 pixels (16384²).
+pub const WORK_PIXEL_BITS: u32 = 28;
+/// Most pixels an image may have, so every pixel index fits a [`work_entry`].
+pub const MAX_PIXELS: u64 = 1 << WORK_PIXEL_BITS;
+
+/// The work-list word of pixel `pix` tracing `rays` rays (1 to [`MAX_RATE`](super::buckets::MAX_RATE)): the pixel in the low
+/// [`WORK_PIXEL_BITS`], `rays - 1` above.
+#[inline]
+pub fn work_entry(pix: u32, rays: u32) -> u32 {
+    pix | ((rays - 1) << WORK_PIXEL_BITS)
+}
+
+/// The pixel index and ray count of a [`work_entry`].
+#[inline]
+pub fn work_item(entry: u32) -> (usize, u32) {
+    (
+        (entry & ((1 << WORK_PIXEL_BITS) - 1)) as usize,
+        (entry >> WORK_PIXEL_BITS) + 1,
+    )
+}
 
 /// Push constants of [`apply`].
 #[repr(C)]
@@ -55,15 +78,14 @@ pub fn resolve_rays(
     whole as u32 + (rate - whole > blue_noise(noise, x, y, p.frame_index)) as u32
 }
 
-/// One invocation per pixel. Writes `rays[pixel]`, appends tracing pixels to `work` and counts
-/// them in `args[0]`; `args[1]` ends as the number of [`LIST_GROUP`]-wide groups (the balancer
+/// One invocation per pixel. Appends each tracing pixel and its rays to `work` ([`work_entry`])
+/// and counts them in `args[0]`; `args[1]` ends as the number of [`LIST_GROUP`]-wide groups (the balancer
 /// reset `args` to `[0, 0, 1, 1]` before this pass).
 pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let ApplyIo {
         requests,
         decision,
         noise,
-        rays,
         work,
         args,
         samples,
@@ -74,7 +96,6 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let pix = pixel_index(id.x, id.y, p.width);
     let bucket = super::reproject::bucket_of(requests[pix]);
     let n = resolve_rays(id.x, id.y, bucket, p, &decision[0], noise);
-    rays[pix] = n;
     if n == 0 {
         let mut z = 0;
         while z < p.planes {
@@ -84,7 +105,7 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         return;
     }
     let slot = atomic::add(&mut args[0], 1);
-    work[slot as usize] = pix as u32;
+    work[slot as usize] = work_entry(pix as u32, n);
     if slot.is_multiple_of(LIST_GROUP) {
         atomic::max(&mut args[1], slot / LIST_GROUP + 1);
     }

@@ -11,8 +11,11 @@
 //! fallback) always gets the full filter. A NaN or infinite variance also gets the full filter.
 //!
 //! The tile is the à-trous workgroup (8×8), so on a GPU the skip is uniform per workgroup.
+//!
+//! The variance pass gathers each tile's worst variance as it writes it ([`tile_key`], an atomic
+//! max per pixel), so this pass reads one word per tile, not the image: what it would read again
+//! (depth and the filter input, 8 bytes a pixel) is the pass's whole traffic otherwise.
 
-use super::pixel_index;
 use super::ClassifyIo;
 use crate::atomic;
 use crate::math;
@@ -24,6 +27,24 @@ pub const TILE: u32 = 8;
 /// Words of the histogram: `[empty tiles, tiles needing 0, 1, …, 5 iterations, padding]`.
 pub const HISTOGRAM_LEN: u32 = 8;
 
+/// Tile word of a tile whose worst variance is NaN, infinite or negative, less one.
+pub const BAD: u32 = 0x7f80_0000;
+
+/// What a pixel with a surface folds into its tile's word with an atomic max: 1 + the bits of its
+/// stored `variance` (non-negative floats order as their bits), or 1 + [`BAD`] for a NaN,
+/// infinite or negative one. A word of 0 is a tile without geometry.
+#[inline]
+pub fn tile_key(variance: f32) -> u32 {
+    let bits = if !(variance >= 0.0 && math::is_finite(variance)) {
+        BAD
+    } else if variance > 0.0 {
+        variance.to_bits()
+    } else {
+        0
+    };
+    bits + 1
+}
+
 /// Push constants of [`classify`].
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -32,15 +53,11 @@ pub struct ClassifyParams {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Signal planes (a tile needs what its worst plane needs).
-    pub planes: u32,
     /// À-trous iterations configured (the cap).
     pub iterations: u32,
     /// Standard deviation of the estimate below which a pixel needs no more filtering; 0 = never
     /// skip.
     pub skip_sigma: f32,
-    /// Padding.
-    pub _pad: [f32; 3],
 }
 
 /// Tiles across and down a `width × height` image.
@@ -73,57 +90,29 @@ pub fn iterations_needed(variance: f32, p: &ClassifyParams) -> u32 {
     }
 }
 
-/// One invocation per tile: writes the iterations the tile needs to `tiles` (0 for a tile without
-/// geometry: invalid pixels are passed through by every iteration anyway) and counts the tile in
-/// `histogram` (cleared by the host before).
+/// One invocation per tile: turns the tile's word (the variance pass's [`tile_key`] maximum)
+/// into the iterations the tile needs, in place (0 for a tile without geometry: invalid pixels
+/// are passed through by every iteration anyway), and counts the tile in `histogram` (cleared by
+/// the host before).
 pub fn classify(id: UVec3, p: &ClassifyParams, io: ClassifyIo<'_>) {
-    let ClassifyIo {
-        depth,
-        filtered,
-        tiles,
-        histogram,
-    } = io;
+    let ClassifyIo { tiles, histogram } = io;
     let (tw, th) = tile_grid(p.width, p.height);
     if id.x >= tw || id.y >= th {
         return;
     }
-    let plane = (p.width * p.height) as usize;
-    let mut any = false;
-    let mut worst = 0.0f32;
-    let mut bad = false;
-    let mut y = id.y * TILE;
-    while y < (id.y + 1) * TILE && y < p.height {
-        let mut x = id.x * TILE;
-        while x < (id.x + 1) * TILE && x < p.width {
-            let pix = pixel_index(x, y, p.width);
-            if crate::surface::has_surface(depth[pix]) {
-                any = true;
-                let mut z = 0;
-                while z < p.planes {
-                    let v = filtered[z as usize * plane + pix].unpack().variance;
-                    if !(v >= 0.0 && math::is_finite(v)) {
-                        bad = true;
-                    } else if v > worst {
-                        worst = v;
-                    }
-                    z += 1;
-                }
-            }
-            x += 1;
-        }
-        y += 1;
-    }
-    let (level, slot) = if any {
-        let n = if bad {
+    let t = (id.y * tw + id.x) as usize;
+    let word = tiles[t];
+    let (level, slot) = if word == 0 {
+        (0, 0)
+    } else {
+        let n = if word > BAD {
             p.iterations
         } else {
-            iterations_needed(worst, p)
+            iterations_needed(f32::from_bits(word - 1), p)
         };
         (n, 1 + n)
-    } else {
-        (0, 0)
     };
-    tiles[(id.y * tw + id.x) as usize] = level;
+    tiles[t] = level;
     atomic::add(&mut histogram[slot as usize], 1);
 }
 
@@ -151,5 +140,17 @@ mod tests {
         assert_eq!(iterations_needed(f32::NAN, &p), 5);
         assert_eq!(iterations_needed(f32::INFINITY, &p), 5);
         assert_eq!(iterations_needed(0.0, &params(0.0)), 5, "off");
+    }
+
+    #[test]
+    fn tile_keys_order_as_variances_and_flag_bad_ones() {
+        let keys = [0.0f32, 1e-30, 1e-4, 0.5, 1.0, 3e38].map(tile_key);
+        assert!(keys.windows(2).all(|k| k[0] < k[1]), "{keys:?}");
+        assert_eq!(tile_key(-0.0), tile_key(0.0));
+        assert!(keys.iter().all(|&k| k > 0), "0 is the empty tile");
+        for bad in [f32::NAN, f32::INFINITY, -1e-6, f32::NEG_INFINITY] {
+            assert_eq!(tile_key(bad), BAD + 1);
+            assert!(tile_key(bad) > keys[5]);
+        }
     }
 }

@@ -5,7 +5,7 @@
 //! (`S` = `gradient_stratum`, 3..=8); the gradient image has one cell per stratum. Three passes:
 //!
 //! 1. [`project`] (one invocation per stratum): picks one *previous-frame* pixel of the stratum at
-//!    random (hash of stratum and frame), only among pixels that traced last frame (`rays > 0`:
+//!    random (hash of stratum and frame), only among pixels that traced last frame (their sample's `rays > 0`:
 //!    with undersampling most pixels did not). Its previous surface is carried forward by its
 //!    instance's previous→current map ([`move_surface`]; `InstanceData` inverted on the host) and
 //!    projected with the current camera. The sample survives the occlusion test when the current
@@ -185,7 +185,8 @@ pub fn visible(c: &Surface, m: &Surface, p: &ProjectParams) -> bool {
 }
 
 /// One invocation per stratum (`id.xy`): choose, move, test and splat one previous-frame sample.
-/// `rays` is last frame's per-pixel ray count; `keys` one `u32` per cell, filled with
+/// `prev_samples` (plane 0) is last frame's noisy signal, whose ray count tells which pixels traced;
+/// `keys` one `u32` per cell, filled with
 /// [`EMPTY_KEY`] before.
 pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let GradientProjectIo {
@@ -196,7 +197,7 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
         normal_roughness,
         geometry,
         view,
-        rays,
+        prev_samples,
         next,
         keys,
     } = io;
@@ -220,7 +221,7 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let mut j = 0u32;
     while j < n {
         let pix = pixel_index(x0 + j % sw, y0 + j / sw, p.width);
-        if rays[pix] > 0 && surface::has_surface(prev_depth[pix]) {
+        if prev_samples[pix].rays() > 0 && surface::has_surface(prev_depth[pix]) {
             traced += 1;
         }
         j += 1;
@@ -234,7 +235,7 @@ pub fn project(id: UVec3, p: &ProjectParams, io: GradientProjectIo<'_>) {
     let mut j = 0u32;
     while j < n {
         let pix = pixel_index(x0 + j % sw, y0 + j / sw, p.width);
-        if rays[pix] > 0 && surface::has_surface(prev_depth[pix]) {
+        if prev_samples[pix].rays() > 0 && surface::has_surface(prev_depth[pix]) {
             if seen == pick {
                 chosen = pix;
             }

@@ -60,4 +60,70 @@ pub mod names {
     pub use crate::camera::View;
     pub use crate::payload::{PackedFiltered, PackedPayload, PackedSample};
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
+
+    // Storage formats carried by plain words: a binding declares one of these instead of the
+    // bare word, so the declaration names what it stores ([`format_of`]).
+
+    /// Linear view depth (`crate::surface::has_surface`).
+    pub type Depth = f32;
+    /// Octahedral normal and linear roughness (`crate::packing::pack_normal_roughness`).
+    pub type NormalRoughness = u32;
+    /// 2.5D motion as RGBA16F (`crate::packing::pack_motion`).
+    pub type Motion = [u32; 2];
+    /// The built-in renderer's geometric normal and instance (`crate::packing::pack_hit`).
+    pub type Geometry = [u32; 2];
+    /// Requested bucket and reprojection flags (`reproject::request_word`).
+    pub type Request = u32;
+    /// Work-list entry: pixel and rays (`apply::work_entry`).
+    pub type WorkEntry = u32;
+    /// The engine's VRS mask (0 = no ray).
+    pub type VrsMask = u32;
+    /// Tile word: worst variance key, then iterations (`classify::tile_key`).
+    pub type TileWord = u32;
+    /// Gradient cell key: hash and previous pixel (`gradient::EMPTY_KEY` when empty).
+    pub type GradientKey = u32;
+
+    /// The storage format of a binding's element type, as written in `kernels::table`
+    /// ([`crate::plan::Binding::ty`]); `None` for a type not listed here.
+    pub fn format_of(ty: &str) -> Option<&'static str> {
+        Some(match ty {
+            "Depth" => "R32F view depth",
+            "NormalRoughness" => "R32UI: oct normal 11+11, sqrt(roughness) unorm10",
+            "Motion" => "RGBA16F: dx, dy (pixels), view-depth change",
+            "Geometry" => "RG32UI: oct16 geometric normal, instance",
+            "Request" => "R32UI: bucket 16 | flags 16",
+            "WorkEntry" => "R32UI: pixel 28 | rays - 1 4",
+            "VrsMask" | "u32" => "R32UI",
+            "TileWord" => "R32UI: variance key, then iterations",
+            "GradientKey" => "R32UI: hash | pixel",
+            "f32" => "R32F",
+            "[f32; 2]" => "RG32F",
+            "PackedPayload" => "RGBA16: m1, m2, length (f16), rng index (u16)",
+            "PackedSample" => "RGBA16: m1, m2 (f16), rays (u16), 0th ray (f16)",
+            "PackedFiltered" => "RG16F: value, variance",
+            "GradientSample" => "RG32F: |change|, max",
+            "View" => "two cameras (104 bytes)",
+            "Balance" | "InstanceData" | "AreaLight" | "RayHit" | "BvhNode" | "Triangle"
+            | "TriangleNormals" => "struct",
+            _ => return None,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_binding_declares_a_known_format() {
+        for kernel in super::ALL {
+            for b in kernel.bindings {
+                assert!(
+                    super::names::format_of(b.ty).is_some(),
+                    "{}.{}: `{}` has no format in kernels::names::format_of",
+                    kernel.entry,
+                    b.name,
+                    b.ty
+                );
+            }
+        }
+    }
 }

@@ -6,7 +6,7 @@
 //! the temporal-gradient pass can re-trace last frame's ray exactly.
 //!
 //! The kernels run over the VRRT apply pass's compacted work list (dispatched indirectly from its
-//! argument buffer): each entry is a pixel, which traces exactly `rays[pixel]` rays per signal
+//! argument buffer): each entry is a pixel, which traces exactly the rays its entry carries per signal
 //! plane, starting at the rng index its reprojected history carries — so accumulation, which
 //! advances that index by the rays traced, never repeats a ray.
 //!
@@ -35,6 +35,7 @@
 //! of the light's area visible from the point (from above its geometric surface). Light geometry
 //! is never in the BVH.
 
+use super::apply;
 use super::RaygenAoIo;
 use super::RaygenShadowIo;
 use crate::math;
@@ -294,14 +295,13 @@ pub fn shadow_pixel(
     finish(sum, sum_sq, first, rays)
 }
 
-/// The work-list entry of invocation `id`, if any: `(pixel index, rays)`.
+/// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]).
 #[inline]
-fn work_item(id: UVec3, work: &[u32], args: &[u32], rays: &[u32]) -> Option<(usize, u32)> {
+pub(crate) fn work_item(id: UVec3, work: &[u32], args: &[u32]) -> Option<(usize, u32)> {
     if id.x >= args[0] {
         return None;
     }
-    let pix = work[id.x as usize] as usize;
-    Some((pix, rays[pix]))
+    Some(apply::work_item(work[id.x as usize]))
 }
 
 /// One invocation per work-list entry: AO samples of every plane of that pixel.
@@ -309,7 +309,6 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
     let RaygenAoIo {
         work,
         args,
-        rays,
         depth,
         normal_roughness,
         geometry,
@@ -319,7 +318,7 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         tris,
         out,
     } = io;
-    let Some((pix, n)) = work_item(id, work, args, rays) else {
+    let Some((pix, n)) = work_item(id, work, args) else {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
@@ -355,7 +354,6 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
     let RaygenShadowIo {
         work,
         args,
-        rays,
         depth,
         normal_roughness,
         geometry,
@@ -366,7 +364,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         lights,
         out,
     } = io;
-    let Some((pix, n)) = work_item(id, work, args, rays) else {
+    let Some((pix, n)) = work_item(id, work, args) else {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);

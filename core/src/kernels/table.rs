@@ -2,8 +2,9 @@
 //! where a kernel is written. See [`crate::declare`] for what is derived from each entry.
 //!
 //! An entry reads `entry => DESC, Bindings, Io: fn module::function, threads(x, y, z), params Type
-//! { name: read|write|atomic ElementType, .. }`. Bindings are numbered in order; `write` means each
-//! invocation writes only elements it owns, `atomic` that invocations contend through
+//! { name: read|write|update|atomic ElementType, .. }`. Bindings are numbered in order; `write`
+//! means each invocation writes only elements it owns (without reading them), `update` that it
+//! reads and rewrites only elements it owns (in place), `atomic` that invocations contend through
 //! `crate::atomic`. Types are written `module::Type`, or bare when [`super::names`] lists them.
 
 use super::names::*;
@@ -14,7 +15,7 @@ crate::kernel_table! {
     /// `payload::COUNTERS_LEN` words.
     accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
-        history: write PackedPayload,
+        history: update PackedPayload,
         samples: read PackedSample,
         counters: atomic u32,
     }
@@ -23,20 +24,18 @@ crate::kernel_table! {
     atrous => ATROUS, AtrousBindings, AtrousIo: fn atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
-        depth: read f32,
-        normal_roughness: read u32,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
         view: read View,
-        tiles: read u32,
+        tiles: read TileWord,
         out: write PackedFiltered,
     }
 
-    /// [`classify::classify`]: iterations per 8×8 tile and their histogram; one invocation per
-    /// tile.
+    /// [`classify::classify`]: iterations per 8×8 tile from the words `variance` gathered, and
+    /// their histogram; one invocation per tile.
     classify => CLASSIFY, ClassifyBindings, ClassifyIo: fn classify::classify,
     threads(8, 8, 1), params classify::ClassifyParams {
-        depth: read f32,
-        filtered: read PackedFiltered,
-        tiles: write u32,
+        tiles: update TileWord,
         histogram: atomic u32,
     }
 
@@ -45,7 +44,7 @@ crate::kernel_table! {
     count_buckets => COUNT_BUCKETS, CountBucketsBindings, CountBucketsIo: workgroup [u32; buckets::BUCKET_COUNT as usize],
     phases [buckets::clear, buckets::count, buckets::flush],
     threads(16, 16, 1), params buckets::BucketParams {
-        requests: read u32,
+        requests: read Request,
         counts: atomic u32,
     }
 
@@ -57,22 +56,21 @@ crate::kernel_table! {
         tris: read Triangle,
         normals: read TriangleNormals,
         instances: read InstanceData,
-        depth: write f32,
-        normal_roughness: write u32,
-        motion: write [u32; 2],
-        geometry: write [u32; 2],
+        depth: write Depth,
+        normal_roughness: write NormalRoughness,
+        motion: write Motion,
+        geometry: write Geometry,
     }
 
     /// [`raygen::raygen_ao`]: AO rays of the compacted work list; dispatch indirectly from `args`
     /// at byte offset 4.
     raygen_ao => RAYGEN_AO, RaygenAoBindings, RaygenAoIo: fn raygen::raygen_ao,
     threads(64, 1, 1), params raygen::AoParams {
-        work: read u32,
+        work: read WorkEntry,
         args: read u32,
-        rays: read u32,
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
         history: read PackedPayload,
         nodes: read BvhNode,
@@ -83,12 +81,11 @@ crate::kernel_table! {
     /// [`raygen::raygen_shadow`]: shadow rays toward each area light; dispatch as `raygen_ao`.
     raygen_shadow => RAYGEN_SHADOW, RaygenShadowBindings, RaygenShadowIo: fn raygen::raygen_shadow,
     threads(64, 1, 1), params raygen::ShadowParams {
-        work: read u32,
+        work: read WorkEntry,
         args: read u32,
-        rays: read u32,
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
         history: read PackedPayload,
         nodes: read BvhNode,
@@ -101,29 +98,31 @@ crate::kernel_table! {
     /// pixel (planes are looped inside).
     reproject => REPROJECT, ReprojectBindings, ReprojectIo: fn reproject::reproject,
     threads(8, 8, 1), params reproject::ReprojectParams {
-        depth: read f32,
-        normal_roughness: read u32,
-        motion: read [u32; 2],
-        prev_depth: read f32,
-        prev_normal_roughness: read u32,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        motion: read Motion,
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
         view: read View,
         history: read PackedPayload,
-        mask: read u32,
+        mask: read VrsMask,
         gradient: read GradientSample,
         importance: read f32,
         parallax: read [f32; 2],
         out: write PackedPayload,
-        requests: write u32,
+        requests: write Request,
     }
 
-    /// [`variance::variance`]: temporal variance, or the spatial estimate for young history.
+    /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
+    /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
     variance => VARIANCE, VarianceBindings, VarianceIo: fn variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read PackedPayload,
-        depth: read f32,
-        normal_roughness: read u32,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
         view: read View,
         out: write PackedFiltered,
+        tiles: atomic TileWord,
     }
 
     /// [`balance::balance`]: the load balancer; `counts` from `count_buckets`, one workgroup.
@@ -137,11 +136,10 @@ crate::kernel_table! {
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
     apply => APPLY, ApplyBindings, ApplyIo: fn apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
-        requests: read u32,
+        requests: read Request,
         decision: read Balance,
         noise: read f32,
-        rays: write u32,
-        work: write u32,
+        work: write WorkEntry,
         args: atomic u32,
         samples: write PackedSample,
     }
@@ -162,25 +160,25 @@ crate::kernel_table! {
     /// [`gradient::project`]: forward projection of one previous sample per stratum.
     gradient_project => GRADIENT_PROJECT, GradientProjectBindings, GradientProjectIo: fn gradient::project,
     threads(8, 8, 1), params gradient::ProjectParams {
-        prev_depth: read f32,
-        prev_normal_roughness: read u32,
-        prev_geometry: read [u32; 2],
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
+        prev_geometry: read Geometry,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
-        rays: read u32,
+        prev_samples: read PackedSample,
         next: read InstanceData,
-        keys: atomic u32,
+        keys: atomic GradientKey,
     }
 
     /// [`gradient::retrace_ao`]: re-trace of the projected AO samples; one invocation per cell.
     gradient_ao => GRADIENT_AO, GradientAoBindings, GradientAoIo: fn gradient::retrace_ao,
     threads(8, 8, 1), params gradient::RetraceParams {
-        keys: read u32,
-        prev_depth: read f32,
-        prev_normal_roughness: read u32,
-        prev_geometry: read [u32; 2],
+        keys: read GradientKey,
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
+        prev_geometry: read Geometry,
         view: read View,
         next: read InstanceData,
         prev_payload: read PackedPayload,
@@ -193,10 +191,10 @@ crate::kernel_table! {
     /// [`gradient::retrace_shadow`]: as `gradient_ao`, toward the lights.
     gradient_shadow => GRADIENT_SHADOW, GradientShadowBindings, GradientShadowIo: fn gradient::retrace_shadow,
     threads(8, 8, 1), params gradient::RetraceParams {
-        keys: read u32,
-        prev_depth: read f32,
-        prev_normal_roughness: read u32,
-        prev_geometry: read [u32; 2],
+        keys: read GradientKey,
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
+        prev_geometry: read Geometry,
         view: read View,
         next: read InstanceData,
         prev_payload: read PackedPayload,
@@ -218,12 +216,11 @@ crate::kernel_table! {
     /// as `raygen_ao`.
     raygen_reflect => RAYGEN_REFLECT, RaygenReflectBindings, RaygenReflectIo: fn reflect::raygen_reflect,
     threads(64, 1, 1), params reflect::RaygenParams {
-        work: read u32,
+        work: read WorkEntry,
         args: read u32,
-        rays: read u32,
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
         history: read PackedPayload,
         nodes: read BvhNode,
@@ -236,9 +233,9 @@ crate::kernel_table! {
     /// [`reflect::reflect_tiles`]: reflection importance per tile of `reflect::tile_grid`.
     reflect_tiles => REFLECT_TILES, ReflectTilesBindings, ReflectTilesIo: fn reflect::reflect_tiles,
     threads(8, 8, 1), params reflect::TileParams {
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
         nodes: read BvhNode,
         tris: read Triangle,
@@ -249,9 +246,9 @@ crate::kernel_table! {
     /// [`reflect::reflect_motion`]: parallax motion of the reflected image.
     reflect_motion => REFLECT_MOTION, ReflectMotionBindings, ReflectMotionIo: fn reflect::reflect_motion,
     threads(8, 8, 1), params reflect::MotionParams {
-        depth: read f32,
-        normal_roughness: read u32,
-        motion: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        motion: read Motion,
         view: read View,
         hits: read RayHit,
         parallax: write [f32; 2],
@@ -261,11 +258,11 @@ crate::kernel_table! {
     /// `samples`).
     reflect_reuse => REFLECT_REUSE, ReflectReuseBindings, ReflectReuseIo: fn reflect::reflect_reuse,
     threads(8, 8, 1), params reflect::ReuseParams {
-        depth: read f32,
-        normal_roughness: read u32,
-        geometry: read [u32; 2],
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        geometry: read Geometry,
         view: read View,
         hits: read RayHit,
-        samples: write PackedSample,
+        samples: update PackedSample,
     }
 }

@@ -14,13 +14,19 @@
 //! blurring a converged pixel as hard as a 1-ray one. A pixel with no history at all
 //! (`count = 0`) therefore takes the spatial estimate entirely — this is also how undersampled
 //! pixels get a value without feeding it back into history.
+//!
+//! The pass also gathers what tile classification needs: each pixel with a surface folds the
+//! variance it stored into its tile's word with an atomic max ([`classify::tile_key`]), so the
+//! classification reads one word per tile instead of the whole image again.
 
+use super::classify;
 use super::VarianceIo;
 use super::{pixel_index, plane_index};
-use crate::camera::PixelRays;
+use crate::atomic;
+use crate::camera::{PixelRays, View};
 use crate::math;
 use crate::packing;
-use crate::payload::Filtered;
+use crate::payload::{Filtered, PackedPayload};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -62,7 +68,8 @@ impl Default for VarianceParams {
     }
 }
 
-/// One invocation per pixel and signal plane.
+/// One invocation per pixel and signal plane: writes the estimate to `out` and folds it into the
+/// pixel's tile word in `tiles` (zeroed by the host before; [`classify::tile_key`]).
 pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     let VarianceIo {
         payload,
@@ -70,10 +77,30 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         normal_roughness,
         view,
         out,
+        tiles,
     } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
+    let i = plane_index(id, p.width, p.height);
+    let pix = pixel_index(id.x, id.y, p.width);
+    let f = estimate(id, p, payload, depth, normal_roughness, &view[0]).pack();
+    out[i] = f;
+    if surface::has_surface(depth[pix]) {
+        let tile = classify::tile_index(id.x, id.y, p.width);
+        atomic::max(&mut tiles[tile], classify::tile_key(f.unpack().variance));
+    }
+}
+
+/// The `(value, variance)` of pixel and plane `id` (module rule).
+fn estimate(
+    id: UVec3,
+    p: &VarianceParams,
+    payload: &[PackedPayload],
+    depth: &[f32],
+    normal_roughness: &[u32],
+    view: &View,
+) -> Filtered {
     let i = plane_index(id, p.width, p.height);
     let h = payload[i].unpack();
     let per_estimate = 1.0 / math::max(h.count, 1.0);
@@ -84,11 +111,10 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     let pix = pixel_index(id.x, id.y, p.width);
     let cd = depth[pix];
     if h.count >= p.spatial_until || !surface::has_surface(cd) {
-        out[i] = temporal.pack();
-        return;
+        return temporal;
     }
     let n = packing::unpack_normal(normal_roughness[pix]);
-    let rays = PixelRays::new(&view[0].camera, p.width, p.height);
+    let rays = PixelRays::new(&view.camera, p.width, p.height);
     let plane = TangentPlane::new(&rays, n, id.x, id.y, cd);
     let r = p.radius as i32;
     let (mut s1, mut s2, mut sw) = (0.0f32, 0.0f32, 0.0f32);
@@ -121,15 +147,13 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         dy += 1;
     }
     if sw <= 0.0 {
-        out[i] = temporal.pack();
-        return;
+        return temporal;
     }
     let (m1s, m2s) = (s1 / sw, s2 / sw);
     let spatial_var = math::max(m2s - m1s * m1s, 0.0);
     let t = math::saturate(h.count / p.spatial_until);
-    out[i] = Filtered {
+    Filtered {
         value: math::lerp(m1s, h.m1, t),
         variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
     }
-    .pack();
 }

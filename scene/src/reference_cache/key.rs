@@ -15,7 +15,7 @@ use crate::FrameGeometry;
 /// Version of the reference estimator ([`crate::render::reference`]: its rng stream, batching
 /// and standard-error formula) and of this key's layout. Bump it when either changes: older
 /// entries are then never looked up again.
-pub const ESTIMATOR_VERSION: u32 = 3;
+pub const ESTIMATOR_VERSION: u32 = 4;
 
 /// BLAKE3 hash of everything of a frame that the reference renderer reads.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]

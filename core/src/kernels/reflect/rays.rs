@@ -22,7 +22,7 @@ pub struct RaygenParams {
     pub shading: Shading,
 }
 
-/// One invocation per work-list entry (like `raygen::raygen_ao`): `rays[pixel]` reflection rays
+/// One invocation per work-list entry (like `raygen::raygen_ao`): the entry's reflection rays
 /// from the rng index the reprojected history carries, their [`Sample`] in plane `plane`, and the
 /// 0th ray's record in `hits` (stamped with `frame`). A surface that reflects nothing gets value 0
 /// for its rays without tracing, so its history fills like any other plane's.
@@ -30,7 +30,6 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     let RaygenReflectIo {
         work,
         args,
-        rays,
         depth,
         normal_roughness,
         geometry,
@@ -48,11 +47,9 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         lights,
         light_count: p.lights,
     };
-    if id.x >= args[0] {
+    let Some((pix, n)) = crate::kernels::raygen::work_item(id, work, args) else {
         return;
-    }
-    let pix = work[id.x as usize] as usize;
-    let n = rays[pix];
+    };
     let i = (p.plane * p.width * p.height) as usize + pix;
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
     let s = surface::load_with_hit(
