@@ -8,9 +8,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::kernels::{
-    accumulate, apply, atrous, balance, buckets, classify, copy, fill, reproject, variance,
-};
+use vrrt_core::kernels::{accumulate, atrous, buckets, classify, copy, fill, reproject, variance};
 use vrrt_core::payload::{
     self, Filtered, PackedFiltered, PackedPayload, PackedSample, Payload, Sample,
 };
@@ -29,8 +27,8 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("count_buckets", buckets_case),
     ("reproject", reproject_case),
     ("variance", variance_case),
-    ("balance", balance_case),
-    ("apply", apply_case),
+    ("balance", crate::balance_cases::balance_case),
+    ("apply", crate::balance_cases::apply_case),
     ("fill", fill_case),
     ("copy", copy_case),
     ("gbuffer", crate::trace_cases::gbuffer_case),
@@ -119,7 +117,7 @@ pub fn surface(rng: &mut Pcg32, x: u32, y: u32) -> Surface {
     }
 }
 
-fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
+pub(crate) fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
     let [x, y, z] = kernel.workgroup_size;
     [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
 }
@@ -127,9 +125,9 @@ fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 3] {
 /// `PackedPayload`: binary16 fields, compared as the words they are.
 const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
 /// `PackedSample`: binary16 fields, compared as the words they are.
-const SAMPLE: &[Word] = &[Word::U32, Word::U32];
-const FLOATS: &[Word] = &[Word::F32];
-const INTS: &[Word] = &[Word::U32];
+pub(crate) const SAMPLE: &[Word] = &[Word::U32, Word::U32];
+pub(crate) const FLOATS: &[Word] = &[Word::F32];
+pub(crate) const INTS: &[Word] = &[Word::U32];
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
@@ -448,103 +446,6 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
-    }
-}
-
-/// A bucket histogram of random requests, as `count_buckets` would produce.
-fn histogram(rng: &mut Pcg32, w: u32, h: u32) -> (Vec<u32>, Vec<u32>) {
-    let requests: Vec<u32> = (0..w * h)
-        .map(|_| match rng.random_range(0..10) {
-            0 => buckets::NO_RAYS,
-            1..4 => buckets::MIN_RATE_DIVISOR + rng.random_range(0..buckets::MAX_RATE),
-            4..6 => buckets::MIN_RATE_DIVISOR,
-            _ => rng.random_range(0..buckets::BUCKET_COUNT),
-        })
-        .collect();
-    let mut counts = vec![0u32; buckets::COUNTS_LEN as usize];
-    for (i, &b) in requests.iter().enumerate() {
-        if b < buckets::BUCKET_COUNT {
-            let ring = buckets::ring_id(i as u32 % w, i as u32 / w, w, h);
-            counts[b as usize] += 1;
-            counts[((1 + ring) * buckets::BUCKET_COUNT + b) as usize] += 1;
-        }
-    }
-    (requests, counts)
-}
-
-const BALANCE: &[Word] = &[
-    Word::U32,
-    Word::U32,
-    Word::U32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-    Word::F32,
-];
-
-fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
-    balance::BalanceParams {
-        rays_per_pixel: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)],
-        ring_count: buckets::ring_count(w, h),
-        raise: rng.random_range(0..2),
-        policy: [
-            balance::POLICY_KEEP,
-            balance::POLICY_BALANCE,
-            balance::POLICY_BALANCE,
-            balance::POLICY_FIXED,
-        ][rng.random_range(0..4)],
-    }
-}
-
-fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let (_, counts) = histogram(rng, w, h);
-    let params = balance_params(rng, w, h);
-    Case {
-        name: format!("balance {w}x{h} rpp {}", params.rays_per_pixel),
-        kernel: &vrrt_core::kernels::BALANCE,
-        buffers: vec![
-            BufferSpec::from_pod(&counts, INTS),
-            BufferSpec::from_pod(&[balance::Balance::default()], BALANCE),
-            BufferSpec::from_pod(&[7u32, 7, 7, 7], INTS),
-        ],
-        params: bytemuck::bytes_of(&params).to_vec(),
-        groups: [1, 1, 1],
-    }
-}
-
-fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let (requests, counts) = histogram(rng, w, h);
-    let decision = balance::solve(&counts, &balance_params(rng, w, h));
-    let n = (w * h) as usize;
-    let samples: Vec<PackedSample> = (0..n * PLANES as usize)
-        .map(|_| Sample {
-            m1: value(rng),
-            m2: value(rng),
-            rays: rng.random_range(0..5),
-            first: 0.0,
-        })
-        .map(|s| s.pack())
-        .collect();
-    let params = apply::ApplyParams {
-        width: w,
-        height: h,
-        planes: PLANES,
-        frame_index: rng.random(),
-    };
-    Case {
-        name: format!("apply {w}x{h}x{PLANES} mode {}", decision.mode),
-        kernel: &vrrt_core::kernels::APPLY,
-        buffers: vec![
-            BufferSpec::from_pod(&requests, INTS),
-            BufferSpec::from_pod(&[decision], BALANCE),
-            BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
-            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
-            BufferSpec::from_pod(&[0u32, 0, 1, 1], INTS),
-            BufferSpec::from_pod(&samples, SAMPLE),
-        ],
-        params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::APPLY, w, h, 1),
     }
 }
 

@@ -9,6 +9,7 @@
 //!
 //! [`cases::TABLE`] lists one generator per kernel: adding a kernel adds one line there.
 
+mod balance_cases;
 pub mod cases;
 pub mod gradient_cases;
 pub mod inputs;

@@ -1,0 +1,172 @@
+//! Unit tests of the settings' defaults and range checks, kept apart so settings.rs stays short.
+
+use super::*;
+
+use std::string::ToString;
+
+fn field_of(s: &Settings) -> &'static str {
+    match s.validate() {
+        Err(SettingsError::OutOfRange { field, .. }) => field,
+        other => panic!("expected an out-of-range error, got {other:?}"),
+    }
+}
+
+#[test]
+fn defaults_validate() {
+    assert_eq!(Settings::default().validate(), Ok(()));
+    assert_eq!(Settings::svgf(0.25).validate(), Ok(()));
+}
+
+#[test]
+fn svgf_is_the_default_with_rates_off() {
+    let s = Settings::svgf(2.0);
+    let d = Settings::default();
+    assert_eq!(s.rates.rays_per_pixel, 2.0);
+    assert_eq!(s.rates.supersample_target, 0.0);
+    assert!(!s.rates.load_balance && !s.rates.undersample);
+    assert!(s.rates.spend_saved_rays);
+    assert_eq!(s.filter.skip_sigma, 0.0);
+    assert_eq!((s.temporal, s.gradient), (d.temporal, d.gradient));
+    assert_eq!(
+        FilterSettings {
+            skip_sigma: d.filter.skip_sigma,
+            ..s.filter
+        },
+        d.filter
+    );
+}
+
+#[test]
+fn out_of_range_names_stage_and_field() {
+    let d = Settings::default();
+    let cases: [(Settings, &str); 10] = [
+        (Settings { planes: 5, ..d }, "planes"),
+        (
+            Settings {
+                parallax_plane: Some(1),
+                ..d
+            },
+            "parallax_plane",
+        ),
+        (
+            Settings {
+                filter: FilterSettings {
+                    sigma_luminance: 0.0,
+                    ..d.filter
+                },
+                ..d
+            },
+            "filter.sigma_luminance",
+        ),
+        (
+            Settings {
+                filter: FilterSettings {
+                    atrous_iterations: 6,
+                    ..d.filter
+                },
+                ..d
+            },
+            "filter.atrous_iterations",
+        ),
+        (
+            Settings {
+                temporal: TemporalSettings {
+                    max_history: f32::NAN,
+                    ..d.temporal
+                },
+                ..d
+            },
+            "temporal.max_history",
+        ),
+        (
+            Settings {
+                temporal: TemporalSettings {
+                    clamp_radius: 9,
+                    ..d.temporal
+                },
+                ..d
+            },
+            "temporal.clamp_radius",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    rays_per_pixel: 17.0,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.rays_per_pixel",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    variance_threshold: [1e-2, 1e-3, 0.0, 0.0],
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.variance_threshold",
+        ),
+        (
+            Settings {
+                gradient: GradientSettings {
+                    stratum: 2,
+                    ..d.gradient
+                },
+                ..d
+            },
+            "gradient.stratum",
+        ),
+        (
+            Settings {
+                gradient: GradientSettings {
+                    threshold: 1.5,
+                    ..d.gradient
+                },
+                ..d
+            },
+            "gradient.threshold",
+        ),
+    ];
+    for (s, field) in &cases {
+        assert_eq!(field_of(s), *field);
+    }
+}
+
+#[test]
+fn rates_are_limited_by_the_history() {
+    let d = Settings::default();
+    let s = Settings {
+        temporal: TemporalSettings {
+            max_history: 8.0,
+            ..d.temporal
+        },
+        ..d
+    };
+    // The stage alone is fine; with a history of 8 rays a target of 16 is not.
+    assert_eq!(s.rates.validate(), Ok(()));
+    assert_eq!(field_of(&s), "rates.supersample_target");
+    let s = Settings {
+        rates: RateSettings {
+            supersample_target: 8.0,
+            ..s.rates
+        },
+        ..s
+    };
+    assert_eq!(field_of(&s), "rates.undersample_after");
+}
+
+#[test]
+fn error_message_names_the_path() {
+    let e = FilterSettings {
+        sigma_luminance: -1.0,
+        ..Default::default()
+    }
+    .validate()
+    .unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "setting `filter.sigma_luminance` = -1 is out of range (> 0)"
+    );
+}

@@ -1,0 +1,218 @@
+//! The range checks: each stage's `validate` and the `check` they share, apart from the structs.
+
+use super::{FilterSettings, GradientSettings, RateSettings, SettingsError, TemporalSettings};
+
+/// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
+pub(crate) fn check(
+    ok: bool,
+    field: &'static str,
+    value: f32,
+    range: &'static str,
+) -> Result<(), SettingsError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(SettingsError::OutOfRange {
+            field,
+            value,
+            range,
+        })
+    }
+}
+
+/// Largest history length in rays: the packed history holds it as binary16, whose whole numbers
+/// are consecutive up to 2048.
+const MAX_HISTORY: f32 = 2048.0;
+
+impl TemporalSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            finite(self.max_history) && self.max_history >= 1.0 && self.max_history <= MAX_HISTORY,
+            "temporal.max_history",
+            self.max_history,
+            "1..=2048",
+        )?;
+        check(
+            self.rng_wrap <= 1 << 16,
+            "temporal.rng_wrap",
+            self.rng_wrap as f32,
+            "0..=65536 (the packed history holds 16 bits)",
+        )?;
+        check(
+            finite(self.normal_threshold) && (-1.0..=1.0).contains(&self.normal_threshold),
+            "temporal.normal_threshold",
+            self.normal_threshold,
+            "-1..=1",
+        )?;
+        check(
+            finite(self.plane_threshold) && self.plane_threshold > 0.0,
+            "temporal.plane_threshold",
+            self.plane_threshold,
+            "> 0",
+        )?;
+        check(
+            self.clamp_radius <= 5,
+            "temporal.clamp_radius",
+            self.clamp_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.clamp_gamma) && self.clamp_gamma > 0.0,
+            "temporal.clamp_gamma",
+            self.clamp_gamma,
+            "> 0",
+        )?;
+        check(
+            finite(self.firefly_max) && self.firefly_max >= 0.0,
+            "temporal.firefly_max",
+            self.firefly_max,
+            ">= 0",
+        )
+    }
+}
+
+impl RateSettings {
+    /// Checks every field against its documented range. The limit `temporal.max_history` puts on
+    /// `supersample_target` and `undersample_after` is checked by [`Settings::validate`]; here
+    /// they may go up to the largest history, 65504.
+    ///
+    /// [`Settings::validate`]: super::Settings::validate
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            finite(self.rays_per_pixel) && self.rays_per_pixel > 0.0 && self.rays_per_pixel <= 16.0,
+            "rates.rays_per_pixel",
+            self.rays_per_pixel,
+            "0 < r <= 16",
+        )?;
+        check(
+            finite(self.supersample_target)
+                && (self.supersample_target == 0.0
+                    || (self.supersample_target >= 1.0 && self.supersample_target <= MAX_HISTORY)),
+            "rates.supersample_target",
+            self.supersample_target,
+            "0 or 1..=temporal.max_history",
+        )?;
+        check(
+            finite(self.undersample_after)
+                && self.undersample_after >= 1.0
+                && self.undersample_after <= MAX_HISTORY,
+            "rates.undersample_after",
+            self.undersample_after,
+            "1..=temporal.max_history",
+        )?;
+        for i in 0..4 {
+            let t = self.variance_threshold[i];
+            check(
+                finite(t) && t >= 0.0,
+                "rates.variance_threshold",
+                t,
+                ">= 0, finite",
+            )?;
+            if i > 0 && t != 0.0 {
+                let prev = self.variance_threshold[i - 1];
+                check(
+                    t >= prev,
+                    "rates.variance_threshold",
+                    t,
+                    "increasing (0 ends the list)",
+                )?;
+            }
+            let r = self.variance_rate[i];
+            check(
+                finite(r) && (1.0 / 64.0..=16.0).contains(&r),
+                "rates.variance_rate",
+                r,
+                "1/64..=16",
+            )?;
+        }
+        check(
+            finite(self.still_sigma) && self.still_sigma >= 0.0,
+            "rates.still_sigma",
+            self.still_sigma,
+            ">= 0",
+        )
+    }
+}
+
+impl GradientSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            self.stratum == 0 || (3..=8).contains(&self.stratum),
+            "gradient.stratum",
+            self.stratum as f32,
+            "0 or 3..=8",
+        )?;
+        check(
+            self.iterations <= 5,
+            "gradient.iterations",
+            self.iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.threshold) && (0.0..=1.0).contains(&self.threshold),
+            "gradient.threshold",
+            self.threshold,
+            "0..=1",
+        )?;
+        check(
+            finite(self.scale) && self.scale >= 0.0,
+            "gradient.scale",
+            self.scale,
+            ">= 0",
+        )
+    }
+}
+
+impl FilterSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
+        check(
+            self.atrous_iterations <= 5,
+            "filter.atrous_iterations",
+            self.atrous_iterations as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.sigma_luminance) && self.sigma_luminance > 0.0,
+            "filter.sigma_luminance",
+            self.sigma_luminance,
+            "> 0",
+        )?;
+        check(
+            finite(self.normal_power) && self.normal_power >= 0.0,
+            "filter.normal_power",
+            self.normal_power,
+            ">= 0",
+        )?;
+        check(
+            finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
+            "filter.plane_tolerance",
+            self.plane_tolerance,
+            "> 0",
+        )?;
+        check(
+            self.spatial_radius <= 5,
+            "filter.spatial_radius",
+            self.spatial_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.spatial_until) && self.spatial_until >= 0.0,
+            "filter.spatial_until",
+            self.spatial_until,
+            ">= 0",
+        )?;
+        check(
+            finite(self.skip_sigma) && self.skip_sigma >= 0.0,
+            "filter.skip_sigma",
+            self.skip_sigma,
+            ">= 0",
+        )
+    }
+}

@@ -1,0 +1,105 @@
+//! Equivalence cases of the load balancer (`balance`, `apply`), split off to keep `cases` short.
+
+use crate::cases::{groups, value, FLOATS, INTS, PLANES, SAMPLE};
+use crate::{BufferSpec, Case, Word};
+use rand::Rng;
+use rand_pcg::Pcg32;
+use vrrt_core::kernels::{apply, balance, buckets};
+use vrrt_core::payload::{PackedSample, Sample};
+
+/// A bucket histogram of random requests, as `count_buckets` would produce.
+fn histogram(rng: &mut Pcg32, w: u32, h: u32) -> (Vec<u32>, Vec<u32>) {
+    let requests: Vec<u32> = (0..w * h)
+        .map(|_| match rng.random_range(0..10) {
+            0 => buckets::NO_RAYS,
+            1..4 => buckets::MIN_RATE_DIVISOR + rng.random_range(0..buckets::MAX_RATE),
+            4..6 => buckets::MIN_RATE_DIVISOR,
+            _ => rng.random_range(0..buckets::BUCKET_COUNT),
+        })
+        .collect();
+    let mut counts = vec![0u32; buckets::COUNTS_LEN as usize];
+    for (i, &b) in requests.iter().enumerate() {
+        if b < buckets::BUCKET_COUNT {
+            let ring = buckets::ring_id(i as u32 % w, i as u32 / w, w, h);
+            counts[b as usize] += 1;
+            counts[((1 + ring) * buckets::BUCKET_COUNT + b) as usize] += 1;
+        }
+    }
+    (requests, counts)
+}
+
+const BALANCE: &[Word] = &[
+    Word::U32,
+    Word::U32,
+    Word::U32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+    Word::F32,
+];
+
+fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
+    balance::BalanceParams {
+        rays_per_pixel: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)],
+        ring_count: buckets::ring_count(w, h),
+        raise: rng.random_range(0..2),
+        policy: [
+            balance::POLICY_KEEP,
+            balance::POLICY_BALANCE,
+            balance::POLICY_BALANCE,
+            balance::POLICY_FIXED,
+        ][rng.random_range(0..4)],
+    }
+}
+
+pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (_, counts) = histogram(rng, w, h);
+    let params = balance_params(rng, w, h);
+    Case {
+        name: format!("balance {w}x{h} rpp {}", params.rays_per_pixel),
+        kernel: &vrrt_core::kernels::BALANCE,
+        buffers: vec![
+            BufferSpec::from_pod(&counts, INTS),
+            BufferSpec::from_pod(&[balance::Balance::default()], BALANCE),
+            BufferSpec::from_pod(&[7u32, 7, 7, 7], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [1, 1, 1],
+    }
+}
+
+pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, counts) = histogram(rng, w, h);
+    let decision = balance::solve(&counts, &balance_params(rng, w, h));
+    let n = (w * h) as usize;
+    let samples: Vec<PackedSample> = (0..n * PLANES as usize)
+        .map(|_| Sample {
+            m1: value(rng),
+            m2: value(rng),
+            rays: rng.random_range(0..5),
+            first: 0.0,
+        })
+        .map(|s| s.pack())
+        .collect();
+    let params = apply::ApplyParams {
+        width: w,
+        height: h,
+        planes: PLANES,
+        frame_index: rng.random(),
+    };
+    Case {
+        name: format!("apply {w}x{h}x{PLANES} mode {}", decision.mode),
+        kernel: &vrrt_core::kernels::APPLY,
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&[decision], BALANCE),
+            BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
+            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1], INTS),
+            BufferSpec::from_pod(&samples, SAMPLE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::APPLY, w, h, 1),
+    }
+}
