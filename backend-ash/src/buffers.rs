@@ -109,6 +109,13 @@ impl AshExecutor {
     pub(crate) fn create(&mut self, size_bytes: u64) -> Result<BufferId, AshError> {
         ExecError::check_size(size_bytes)?;
         let vk_size = size_bytes.max(4);
+        if vk_size > self.max_allocation {
+            return Err(AshError::BufferTooLarge {
+                size: size_bytes,
+                max: self.max_allocation,
+                limit: "maxMemoryAllocationSize",
+            });
+        }
         let cmd = self.recording()?;
         let a = alloc::allocate(
             &self.device,

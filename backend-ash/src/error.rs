@@ -36,6 +36,16 @@ pub enum AshError {
         /// The device limit in bytes.
         max: u32,
     },
+    /// A buffer larger than the device allows at all (`limit`, e.g. `maxMemoryAllocationSize`):
+    /// refused before any Vulkan call.
+    BufferTooLarge {
+        /// Bytes asked for.
+        size: u64,
+        /// The device limit in bytes.
+        max: u64,
+        /// The limit's name.
+        limit: &'static str,
+    },
     /// A direct dispatch exceeds `maxComputeWorkGroupCount`.
     TooManyGroups {
         /// Kernel entry point.
@@ -73,6 +83,10 @@ impl fmt::Display for AshError {
             AshError::BindingTooLarge { buffer, size, max } => write!(
                 f,
                 "buffer {buffer:?} of {size} bytes exceeds maxStorageBufferRange ({max} bytes)"
+            ),
+            AshError::BufferTooLarge { size, max, limit } => write!(
+                f,
+                "a buffer of {size} bytes exceeds the device's {limit} ({max} bytes)"
             ),
             AshError::TooManyGroups { entry, groups, max } => write!(
                 f,

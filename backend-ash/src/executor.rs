@@ -28,6 +28,7 @@ pub struct AshExecutor {
     pub(crate) mem_props: vk::PhysicalDeviceMemoryProperties,
     pub(crate) max_groups: [u32; 3],
     pub(crate) max_storage_range: u32,
+    pub(crate) max_allocation: u64,
     pub(crate) timestamps: Option<Timestamps>,
     pub(crate) module_info: ModuleInfo,
     pub(crate) module: vk::ShaderModule,
@@ -98,6 +99,7 @@ impl AshExecutor {
         debug: Option<Arc<DebugState>>,
     ) -> Result<Self, AshError> {
         let (mut info, limits) = setup::adapter_info(&raw.instance, raw.physical_device);
+        let max_allocation = setup::max_allocation(&raw.instance, raw.physical_device);
         // SAFETY: valid physical device (caller's contract).
         let (mem_props, families) = unsafe {
             (
@@ -130,6 +132,7 @@ impl AshExecutor {
             mem_props,
             max_groups: limits.max_compute_work_group_count,
             max_storage_range: limits.max_storage_buffer_range,
+            max_allocation,
             timestamps,
             module_info,
             module: vk::ShaderModule::null(),
@@ -233,10 +236,18 @@ impl Executor for AshExecutor {
         "ash"
     }
 
+    /// The smaller of `maxStorageBufferRange` and `maxMemoryAllocationSize`, by name.
     fn binding_limit(&self) -> BindingLimit {
-        BindingLimit {
-            bytes: u64::from(self.max_storage_range),
-            name: "maxStorageBufferRange",
+        if self.max_allocation < u64::from(self.max_storage_range) {
+            BindingLimit {
+                bytes: self.max_allocation,
+                name: "maxMemoryAllocationSize",
+            }
+        } else {
+            BindingLimit {
+                bytes: u64::from(self.max_storage_range),
+                name: "maxStorageBufferRange",
+            }
         }
     }
 

@@ -121,6 +121,16 @@ pub(crate) fn adapter_info(
     (info, props.limits)
 }
 
+/// The largest single allocation the device allows (`maxMemoryAllocationSize`, Vulkan 1.1), so a
+/// buffer beyond it is refused with the limit's name instead of a driver error.
+pub(crate) fn max_allocation(instance: &ash::Instance, pd: vk::PhysicalDevice) -> u64 {
+    let mut m3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut m3);
+    // SAFETY: `pd` belongs to `instance`, which is Vulkan 1.1 or later (checked at creation).
+    unsafe { instance.get_physical_device_properties2(pd, &mut props) };
+    m3.max_memory_allocation_size
+}
+
 /// Device features the module needs, as far as this device supports them; `None` if it lacks a
 /// required one.
 struct Features {

@@ -4,7 +4,6 @@
 
 use crate::{WgpuError, WgpuExecutor};
 use vrrt_core::plan::{BufferId, ExecError};
-use wgpu::util::DeviceExt as _;
 
 impl WgpuExecutor {
     /// The wgpu buffer behind `id`, to use in the application's own passes.
@@ -60,6 +59,12 @@ impl WgpuExecutor {
         usage: wgpu::BufferUsages,
     ) -> Result<BufferId, WgpuError> {
         ExecError::check_size(size_bytes)?;
+        let max = self.device.limits().max_buffer_size;
+        if size_bytes > max {
+            return Err(WgpuError::Limit(format!(
+                "a buffer of {size_bytes} bytes exceeds the device's max_buffer_size ({max} bytes)"
+            )));
+        }
         let id = BufferId(self.buffers.len() as u32);
         let buffer = self.scoped(|| {
             self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -99,14 +104,22 @@ impl WgpuExecutor {
         offset: u64,
         data: &[u8],
     ) -> Result<(), WgpuError> {
+        // Created and checked before it is mapped: wgpu's `create_buffer_init` panics when the
+        // buffer comes back invalid (a lost device), where this returns the error.
         let staging = self.scoped(|| {
-            self.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("vrrt upload"),
-                    contents: data,
-                    usage: wgpu::BufferUsages::COPY_SRC,
-                })
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("vrrt upload"),
+                size: data.len() as u64,
+                usage: wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: true,
+            })
         })?;
+        staging
+            .slice(..)
+            .get_mapped_range_mut()
+            .map_err(|e| WgpuError::Device(format!("upload buffer: {e:?}")))?
+            .copy_from_slice(data);
+        staging.unmap();
         let mut encoder = self.pending_encoder();
         encoder.copy_buffer_to_buffer(&staging, 0, dst, offset, data.len() as u64);
         self.encoder = Some(encoder);

@@ -534,3 +534,34 @@ fn no_adapter_is_an_error() {
     assert!(out.status.success(), "child failed");
     assert!(stdout.contains("no Vulkan adapter"));
 }
+
+/// A buffer beyond the device's `max_buffer_size` is refused with the limit's name before wgpu
+/// sees it (the executor stays usable and validation clean), and a destroyed device surfaces as
+/// an error from the executor's calls, not an abort.
+#[test]
+fn oversized_buffers_and_a_destroyed_device_are_errors() {
+    let Some(mut e) = gpu() else { return };
+    let max = e.device().limits().max_buffer_size;
+    let too_big = (max / 4).saturating_add(1).saturating_mul(4);
+    match e.create_buffer(too_big) {
+        Err(WgpuError::Limit(why)) => assert!(why.contains("max_buffer_size"), "{why}"),
+        other => panic!("{too_big} bytes: {other:?}"),
+    }
+    let b = e.create_buffer(64).unwrap();
+    e.write_buffer(b, &[7u8; 64]).unwrap();
+    let mut out = [0u8; 64];
+    e.read_buffer(b, &mut out).unwrap();
+    assert_eq!(out, [7u8; 64]);
+    assert_clean(&e);
+
+    e.device().destroy();
+    // Each call returns (none aborts); reading back and uploading must fail.
+    let read = e.read_buffer(b, &mut out);
+    let write = e.write_buffer(b, &[1u8; 64]);
+    let finish = e.finish();
+    println!("after the device was destroyed: read {read:?}, write {write:?}, finish {finish:?}");
+    assert!(
+        read.is_err() && write.is_err(),
+        "a destroyed device must surface as an error"
+    );
+}
