@@ -55,6 +55,33 @@ pub enum Motion {
 }
 
 impl Motion {
+    /// Every parameter is finite, so every `at(t)` is (given a finite `t`).
+    pub fn is_finite(&self) -> bool {
+        match self {
+            Motion::Static(base) => base.is_finite(),
+            Motion::Linear { base, velocity } => base.is_finite() && velocity.is_finite(),
+            Motion::Oscillate {
+                base,
+                amplitude,
+                period,
+                phase,
+            } => {
+                base.is_finite()
+                    && amplitude.is_finite()
+                    && period.is_finite()
+                    && *period != 0.0
+                    && phase.is_finite()
+            }
+            Motion::Spin {
+                base,
+                turns_per_second,
+            } => base.is_finite() && turns_per_second.is_finite(),
+            Motion::Keyframes(keys) => keys
+                .iter()
+                .all(|k| k.time.is_finite() && k.translation.is_finite() && k.rotation.is_finite()),
+        }
+    }
+
     /// A motion that never moves, at translation `t`.
     pub fn fixed(t: Vec3) -> Motion {
         Motion::Static(Affine3A::from_translation(t))

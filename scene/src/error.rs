@@ -82,6 +82,14 @@ pub enum SceneError {
         /// The names that exist, comma-separated.
         known: String,
     },
+    /// A scene whose camera, animation or lights cannot give a defined image (NaN or infinite
+    /// transforms, a camera looking at its own position, a field of view outside (0, π)).
+    InvalidScene {
+        /// The scene's name.
+        scene: String,
+        /// What is wrong, naming the camera key, instance or light.
+        message: String,
+    },
 }
 
 impl SceneError {
@@ -186,6 +194,9 @@ impl fmt::Display for SceneError {
             ),
             SceneError::UnknownScene { name, known } => {
                 write!(f, "no built-in scene named `{name}` (known: {known})")
+            }
+            SceneError::InvalidScene { scene, message } => {
+                write!(f, "scene `{scene}`: {message}")
             }
         }
     }

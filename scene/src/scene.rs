@@ -8,6 +8,7 @@
 
 use crate::animation::{CameraPath, Light, Motion};
 use crate::bvh::{self, Bvh};
+use crate::error::SceneError;
 use crate::mesh::{normal_matrix, Mesh};
 use std::sync::{Arc, OnceLock};
 use vrrt_core::camera::Camera;
@@ -160,6 +161,62 @@ impl Scene {
             "at most {MAX_LIGHTS} lights"
         );
         self.lights.push(light);
+    }
+
+    /// Checks that every frame has a defined image: finite camera keys looking somewhere (target
+    /// away from the eye, field of view in (0, π)), finite instance motions and roughness, finite
+    /// lights, a positive frame rate and at least one frame. A NaN camera would otherwise render
+    /// as all sky, a silent blank. (A camera inside geometry is valid: it sees the inside.)
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let invalid = |message: String| {
+            Err(SceneError::InvalidScene {
+                scene: self.name.clone(),
+                message,
+            })
+        };
+        if self.camera.keys.is_empty() {
+            return invalid("the camera path has no keys".into());
+        }
+        for (i, k) in self.camera.keys.iter().enumerate() {
+            let finite = k.time.is_finite() && k.position.is_finite() && k.target.is_finite();
+            if !finite {
+                return invalid(format!("camera key {i} is not finite: {k:?}"));
+            }
+            if !(k.fov_y > 0.0 && k.fov_y < std::f32::consts::PI) {
+                return invalid(format!(
+                    "camera key {i}: fov_y {} is outside (0, π)",
+                    k.fov_y
+                ));
+            }
+            if (k.target - k.position).length_squared() < 1e-12 {
+                return invalid(format!("camera key {i} looks at its own position"));
+            }
+        }
+        for inst in &self.instances {
+            if inst.mesh >= self.meshes.len() {
+                return invalid(format!("instance `{}`: no mesh {}", inst.name, inst.mesh));
+            }
+            if !(inst.motion.is_finite() && (0.0..=1.0).contains(&inst.roughness)) {
+                return invalid(format!(
+                    "instance `{}`: non-finite motion or roughness outside [0, 1]",
+                    inst.name
+                ));
+            }
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let b = &l.base;
+            let finite = b.corner().is_finite() && b.edge_u().is_finite() && b.edge_v().is_finite();
+            if !finite || !l.motion.is_finite() {
+                return invalid(format!("light {i} is not finite"));
+            }
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0) || self.frame_count == 0 {
+            return invalid(format!(
+                "{} fps, {} frames: needs a positive frame rate and a frame",
+                self.fps, self.frame_count
+            ));
+        }
+        Ok(())
     }
 
     /// True when no instance moves (the BVH is built once).

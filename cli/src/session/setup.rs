@@ -26,6 +26,7 @@ pub fn load_scene(spec: &str, limits: &LoadLimits) -> Result<LoadedScene> {
     use vrrt_scene::builtin;
     if builtin::BUILTINS.iter().any(|b| b.name == spec) {
         let scene = builtin::builtin(spec).map_err(|e| anyhow!("{e}"))?;
+        scene.validate().map_err(|e| anyhow!("{e}"))?;
         return Ok(LoadedScene {
             scene,
             key: spec.to_string(),
@@ -45,8 +46,7 @@ pub fn load_scene(spec: &str, limits: &LoadLimits) -> Result<LoadedScene> {
         .map(|n| n.split('.').next().unwrap_or(n).to_string())
         .filter(|n| !n.is_empty())
         .unwrap_or_else(|| "mesh".into());
-    Ok(LoadedScene {
-        scene: builtin::showcase(&name, &mesh),
-        key: name,
-    })
+    let scene = builtin::showcase(&name, &mesh);
+    scene.validate().map_err(|e| anyhow!("{e}"))?;
+    Ok(LoadedScene { scene, key: name })
 }
