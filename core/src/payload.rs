@@ -41,6 +41,9 @@ pub struct Payload {
     pub rng_index: u32,
 }
 
+/// Longest history length (rays) the stored binary16 length holds exactly.
+pub const MAX_EXACT_COUNT: f32 = 2048.0;
+
 /// A [`Payload`] as the history buffers hold it (8 bytes): the two moments as binary16 (`m1` in
 /// the low half), the history length as binary16 (exact for whole counts up to 2048, the
 /// longest history allowed) and the rng index's 16 bits (it wraps at 2^16, or 2^8 with unorm8

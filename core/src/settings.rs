@@ -104,12 +104,14 @@ pub struct RateSettings {
     /// Undersampling rates of those thresholds, relative to the base rate
     /// `min(rays_per_pixel, 1)` (each in 1/64..=16; default `[1/8, 1/4, 1/2, 1]`).
     pub variance_rate: [f32; 4],
-    /// Still frames (nothing moved, `FrameInfo::moved` false): a pixel with full history
-    /// (`temporal.max_history`) whose estimate's standard deviation (signal units) is below this
-    /// asks only for the floor, `variance_rate[0]`, and other pixels complete their history before
-    /// any variance-based undersampling; 0 = off. With `spend_saved_rays` off the rays stay
-    /// unspent ("save" mode). Needs `undersample` (>= 0; default 0.045: on the static room the
-    /// error rises 1.8% for 77% of the rays saved).
+    /// Still frames (nothing moved, `FrameInfo::moved` false): history stays valid, so it may grow
+    /// to twice `temporal.max_history` (at most 2048; the length whose plain mean is worth what a
+    /// pixel clamped at `max_history` reaches by tracing on, see `Denoiser::history_clamp`);
+    /// pixels complete it first, as fast as the budget allows, and then those whose estimate's
+    /// standard deviation (signal units) is below this ask only for the floor,
+    /// `variance_rate[0]`; the first frame that moves cuts history back. 0 = off. With
+    /// `spend_saved_rays` off the rays stay unspent ("save" mode). Needs `undersample` (>= 0;
+    /// default 0.045).
     pub still_sigma: f32,
     /// The engine writes a VRS-style mask every frame ([`Denoiser::mask`](crate::denoiser::Denoiser::mask),
     /// `u32` per pixel, 0 = needs no ray) and pixels it rules out ask for none (default off: no

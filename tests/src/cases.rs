@@ -355,6 +355,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         gradient_scale: [1.0, 8.0][rng.random_range(0..2)],
         still_history: [0.0, 2.0][rng.random_range(0..2)],
         still_variance: [0.0, 1e-3, 1.0][rng.random_range(0..3)],
+        max_history: [3.0, 64.0, 128.0][rng.random_range(0..3)],
         use_importance: rng.random_range(0..2),
         parallax_plane: [reproject::NO_PLANE, 0, 1][rng.random_range(0..3)],
         ..Default::default()

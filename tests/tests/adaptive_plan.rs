@@ -1,6 +1,7 @@
 //! The adaptive frame plan (skip what a scene does not need) against the same frames with nothing
-//! skipped, on the CPU backend: a still, converged scene saves at least 75% of its rays and skips
-//! the gradient prepass within 5% of the unskipped error; on the moving scene the skipped filter
+//! skipped, on the CPU backend: a still, converged scene (2 rays a pixel, history complete: still
+//! history is `2 · max_history` = 128 rays, reached by frame 64) saves at least 75% of its rays
+//! and skips the gradient prepass within 5% of the unskipped error; on the moving scene the skipped filter
 //! work costs less than 2%; a signal without a source costs no pass.
 
 use vrrt_core::plan::Executor;
@@ -13,9 +14,10 @@ const SIGNAL: Signal = Signal::Ao { max_distance: 1.0 };
 
 /// Nothing skipped: every still pixel keeps its rays, every tile runs every filter iteration,
 /// and saved rays are spent.
-fn unskipped() -> Settings {
+fn unskipped(rays_per_pixel: f32) -> Settings {
     Settings {
         rates: RateSettings {
+            rays_per_pixel,
             still_sigma: 0.0,
             ..Default::default()
         },
@@ -102,10 +104,11 @@ fn references(scene: &str, frames: impl Iterator<Item = u32>) -> Vec<(u32, Vec<f
 
 #[test]
 fn still_converged_scene_saves_rays_and_the_prepass() {
-    let refs = references("room_static", (64..80).step_by(4));
-    let full = run("room_static", unskipped(), 80, 64..80, &refs);
+    let refs = references("room_static", (96..112).step_by(4));
+    let full = run("room_static", unskipped(2.0), 112, 96..112, &refs);
     let save = Settings {
         rates: RateSettings {
+            rays_per_pixel: 2.0,
             spend_saved_rays: false,
             ..Default::default()
         },
@@ -115,7 +118,7 @@ fn still_converged_scene_saves_rays_and_the_prepass() {
         },
         ..Settings::default()
     };
-    let adaptive = run("room_static", save, 80, 64..80, &refs);
+    let adaptive = run("room_static", save, 112, 96..112, &refs);
     println!(
         "still scene: relMSE {:.6} unskipped, {:.6} adaptive ({:+.1}%); rays traced {:.1}% of the \
          budget; filter tile-iterations run {:.1}%; prepass ran {} times",
@@ -142,7 +145,7 @@ fn still_converged_scene_saves_rays_and_the_prepass() {
 #[test]
 fn moving_scene_loses_nothing_to_skipping() {
     let refs = references("room", (40..64).step_by(4));
-    let full = run("room", unskipped(), 64, 40..64, &refs);
+    let full = run("room", unskipped(1.0), 64, 40..64, &refs);
     let adaptive = run(
         "room",
         Settings {

@@ -15,6 +15,8 @@ impl Denoiser {
         // ray rate < 1") and undersampling rates scale with it: with a base of 1 every request
         // would exceed a 1/2-ray budget and water filling would level refills down to the base.
         let still = s.rates.undersample && !self.frame.moved && !self.frame.reset;
+        let still_rule = self.still_rule();
+        let history = self.history_clamp();
         let base_rate = if vrrt {
             s.rates.rays_per_pixel.min(1.0)
         } else {
@@ -32,7 +34,7 @@ impl Denoiser {
             supersample_target: s.rates.supersample_target,
             // On a still frame history stays valid, so it is completed before any undersampling.
             full_history: if still {
-                s.temporal.max_history
+                history
             } else {
                 s.rates.undersample_after
             },
@@ -53,8 +55,9 @@ impl Denoiser {
             gradient_height: gh,
             gradient_threshold: s.gradient.threshold,
             gradient_scale: s.gradient.scale,
-            still_history: if still { s.temporal.max_history } else { 0.0 },
+            still_history: if still_rule { history } else { 0.0 },
             still_variance: s.rates.still_sigma * s.rates.still_sigma,
+            max_history: history,
             use_importance: self.frame.use_importance as u32,
             parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
             ..Default::default()
@@ -121,6 +124,33 @@ impl Denoiser {
             samples: self.samples,
         };
         exec.dispatch(&apply.over_grid(&app, w, h, 1))
+    }
+
+    /// Whether this frame applies the still rule (`rates.still_sigma`): nothing moved, the rule
+    /// is on and so is undersampling.
+    pub(super) fn still_rule(&self) -> bool {
+        let s = &self.settings.rates;
+        s.undersample && s.still_sigma > 0.0 && !self.frame.moved && !self.frame.reset
+    }
+
+    /// This frame's history length clamp (rays): `temporal.max_history`, or twice that (at most
+    /// 2048, what the stored binary16 length holds exactly) on a frame under the still rule.
+    ///
+    /// Why twice: history clamped at `N` rays and merged as a running mean is an exponential
+    /// moving average, which keeps improving after the clamp; `n` rays a frame settle at the
+    /// variance of a `2N + n`-ray mean (`σ² · α / (2 − α) / n` with `α = n / (N + n)`). A still
+    /// pixel that drops to the floor holds a plain mean instead, and at `N` rays it is worth half
+    /// of what the same pixel would reach by tracing on: on the static room (160x90, 2 rays,
+    /// frames 96–127) that cost save mode +19% relMSE against the plan with nothing skipped.
+    /// Still history stays valid, so it may grow to `2N` before the pixel stops tracing; the
+    /// first frame that moves cuts it back to `N` (`reproject`).
+    pub(super) fn history_clamp(&self) -> f32 {
+        let n = self.settings.temporal.max_history;
+        if self.still_rule() {
+            (2.0 * n).min(crate::payload::MAX_EXACT_COUNT)
+        } else {
+            n
+        }
     }
 
     /// The parameters of this frame's apply pass (also how [`Self::read_rays`] repeats it).

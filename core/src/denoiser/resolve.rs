@@ -11,7 +11,7 @@ impl Denoiser {
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,
-            max_history: s.temporal.max_history,
+            max_history: self.history_clamp(),
             rng_wrap: self.rng_wrap(),
             clamp_radius: s.temporal.clamp_radius,
             clamp_gamma: s.temporal.clamp_gamma,

@@ -87,11 +87,17 @@ pub struct ReprojectParams {
     pub gradient_scale: f32,
     /// On a frame where nothing moved: history length from which a pixel whose estimate is
     /// quiet (`variance / count < still_variance`) asks only for the floor, `variance_rate[0]`: its
-    /// history stays valid and further rays barely change it. 0 = the frame is not still.
+    /// history stays valid and further rays barely change it. Pixels with less history ask for
+    /// the difference (up to 16 rays; the balancer fits that to the budget), so history completes
+    /// as fast as the budget allows. 0 = the frame is not still (or the still rule is off).
     pub still_history: f32,
     /// Variance of the estimate below which a full-history pixel of a still frame drops to the
     /// floor.
     pub still_variance: f32,
+    /// History length clamp of this frame (rays): reprojected history is cut to it. Longer than
+    /// `temporal.max_history` only on a still frame with the still rule on (history kept valid
+    /// longer, `still_history`); the first frame after one cuts it back.
+    pub max_history: f32,
     /// Scale each pixel's request by the `importance` of its tile (`reflect::TILE` pixels
     /// square, `reflect::tile_grid`), e.g. the reflection tile classification's (0 = off).
     pub use_importance: u32,
@@ -124,6 +130,7 @@ impl Default for ReprojectParams {
             gradient_scale: 1.0,
             still_history: 0.0,
             still_variance: 0.0,
+            max_history: 64.0,
             use_importance: 0,
             parallax_plane: NO_PLANE,
         }
@@ -154,11 +161,15 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
             16.0,
         );
     }
-    if p.still_history > 0.0
-        && min_count >= p.still_history
-        && max_variance < p.still_variance * min_count
-    {
-        return p.variance_rate[0];
+    if p.still_history > 0.0 {
+        if min_count < p.still_history {
+            // Still frame: history stays valid, so it is completed first, at whatever the budget
+            // grants (the refill rule with `still_history` as the target).
+            return math::clamp(math::floor(p.still_history - min_count + 0.5), 1.0, 16.0);
+        }
+        if max_variance < p.still_variance * min_count {
+            return p.variance_rate[0];
+        }
     }
     if min_count >= p.full_history {
         let mut i = 0;
@@ -317,7 +328,8 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
             k += 1;
         }
         let reprojected = if sum_w > p.disocclusion_threshold {
-            let mut count = acc.count / sum_w;
+            // A history longer than this frame allows (kept on still frames) is cut back.
+            let mut count = math::min(acc.count / sum_w, p.max_history);
             // Plain division after the check: the same instructions on every target.
             #[allow(clippy::manual_checked_ops)]
             if p.gradient_stratum > 0 {
