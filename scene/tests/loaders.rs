@@ -93,6 +93,31 @@ proptest! {
         ply.extend_from_slice(&bytes);
         let _ = load_mesh_from_bytes(Path::new("y.ply"), &ply);
     }
+
+    /// PLY bodies under a header that takes every path of the PLY reader (elements skipped
+    /// before and after the mesh, lists of several types, normals, big endian), as arbitrary
+    /// bytes and as number-like ascii tokens.
+    #[test]
+    fn ply_bodies_never_panic(
+        bytes in prop::collection::vec(any::<u8>(), 0..512),
+        text in prop::collection::vec(prop::sample::select(b"0123 \n-.e+nai".to_vec()), 0..512),
+    ) {
+        for (format, body) in [("binary_big_endian", &bytes), ("ascii", &bytes), ("ascii", &text)] {
+            let mut ply = format!(
+                "ply\nformat {format} 1.0\nelement extra 2\nproperty list uchar float v\n\
+                 property short s\nelement vertex 3\nproperty double x\nproperty double y\n\
+                 property double z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+                 element face 2\nproperty list ushort uint vertex_index\nelement tail 1\n\
+                 property uchar t\nend_header\n"
+            )
+            .into_bytes();
+            ply.extend_from_slice(body);
+            if let Ok(m) = load_mesh_from_bytes(Path::new("z.ply"), &ply) {
+                prop_assert!(m.positions.iter().all(|p| p.is_finite()));
+                prop_assert!(m.indices.iter().flatten().all(|&i| (i as usize) < m.positions.len()));
+            }
+        }
+    }
 }
 
 fn installed(path: &str) -> Option<&Path> {

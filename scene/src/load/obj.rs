@@ -1,6 +1,13 @@
 //! Wavefront OBJ: `v`, `vn` and `f` (with `v`, `v/vt`, `v/vt/vn`, `v//vn` corners, negative
 //! relative indices, polygons fan-triangulated). Everything else (`vt`, groups, materials, lines,
 //! points) is ignored. A vertex is a distinct `(position, normal)` pair.
+//!
+//! Written by hand rather than with `tobj`: tobj 4.0.5 panics (integer overflow, debug builds)
+//! on an out-of-range relative normal or texture index such as `f 1//-5` and returns wrong
+//! normals for huge ones in release builds, makes triangles of `l` polylines, and on a generated
+//! 1M-triangle grid peaks at 161.5 MiB of heap before any conversion where this parser peaks at
+//! 90.1 MiB in all (210.5 against 96.1 MiB with normals), at about the same speed. It also keeps
+//! no line numbers for errors.
 
 use super::{Limit, LoadLimits};
 use crate::error::SceneError;
@@ -202,6 +209,18 @@ mod tests {
         assert!(e.to_string().contains("not finite"), "{e}");
         let e = parse(Path::new("x.obj"), b"v 0 0 0\n", &LoadLimits::default()).unwrap_err();
         assert!(matches!(e, SceneError::NoTriangles { .. }));
+        // A relative index before the first normal (tobj 4.0.5 overflows on it).
+        let e = parse(
+            Path::new("x.obj"),
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-5 2 3\n",
+            &LoadLimits::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.starts_with("x.obj:5: normal index -5 out of range"),
+            "{e}"
+        );
     }
 
     #[test]

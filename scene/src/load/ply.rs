@@ -1,357 +1,370 @@
-//! Stanford PLY: ascii, binary little endian and binary big endian. Reads `vertex` (`x y z`, optional
-//! `nx ny nz`) and `face` (`vertex_indices` or `vertex_index` list, polygons fan-triangulated); every
-//! other element and property is parsed for its size and skipped.
+//! Stanford PLY (ascii, binary little endian and binary big endian), read with the `serde-ply`
+//! crate. The header is read and held to the limits first; then the rows of `vertex` (`x y z`,
+//! optional `nx ny nz`) and `face` (`vertex_indices` or `vertex_index` list, polygons
+//! fan-triangulated) are streamed into the mesh, and every other element is read for its size
+//! and skipped.
 
 use super::{Limit, LoadLimits};
 use crate::error::SceneError;
 use crate::mesh::Mesh;
+use serde::de::{DeserializeSeed, Deserializer, IgnoredAny, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use serde_ply::{DeserializeError, ElementDef, PlyFormat, PlyReader, PropertyType};
+use std::fmt;
+use std::io::{ErrorKind, Read};
 use std::path::Path;
 use vrrt_core::glam::Vec3;
 
-#[derive(Copy, Clone, Debug, PartialEq)]
-enum Encoding {
-    Ascii,
-    LittleEndian,
-    BigEndian,
-}
+/// Most corners of one face; a longer list is taken for a damaged file (and is refused before
+/// its corners are read).
+const MAX_CORNERS: usize = 1_000_000;
 
-#[derive(Copy, Clone, Debug, PartialEq)]
-enum Scalar {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl Scalar {
-    fn parse(name: &str) -> Option<Scalar> {
-        Some(match name {
-            "char" | "int8" => Scalar::I8,
-            "uchar" | "uint8" => Scalar::U8,
-            "short" | "int16" => Scalar::I16,
-            "ushort" | "uint16" => Scalar::U16,
-            "int" | "int32" => Scalar::I32,
-            "uint" | "uint32" => Scalar::U32,
-            "float" | "float32" => Scalar::F32,
-            "double" | "float64" => Scalar::F64,
-            _ => return None,
-        })
-    }
-    fn size(self) -> usize {
-        match self {
-            Scalar::I8 | Scalar::U8 => 1,
-            Scalar::I16 | Scalar::U16 => 2,
-            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
-            Scalar::F64 => 8,
-        }
-    }
-}
-
-#[derive(Clone, Debug)]
-enum Property {
-    Scalar(Scalar, String),
-    List {
-        count: Scalar,
-        item: Scalar,
-        name: String,
-    },
-}
-
-#[derive(Clone, Debug)]
-struct Element {
-    name: String,
-    count: usize,
-    properties: Vec<Property>,
-}
-
-/// Reads values in file order, whatever the encoding.
-struct Reader<'a> {
-    path: &'a Path,
-    encoding: Encoding,
-    data: &'a [u8],
-    pos: usize,
-    /// Ascii: tokens of the body.
-    tokens: std::str::SplitAsciiWhitespace<'a>,
-}
-
-impl<'a> Reader<'a> {
-    fn truncated(&self) -> SceneError {
-        SceneError::parse(
-            self.path,
-            "file is truncated (fewer values than the header declares)",
-        )
-    }
-
-    fn read(&mut self, s: Scalar) -> Result<f64, SceneError> {
-        if self.encoding == Encoding::Ascii {
-            let tok = self.tokens.next().ok_or_else(|| self.truncated())?;
-            return tok
-                .parse::<f64>()
-                .map_err(|_| SceneError::parse(self.path, format!("`{tok}` is not a number")));
-        }
-        let n = s.size();
-        let bytes = self
-            .data
-            .get(self.pos..self.pos + n)
-            .ok_or_else(|| self.truncated())?;
-        self.pos += n;
-        let mut b = [0u8; 8];
-        b[..n].copy_from_slice(bytes);
-        if self.encoding == Encoding::BigEndian {
-            b[..n].reverse();
-        }
-        Ok(match s {
-            Scalar::I8 => b[0] as i8 as f64,
-            Scalar::U8 => b[0] as f64,
-            Scalar::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
-            Scalar::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
-            Scalar::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Scalar::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Scalar::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Scalar::F64 => f64::from_le_bytes(b),
-        })
-    }
-
-    /// Bytes left (binary) or a generous bound (ascii), to cap allocations by declared counts.
-    fn remaining(&self) -> usize {
-        self.data.len().saturating_sub(self.pos)
-    }
+/// What is done with the rows of one element.
+#[derive(Copy, Clone)]
+enum Rows {
+    /// Read for their size and dropped; `empty` when they have no properties (no bytes).
+    Skip { empty: bool },
+    /// Positions, and normals when the element has all of `nx ny nz`.
+    Vertices { normals: bool },
+    /// Polygons from the list property at this index.
+    Faces { list: usize },
 }
 
 /// Parses a PLY file. The declared vertex and face counts are held to the limits before the
 /// body is read (a face makes at least one triangle), the triangles again as polygons split.
 pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
-    let (encoding, elements, body) = parse_header(path, bytes)?;
-    for el in &elements {
-        match el.name.as_str() {
-            "vertex" => limits.check(path, Limit::Vertices, el.count as u64)?,
-            "face" => limits.check(path, Limit::Triangles, el.count as u64)?,
-            _ => {}
-        }
-    }
-    let body_text = if encoding == Encoding::Ascii {
-        std::str::from_utf8(&bytes[body..])
-            .map_err(|_| SceneError::parse(path, "ascii body is not text"))?
+    // serde-ply's ascii reader needs whitespace after the last value, which a file may lack: an
+    // ascii body gets a final newline (a binary one must not, or a truncated file could pass).
+    let format = PlyReader::from_reader(bytes)
+        .map_err(|e| header_error(path, e))?
+        .header()
+        .format;
+    let tail: &[u8] = if format == PlyFormat::Ascii {
+        b"\n"
     } else {
-        ""
+        b""
     };
-    let mut r = Reader {
+    let mut reader =
+        PlyReader::from_reader(bytes.chain(tail)).map_err(|e| header_error(path, e))?;
+    let plan = plan(path, &reader.header().elem_defs, limits)?;
+    let vertex_bound = bytes.len() / 3; // x, y and z take at least a byte each
+    let mut sink = Sink {
         path,
-        encoding,
-        data: bytes,
-        pos: body,
-        tokens: body_text.split_ascii_whitespace(),
+        limits,
+        positions: Vec::new(),
+        normals: Vec::new(),
+        indices: Vec::new(),
+        polygon: Vec::new(),
+        error: None,
     };
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut normals: Vec<Vec3> = Vec::new();
-    let mut indices: Vec<[u32; 3]> = Vec::new();
-    let mut saw_vertex = false;
-    for el in &elements {
-        // Every element takes at least one byte per item (binary) or two (ascii): cap capacity.
-        let cap = el.count.min(r.remaining());
-        let is_vertex = el.name == "vertex";
-        let is_face = el.name == "face";
-        let prop_index = |name: &str| {
-            el.properties
-                .iter()
-                .position(|p| matches!(p, Property::Scalar(_, n) if n == name))
-        };
-        let xyz = [prop_index("x"), prop_index("y"), prop_index("z")];
-        let nxyz = [prop_index("nx"), prop_index("ny"), prop_index("nz")];
-        let has_normals = nxyz.iter().all(Option::is_some);
-        if is_vertex {
-            if xyz.iter().any(Option::is_none) {
-                return Err(SceneError::parse(path, "vertex element lacks x, y or z"));
-            }
-            saw_vertex = true;
-            positions.reserve(cap);
-            if has_normals {
-                normals.reserve(cap);
-            }
-        }
-        let face_list = el.properties.iter().position(
-            |p| matches!(p, Property::List { name, .. } if name == "vertex_indices" || name == "vertex_index"),
-        );
-        if is_face && face_list.is_none() {
-            return Err(SceneError::parse(
-                path,
-                "face element lacks a vertex_indices list",
-            ));
-        }
-        if el.properties.is_empty() {
-            // Items of no bytes: nothing to read, however many are declared.
-            continue;
-        }
-        let mut values = vec![0.0f64; el.properties.len()];
-        let mut polygon: Vec<u32> = Vec::new();
-        for item in 0..el.count {
-            for (k, prop) in el.properties.iter().enumerate() {
-                match prop {
-                    Property::Scalar(s, _) => values[k] = r.read(*s)?,
-                    Property::List {
-                        count,
-                        item: item_ty,
-                        ..
-                    } => {
-                        let n = r.read(*count)?;
-                        if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
-                            return Err(SceneError::parse(
-                                path,
-                                format!("{} {item}: invalid list length {n}", el.name),
-                            ));
-                        }
-                        let keep = is_face && Some(k) == face_list;
-                        if keep {
-                            polygon.clear();
-                        }
-                        for _ in 0..n as usize {
-                            let v = r.read(*item_ty)?;
-                            if keep {
-                                if !(0.0..u32::MAX as f64).contains(&v) || v.fract() != 0.0 {
-                                    return Err(SceneError::parse(
-                                        path,
-                                        format!("face {item}: invalid vertex index {v}"),
-                                    ));
-                                }
-                                polygon.push(v as u32);
-                            }
-                        }
-                    }
-                }
-            }
-            if is_vertex {
-                let at = |i: Option<usize>| values[i.unwrap_or(0)] as f32;
-                positions.push(Vec3::new(at(xyz[0]), at(xyz[1]), at(xyz[2])));
-                if has_normals {
-                    normals.push(Vec3::new(at(nxyz[0]), at(nxyz[1]), at(nxyz[2])));
-                }
-            }
-            if is_face {
-                if polygon.len() < 3 {
-                    return Err(SceneError::parse(
-                        path,
-                        format!(
-                            "face {item} has {} vertices (at least 3 needed)",
-                            polygon.len()
-                        ),
-                    ));
-                }
-                let triangles = indices.len() + polygon.len() - 2;
-                limits.check(path, Limit::Triangles, triangles as u64)?;
-                for i in 1..polygon.len() - 1 {
-                    indices.push([polygon[0], polygon[i], polygon[i + 1]]);
-                }
+    for (el, rows) in reader.header().elem_defs.iter().zip(&plan) {
+        if let Rows::Vertices { normals } = rows {
+            let cap = el.count.min(vertex_bound);
+            sink.positions.reserve(cap);
+            if *normals {
+                sink.normals.reserve(cap);
             }
         }
     }
-    if !saw_vertex {
-        return Err(SceneError::parse(path, "no vertex element"));
+    let read = (&mut reader).deserialize_map(Elements {
+        sink: &mut sink,
+        plan: &plan,
+    });
+    if let Some(e) = sink.error.take() {
+        return Err(e);
     }
-    Mesh::new(path, positions, normals, indices)
+    read.map_err(|e| body_error(path, e))?;
+    Mesh::new(path, sink.positions, sink.normals, sink.indices)
 }
 
-/// Returns the encoding, the elements and the byte offset of the body.
-fn parse_header(path: &Path, bytes: &[u8]) -> Result<(Encoding, Vec<Element>, usize), SceneError> {
-    if !bytes.starts_with(b"ply") {
-        return Err(SceneError::parse(
-            path,
-            "not a PLY file (missing `ply` magic)",
-        ));
-    }
-    let mut pos = 0usize;
-    let mut encoding = None;
-    let mut elements: Vec<Element> = Vec::new();
-    let mut line_no = 0usize;
-    loop {
-        let rest = &bytes[pos..];
-        let Some(len) = rest.iter().position(|&b| b == b'\n') else {
-            return Err(SceneError::parse(path, "header has no `end_header`"));
+/// Checks the header's elements (counts against the limits, the properties a mesh needs) and
+/// says what to do with each.
+fn plan(
+    path: &Path,
+    elements: &[ElementDef],
+    limits: &LoadLimits,
+) -> Result<Vec<Rows>, SceneError> {
+    let mut plan = Vec::with_capacity(elements.len());
+    for el in elements {
+        let scalar = |name: &str| {
+            el.properties
+                .iter()
+                .any(|p| p.name == name && matches!(p.property_type, PropertyType::Scalar(_)))
         };
-        line_no += 1;
-        let line = std::str::from_utf8(&rest[..len])
-            .map_err(|_| SceneError::parse_at(path, line_no, "header line is not text"))?
-            .trim();
-        pos += len + 1;
-        let words: Vec<&str> = line.split_whitespace().collect();
-        match words.as_slice() {
-            ["ply"] | [] => {}
-            ["comment", ..] | ["obj_info", ..] => {}
-            ["format", fmt, _version] => {
-                encoding = Some(match *fmt {
-                    "ascii" => Encoding::Ascii,
-                    "binary_little_endian" => Encoding::LittleEndian,
-                    "binary_big_endian" => Encoding::BigEndian,
-                    other => {
-                        return Err(SceneError::parse_at(
-                            path,
-                            line_no,
-                            format!("unknown format `{other}`"),
-                        ))
-                    }
-                })
+        plan.push(match el.name.as_str() {
+            "vertex" => {
+                limits.check(path, Limit::Vertices, el.count as u64)?;
+                if !["x", "y", "z"].into_iter().all(scalar) {
+                    return Err(SceneError::parse(path, "vertex element lacks x, y or z"));
+                }
+                Rows::Vertices {
+                    normals: ["nx", "ny", "nz"].into_iter().all(scalar),
+                }
             }
-            ["element", name, count] => {
-                let count = count.parse().map_err(|_| {
-                    SceneError::parse_at(path, line_no, format!("bad element count `{count}`"))
-                })?;
-                elements.push(Element {
-                    name: name.to_string(),
-                    count,
-                    properties: Vec::new(),
+            "face" => {
+                limits.check(path, Limit::Triangles, el.count as u64)?;
+                let list = el.properties.iter().position(|p| {
+                    matches!(p.property_type, PropertyType::List { .. })
+                        && (p.name == "vertex_indices" || p.name == "vertex_index")
                 });
-            }
-            ["property", "list", count, item, name] => {
-                let (Some(count), Some(item)) = (Scalar::parse(count), Scalar::parse(item)) else {
-                    return Err(SceneError::parse_at(
+                let Some(list) = list else {
+                    return Err(SceneError::parse(
                         path,
-                        line_no,
-                        "unknown list property type",
+                        "face element lacks a vertex_indices list",
                     ));
                 };
-                if matches!(count, Scalar::F32 | Scalar::F64) {
-                    return Err(SceneError::parse_at(
-                        path,
-                        line_no,
-                        "list count must be an integer type",
-                    ));
-                }
-                let el = elements.last_mut().ok_or_else(|| {
-                    SceneError::parse_at(path, line_no, "property before any element")
-                })?;
-                el.properties.push(Property::List {
-                    count,
-                    item,
-                    name: name.to_string(),
-                });
+                Rows::Faces { list }
             }
-            ["property", ty, name] => {
-                let ty = Scalar::parse(ty).ok_or_else(|| {
-                    SceneError::parse_at(path, line_no, format!("unknown property type `{ty}`"))
-                })?;
-                let el = elements.last_mut().ok_or_else(|| {
-                    SceneError::parse_at(path, line_no, "property before any element")
-                })?;
-                el.properties.push(Property::Scalar(ty, name.to_string()));
-            }
-            ["end_header"] => break,
-            ["element" | "property" | "format", ..] => {
-                return Err(SceneError::parse_at(
-                    path,
-                    line_no,
-                    format!("malformed header line `{line}`"),
-                ))
-            }
-            // Some exporters write free text without `comment` (Blender 2.4x): skip it.
-            _ => {}
-        }
+            _ => Rows::Skip {
+                empty: el.properties.is_empty(),
+            },
+        });
     }
-    let encoding =
-        encoding.ok_or_else(|| SceneError::parse(path, "header has no `format` line"))?;
-    Ok((encoding, elements, pos))
+    if !plan.iter().any(|r| matches!(r, Rows::Vertices { .. })) {
+        return Err(SceneError::parse(path, "no vertex element"));
+    }
+    Ok(plan)
+}
+
+fn header_error(path: &Path, e: DeserializeError) -> SceneError {
+    if e.0.kind() == ErrorKind::UnexpectedEof {
+        SceneError::parse(path, "header has no `end_header`")
+    } else {
+        SceneError::parse(path, format!("bad header: {}", e.0))
+    }
+}
+
+fn body_error(path: &Path, e: DeserializeError) -> SceneError {
+    if e.0.kind() == ErrorKind::UnexpectedEof {
+        SceneError::parse(
+            path,
+            "file is truncated (fewer values than the header declares)",
+        )
+    } else {
+        SceneError::parse(path, e.0.to_string())
+    }
+}
+
+/// The mesh being read. A check of ours that fails inside the deserializer leaves its error
+/// here (serde errors carry only text) and stops the read.
+struct Sink<'a> {
+    path: &'a Path,
+    limits: &'a LoadLimits,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+    /// The face being read.
+    polygon: Vec<u32>,
+    error: Option<SceneError>,
+}
+
+impl Sink<'_> {
+    /// Keeps `e` and returns the error that stops the deserializer.
+    fn fail<E: serde::de::Error>(&mut self, e: SceneError) -> E {
+        let text = e.to_string();
+        self.error = Some(e);
+        E::custom(text)
+    }
+}
+
+/// One vertex row; properties other than these are skipped, absent normals read as zero.
+#[derive(Default, Deserialize)]
+#[serde(default)]
+struct Vertex {
+    x: f32,
+    y: f32,
+    z: f32,
+    nx: f32,
+    ny: f32,
+    nz: f32,
+}
+
+/// A row of an element that is not kept: every value read and dropped.
+#[derive(Deserialize)]
+struct Skip {}
+
+/// The file as a map of element name to rows, in header order.
+struct Elements<'s, 'a> {
+    sink: &'s mut Sink<'a>,
+    plan: &'s [Rows],
+}
+
+impl<'de> Visitor<'de> for Elements<'_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("PLY elements")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        for &rows in self.plan {
+            if map.next_key::<IgnoredAny>()?.is_none() {
+                break;
+            }
+            map.next_value_seed(Element {
+                sink: &mut *self.sink,
+                rows,
+            })?;
+        }
+        Ok(())
+    }
+}
+
+/// The rows of one element.
+struct Element<'s, 'a> {
+    sink: &'s mut Sink<'a>,
+    rows: Rows,
+}
+
+impl<'de> DeserializeSeed<'de> for Element<'_, '_> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_seq(self)
+    }
+}
+
+impl<'de> Visitor<'de> for Element<'_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("PLY rows")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut rows: A) -> Result<(), A::Error> {
+        let sink = self.sink;
+        match self.rows {
+            // Rows of no bytes: nothing to read, however many are declared.
+            Rows::Skip { empty: true } => {}
+            Rows::Skip { empty: false } => while rows.next_element::<Skip>()?.is_some() {},
+            Rows::Vertices { normals } => {
+                while let Some(v) = rows.next_element::<Vertex>()? {
+                    sink.positions.push(Vec3::new(v.x, v.y, v.z));
+                    if normals {
+                        sink.normals.push(Vec3::new(v.nx, v.ny, v.nz));
+                    }
+                }
+            }
+            Rows::Faces { list } => {
+                let mut item = 0usize;
+                while rows
+                    .next_element_seed(FaceRow {
+                        sink: &mut *sink,
+                        list,
+                        item,
+                    })?
+                    .is_some()
+                {
+                    let polygon = &sink.polygon;
+                    if polygon.len() < 3 {
+                        let e = SceneError::parse(
+                            sink.path,
+                            format!(
+                                "face {item} has {} vertices (at least 3 needed)",
+                                polygon.len()
+                            ),
+                        );
+                        return Err(sink.fail(e));
+                    }
+                    let triangles = sink.indices.len() + polygon.len() - 2;
+                    if let Err(e) = sink
+                        .limits
+                        .check(sink.path, Limit::Triangles, triangles as u64)
+                    {
+                        return Err(sink.fail(e));
+                    }
+                    for i in 1..polygon.len() - 1 {
+                        sink.indices.push([polygon[0], polygon[i], polygon[i + 1]]);
+                    }
+                    item += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A face row: its corner list read into [`Sink::polygon`], other properties dropped.
+struct FaceRow<'s, 'a> {
+    sink: &'s mut Sink<'a>,
+    list: usize,
+    item: usize,
+}
+
+impl<'de> DeserializeSeed<'de> for FaceRow<'_, '_> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> Visitor<'de> for FaceRow<'_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a PLY face")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        let mut k = 0;
+        while map.next_key::<IgnoredAny>()?.is_some() {
+            if k == self.list {
+                map.next_value_seed(Corners {
+                    sink: &mut *self.sink,
+                    item: self.item,
+                })?;
+            } else {
+                map.next_value::<IgnoredAny>()?;
+            }
+            k += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The vertex indices of face `item`, checked to be whole numbers in `u32` range.
+struct Corners<'s, 'a> {
+    sink: &'s mut Sink<'a>,
+    item: usize,
+}
+
+impl<'de> DeserializeSeed<'de> for Corners<'_, '_> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_seq(self)
+    }
+}
+
+impl<'de> Visitor<'de> for Corners<'_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a list of vertex indices")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        let (sink, item) = (self.sink, self.item);
+        // The list's declared length, known before its corners are read.
+        let n = seq.size_hint().unwrap_or(0);
+        if n > MAX_CORNERS {
+            let e = SceneError::parse(sink.path, format!("face {item}: invalid list length {n}"));
+            return Err(sink.fail(e));
+        }
+        sink.polygon.clear();
+        // As f64, which every PLY type converts to exactly, so float lists of whole numbers
+        // are taken too.
+        while let Some(v) = seq.next_element::<f64>()? {
+            if !(0.0..u32::MAX as f64).contains(&v) || v.fract() != 0.0 {
+                let e =
+                    SceneError::parse(sink.path, format!("face {item}: invalid vertex index {v}"));
+                return Err(sink.fail(e));
+            }
+            sink.polygon.push(v as u32);
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -393,11 +406,19 @@ mod tests {
         v
     }
 
+    fn parse_str(text: &str) -> Result<Mesh, SceneError> {
+        parse(Path::new("q.ply"), text.as_bytes(), &LoadLimits::default())
+    }
+
     #[test]
     fn ascii_quad() {
-        let m = parse(Path::new("q.ply"), ASCII.as_bytes(), &LoadLimits::default()).unwrap();
+        let m = parse_str(ASCII).unwrap();
         assert_eq!(m.triangle_count(), 2);
         assert_eq!(m.positions.len(), 4);
+        // Values are whitespace-separated tokens: line breaks may fall anywhere, and the last
+        // value needs none after it.
+        let m = parse_str(&ASCII.replace("0 1 0\n4 0 1 2 3\n", "0\n1 0 4 0 1\n2 3")).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
     }
 
     #[test]
@@ -410,29 +431,51 @@ mod tests {
     }
 
     #[test]
+    fn normals_other_elements_and_property_types() {
+        // Double coordinates with normals, an element before the vertices with a list of its
+        // own, and a face with extra properties around a ushort list.
+        let text = "ply\nformat ascii 1.0\nelement material 2\nproperty list uchar float rgb\n\
+            property int id\nelement vertex 3\nproperty double x\nproperty double y\n\
+            property double z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+            element face 1\nproperty int flags\nproperty list uchar ushort vertex_index\n\
+            property uchar tag\nend_header\n3 0.5 0.5 0.5 7\n0 9\n0 0 0 0 0 2\n1 0 0 0 0 2\n\
+            0 1 0 0 0 2\n-1 3 0 1 2 255\n";
+        let m = parse_str(text).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+        assert_eq!(m.normals, vec![Vec3::Z; 3]);
+    }
+
+    #[test]
     fn truncated_and_bad_index() {
         let b = binary(false);
-        let e = parse(
-            Path::new("t.ply"),
-            &b[..b.len() - 2],
-            &LoadLimits::default(),
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("t.ply") && e.contains("truncated"), "{e}");
-        let bad = ASCII.replace("4 0 1 2 3", "3 0 1 9");
-        let e = parse(Path::new("q.ply"), bad.as_bytes(), &LoadLimits::default())
+        for cut in [1, 2, 13] {
+            let e = parse(
+                Path::new("t.ply"),
+                &b[..b.len() - cut],
+                &LoadLimits::default(),
+            )
             .unwrap_err()
             .to_string();
+            assert!(e.contains("t.ply") && e.contains("truncated"), "{e}");
+        }
+        let bad = ASCII.replace("4 0 1 2 3", "3 0 1 9");
+        let e = parse_str(&bad).unwrap_err().to_string();
         assert!(e.contains("only 4 vertices"), "{e}");
-        let e = parse(
-            Path::new("q.ply"),
-            b"ply\nformat ascii 1.0\n",
-            &LoadLimits::default(),
-        )
-        .unwrap_err()
-        .to_string();
+        for (corners, expected) in [
+            ("3 0 1 -1", "face 0: invalid vertex index -1"),
+            ("2 0 1", "face 0 has 2 vertices"),
+        ] {
+            let e = parse_str(&ASCII.replace("4 0 1 2 3", corners)).unwrap_err();
+            assert!(e.to_string().contains(expected), "{e}");
+        }
+        let e = parse_str("ply\nformat ascii 1.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("end_header"), "{e}");
+        let e = parse_str(&ASCII.replace("property float z\n", ""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lacks x, y or z"), "{e}");
     }
 
     #[test]
@@ -441,7 +484,7 @@ mod tests {
         // truncation after reading.
         let huge = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n\
             property float x\nproperty float y\nproperty float z\nend_header\n";
-        let e = parse(Path::new("h.ply"), huge.as_bytes(), &LoadLimits::default()).unwrap_err();
+        let e = parse_str(huge).unwrap_err();
         assert!(
             matches!(
                 e,
@@ -458,13 +501,38 @@ mod tests {
             ..LoadLimits::default()
         };
         let e = parse(Path::new("q.ply"), ASCII.as_bytes(), &limits).unwrap_err();
-        assert!(e.to_string().contains("--max-triangles"), "{e}");
+        assert!(
+            matches!(
+                e,
+                SceneError::LimitExceeded {
+                    limit: Limit::Triangles,
+                    value: Some(2),
+                    ..
+                }
+            ),
+            "{e}"
+        );
         // Elements without properties take no bytes; a huge count must not loop.
         let empty = ASCII.replace(
             "end_header",
             "element dummy 18446744073709551615\nend_header",
         );
-        let m = parse(Path::new("q.ply"), empty.as_bytes(), &LoadLimits::default()).unwrap();
-        assert_eq!(m.triangle_count(), 2);
+        assert_eq!(parse_str(&empty).unwrap().triangle_count(), 2);
+        let first = ASCII.replace(
+            "element vertex",
+            "element dummy 18446744073709551615\nelement vertex",
+        );
+        assert_eq!(parse_str(&first).unwrap().triangle_count(), 2);
+        // A face list declaring more corners than any face has is refused before it is read.
+        let b = binary(false);
+        let body = b.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let mut long = String::from_utf8(b[..body].to_vec())
+            .unwrap()
+            .replace("list uchar uint", "list uint uint")
+            .into_bytes();
+        long.extend(&b[body..b.len() - 13]);
+        long.extend(u32::MAX.to_le_bytes());
+        let e = parse(Path::new("t.ply"), &long, &LoadLimits::default()).unwrap_err();
+        assert!(e.to_string().contains("invalid list length"), "{e}");
     }
 }
