@@ -20,7 +20,23 @@ const MAX_NODE_DEPTH: usize = 256;
 /// Parses a `.gltf` or `.glb` file; external buffers are read relative to `path`, each under
 /// the file-size limit. The vertex and triangle limits are checked before each primitive is
 /// added, since nodes may place one mesh many times.
+///
+/// The `gltf` crate panics on some malformed files (arithmetic overflow in its GLB header and
+/// accessor readers, found by `scene/tests/fuzz.rs`): a panic anywhere in parsing is caught and
+/// reported as a parse error, never an abort.
 pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        parse_guarded(path, bytes, limits)
+    }))
+    .unwrap_or_else(|_| {
+        Err(SceneError::parse(
+            path,
+            "glTF: malformed file (the glTF parser panicked)",
+        ))
+    })
+}
+
+fn parse_guarded(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
     let gltf = open(path, bytes)?;
     let buffers = resolve_buffers(path, &gltf, limits)?;
     let doc = &gltf.document;
@@ -83,7 +99,7 @@ pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, Sce
 
 /// Parses and validates the document. gltf-json 1.4's validation indexes the accessor list with
 /// a primitive's POSITION index before that index is checked (a dangling index panics), so
-/// primitive accessor indices are checked first; any other panic inside the library is caught
+/// primitive accessor indices are checked first (other panics are caught by [`parse`]).
 /// and reported as a parse error.
 fn open(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf, SceneError> {
     let raw = gltf::Gltf::from_slice_without_validation(bytes)
@@ -112,9 +128,8 @@ fn open(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf, SceneError> {
     }
     let gltf::Gltf { document, blob } = raw;
     let json = document.into_json();
-    let validated = std::panic::catch_unwind(move || gltf::Document::from_json(json))
-        .map_err(|_| SceneError::parse(path, "glTF: malformed document (the parser panicked)"))?;
-    let document = validated.map_err(|e| SceneError::parse(path, format!("glTF: {e}")))?;
+    let document = gltf::Document::from_json(json)
+        .map_err(|e| SceneError::parse(path, format!("glTF: {e}")))?;
     Ok(gltf::Gltf { document, blob })
 }
 
