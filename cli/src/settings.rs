@@ -54,9 +54,20 @@ fn shorten_floats(v: &mut toml::Value) {
     }
 }
 
-/// A TOML or deserialization error as `line L, column C: message`.
+/// A TOML or deserialization error as `line L, column C: message`, on one line: the message's
+/// line breaks become spaces and other control characters escapes (a value quoted from the file,
+/// such as `storage = "\r"`, may hold them).
 fn describe(text: &str, e: &toml::de::Error) -> String {
-    let message = e.message().trim().replace('\n', " ");
+    let message: String = e
+        .message()
+        .trim()
+        .replace('\n', " ")
+        .chars()
+        .map(|c| match c {
+            c if c.is_control() => c.escape_debug().to_string(),
+            c => c.to_string(),
+        })
+        .collect();
     match e.span() {
         Some(span) => {
             let before = &text[..span.start.min(text.len())];
@@ -221,5 +232,9 @@ storage = \"f16\"
         assert!(e.contains("unknown variant `f64`"), "{e}");
         let e = parse("planes = ").unwrap_err();
         assert!(e.starts_with("line 1, column "), "{e}");
+        // A quoted value's control characters stay escaped: the error is one line.
+        let e = parse("[temporal]\nstorage = \"\\r\\n\\t\"\n").unwrap_err();
+        assert!(e.contains("unknown variant `\\r \\t`"), "{e}");
+        assert!(!e.contains(['\n', '\r']), "{e}");
     }
 }

@@ -108,6 +108,14 @@ impl Mesh {
                 path: source.to_path_buf(),
             });
         }
+        // Finite coordinates whose extent overflows f32 would turn into infinities (and NaN
+        // triangles) as soon as the scene is framed or transformed.
+        if diagonal > f32::MAX as f64 / 4.0 {
+            return Err(SceneError::InvalidGeometry {
+                path: source.to_path_buf(),
+                message: format!("the mesh's extent ({diagonal:.3e}) overflows f32 arithmetic"),
+            });
+        }
         let tiny = (f32::EPSILON as f64 * diagonal).powi(2);
         let visible = self.indices.iter().any(|t| {
             let [a, b, c] = t.map(corner);

@@ -102,6 +102,16 @@ fn parse_guarded(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh,
 /// primitive accessor indices are checked first (other panics are caught by [`parse`]).
 /// and reported as a parse error.
 fn open(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf, SceneError> {
+    // gltf 1.4 subtracts the 12-byte GLB header from the declared length unchecked.
+    if let Some(len) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) {
+        let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]);
+        if len < 12 {
+            return Err(SceneError::parse(
+                path,
+                format!("GLB: declared length {len} is shorter than its 12-byte header"),
+            ));
+        }
+    }
     let raw = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| SceneError::parse(path, format!("glTF: {e}")))?;
     let root = raw.document.as_json();
@@ -274,16 +284,19 @@ fn check_accessor(
     }
     let elem = acc.size();
     let stride = view.stride().unwrap_or(elem);
-    if acc.count() > 0 {
-        let need = (acc.count() - 1)
-            .checked_mul(stride)
-            .and_then(|x| x.checked_add(acc.offset() + elem));
-        if need.is_none_or(|n| n > view.length()) || stride < elem {
-            return Err(SceneError::parse(
-                path,
-                format!("{name} reads past its buffer view"),
-            ));
-        }
+    if acc.count() == 0 {
+        // gltf 1.4's readers compute `count - 1` unchecked.
+        return Err(SceneError::parse(path, format!("{name}: no elements")));
+    }
+    let need = (acc.count() - 1)
+        .checked_mul(stride)
+        .and_then(|x| x.checked_add(acc.offset()))
+        .and_then(|x| x.checked_add(elem));
+    if need.is_none_or(|n| n > view.length()) || stride < elem {
+        return Err(SceneError::parse(
+            path,
+            format!("{name} reads past its buffer view"),
+        ));
     }
     Ok(())
 }

@@ -1,0 +1,3 @@
+//! `.glb` bytes (binary glTF) through `vrrt_scene::load`.
+#![no_main]
+libfuzzer_sys::fuzz_target!(|data: &[u8]| vrrt_fuzz::load("fuzz.glb", data));

@@ -1,0 +1,3 @@
+//! PLY bytes (ASCII or binary) through `vrrt_scene::load`.
+#![no_main]
+libfuzzer_sys::fuzz_target!(|data: &[u8]| vrrt_fuzz::load("fuzz.ply", data));
