@@ -173,7 +173,9 @@ pub fn log2(x: f32) -> f32 {
 /// Whole exponents up to 1024 of `x` in `(0, 1]` (the edge-stopping weights: `(n·m)^128` is
 /// evaluated for every filter tap) take square-and-multiply: a handful of multiplications instead
 /// of a log and an exp, exact to a few ulp, and with results below the normal range flushed to 0
-/// (as [`exp2`] does) so GPUs that flush denormals agree bit for bit.
+/// (as [`exp2`] does) so GPUs that flush denormals agree bit for bit. One check at the end
+/// suffices: every factor is at most 1 and the last square is always multiplied in, so the result
+/// is below the normal range whenever any intermediate value is.
 // Plain comparisons rather than `RangeInclusive::contains`: the same instructions on every target.
 #[allow(clippy::manual_range_contains)]
 #[inline]
@@ -187,23 +189,21 @@ pub fn pow(x: f32, y: f32) -> f32 {
     if x > 0.0 && x <= 1.0 && y >= 1.0 && y <= 1024.0 && floor(y) == y {
         let mut e = y as u32;
         let mut base = x;
-        let mut acc = 1.0f32;
-        loop {
+        // Squares up to the lowest set bit, which starts the product (`1 · base`, exact).
+        while e & 1 == 0 {
+            base *= base;
+            e >>= 1;
+        }
+        let mut acc = base;
+        e >>= 1;
+        while e != 0 {
+            base *= base;
             if e & 1 == 1 {
                 acc *= base;
-                if acc < MIN_NORMAL {
-                    return 0.0;
-                }
             }
             e >>= 1;
-            if e == 0 {
-                return acc;
-            }
-            base *= base;
-            if base < MIN_NORMAL {
-                return 0.0;
-            }
         }
+        return if acc < MIN_NORMAL { 0.0 } else { acc };
     }
     exp2(y * log2(x))
 }

@@ -59,6 +59,32 @@ impl Default for AtrousParams {
 }
 
 const B3: [f32; 3] = [3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
+
+/// B3-spline weight of tap `(±i, ±j)` relative to the centre's, `[j][i]`: constants, so the taps
+/// do not recompute them (the same products, in the same order, as a per-tap evaluation).
+const TAP_WEIGHT: [[f32; 3]; 3] = {
+    let mut t = [[0.0; 3]; 3];
+    let mut j = 0;
+    while j < 3 {
+        let mut i = 0;
+        while i < 3 {
+            t[j][i] = B3[i] * B3[j] * (1.0 / (B3[0] * B3[0]));
+            i += 1;
+        }
+        j += 1;
+    }
+    t
+};
+
+/// `sqrt(i² + j²)` of tap `(±i, ±j)`, `[j][i]`: the correctly rounded roots `math::sqrt` gives,
+/// without a square root per tap.
+const TAP_DISTANCE: [[f32; 3]; 3] = [
+    [0.0, 1.0, 2.0],
+    [1.0, core::f32::consts::SQRT_2, SQRT_5],
+    [2.0, SQRT_5, 2.0 * core::f32::consts::SQRT_2],
+];
+/// √5 rounded to nearest f32 (the test below checks it against `math::sqrt`).
+const SQRT_5: f32 = 2.236_068;
 const GAUSS3: [f32; 2] = [1.0 / 2.0, 1.0 / 4.0];
 
 #[inline]
@@ -137,7 +163,8 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 if surface::has_surface(qd) {
                     let tap =
                         input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)].unpack();
-                    let offset_len = math::sqrt((tx * tx + ty * ty) as f32) * p.step as f32;
+                    let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
+                    let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
                     let m = packing::unpack_normal(normal_roughness[q]);
                     let w_n = surface::normal_weight(n, m, p.normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
@@ -145,11 +172,7 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     let scale = math::max(p.plane_scale * cd * offset_len, 1e-12);
                     let e = plane.distance(qx, qy, qd) / scale
                         + math::abs(center.value - tap.value) / lum_scale;
-                    let w = B3[tx.unsigned_abs() as usize]
-                        * B3[ty.unsigned_abs() as usize]
-                        * (1.0 / (B3[0] * B3[0]))
-                        * w_n
-                        * math::exp(-e);
+                    let w = TAP_WEIGHT[ay][ax] * w_n * math::exp(-e);
                     sum += w * tap.value;
                     sum_var += w * w * tap.variance;
                     sum_w += w;
@@ -164,4 +187,21 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         variance: sum_var / (sum_w * sum_w),
     }
     .pack();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tap_tables_match_the_per_tap_formulas() {
+        for j in 0..3 {
+            for i in 0..3 {
+                let w = B3[i] * B3[j] * (1.0 / (B3[0] * B3[0]));
+                assert_eq!(TAP_WEIGHT[j][i].to_bits(), w.to_bits());
+                let d = math::sqrt((i * i + j * j) as f32);
+                assert_eq!(TAP_DISTANCE[j][i].to_bits(), d.to_bits());
+            }
+        }
+    }
 }
