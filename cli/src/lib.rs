@@ -14,3 +14,32 @@ pub mod reference;
 pub mod run;
 pub mod session;
 pub mod settings;
+
+use clap::{Parser, Subcommand};
+
+// The `vrrt` command line: `main.rs` runs it, the fuzz tests parse it (doc comments here are the
+// command's help text).
+
+/// VRRT-rs: variable rate ray tracing on SVGF.
+#[derive(Parser)]
+#[command(name = "vrrt", version, about)]
+pub struct Cli {
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a scene through a denoiser and measure it against references.
+    Run(run::RunArgs),
+    /// Trace (and cache) the references of a scene's frames.
+    Reference(reference::ReferenceArgs),
+    /// List backends and adapters, and what `auto` would pick (or, with `--settings`, print the
+    /// default denoiser settings).
+    Info(info::InfoArgs),
+    /// Error-versus-cost matrix over denoiser configurations, budgets, signals, scenes and
+    /// backends.
+    Bench(bench::BenchArgs),
+}

@@ -4,12 +4,13 @@
 //! `fuzz/artifacts/<target>/`. The same checks run in the default test loop on seeded mutations
 //! (`scene/tests/fuzz.rs`, `cli/tests/fuzz.rs`).
 
-use clap::{Parser, Subcommand};
+use clap::Parser;
 use std::ffi::OsString;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
-use vrrt_cli::{bench::BenchArgs, info::InfoArgs, reference::ReferenceArgs, run::RunArgs};
+/// The `vrrt` command line itself, parsed by the `config_names` and `size_rate` targets.
+pub use vrrt_cli::{Cli, Command};
 use vrrt_scene::load::{load_mesh_from_reader, LoadLimits};
 use vrrt_scene::{builtin, bvh, Mesh, SceneError};
 
@@ -162,23 +163,6 @@ pub fn check_one_line(e: &str, input: &str) {
         !e.trim().is_empty() && !(breaks(e) && !breaks(input)),
         "error is not one line: {e:?}"
     );
-}
-
-/// The `vrrt` command line, as `cli/src/main.rs` declares it.
-#[derive(Parser)]
-#[command(name = "vrrt")]
-pub struct Cli {
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-/// The subcommands.
-#[derive(Subcommand)]
-pub enum Command {
-    Run(RunArgs),
-    Reference(ReferenceArgs),
-    Info(InfoArgs),
-    Bench(BenchArgs),
 }
 
 /// Parses `vrrt <args…> <value>`, the value as raw bytes (not necessarily UTF-8). A failure must

@@ -22,21 +22,9 @@ use seeds::{
 };
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
 use vrrt_scene::load::{load_mesh_from_reader, LoadLimits};
 use vrrt_scene::{builtin, bvh, Mesh, SceneError};
 
-/// Inputs per format (at least; `VRRT_FUZZ_INPUTS` may ask for more).
-const INPUTS: usize = 25_000;
-/// The longest one input may take (debug build, a loaded 2-core machine).
-const PER_INPUT: Duration = Duration::from_secs(2);
-/// An input still running after this is a hang.
-const HANG: Duration = Duration::from_secs(20);
-/// The most memory one load may hold at once: the limits below allow a 64 KiB inflated file,
-/// 512 vertices and triangles and their BVH, so a few MiB is already generous.
-const PER_INPUT_MEMORY: usize = 8 * MIB;
-/// The test process's peak resident set (all formats run in one process).
-const PEAK_RSS: usize = 512 * MIB;
 /// Longest mutated input (before gzip).
 const MAX_LEN: usize = 12 << 10;
 
@@ -48,19 +36,6 @@ fn limits() -> LoadLimits {
         max_vertices: 512,
         max_triangles: 512,
         max_bvh_bytes: bvh::memory_bound(512),
-    }
-}
-
-fn bounds() -> Bounds {
-    let inputs = std::env::var("VRRT_FUZZ_INPUTS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .map_or(INPUTS, |n: usize| n.max(INPUTS));
-    Bounds {
-        inputs,
-        per_input: PER_INPUT,
-        hang: HANG,
-        per_input_memory: PER_INPUT_MEMORY,
     }
 }
 
@@ -181,17 +156,11 @@ fn fuzz(format: &str, name: &str, files: &[(&str, Vec<u8>)], inputs: Inputs) -> 
     }
     let path: PathBuf = dir.path().join(name);
     let limits = limits();
-    let bounds = bounds();
+    let bounds = Bounds::standard();
     let report = fuzzkit::run(format, inputs.clone(), bounds, move |_, bytes| {
         check_load(&path, bytes, &limits)
     });
-    println!("{}", report.summary());
-    println!("{}", report.kinds_line());
-    report.assert_clean(&bounds, &inputs);
-    let rss = fuzzkit::peak_rss();
-    if let Some(rss) = rss {
-        assert!(rss < PEAK_RSS, "peak RSS {} MiB", rss / MIB);
-    }
+    report.finish(&bounds, &inputs);
     drop(dir);
     report
 }

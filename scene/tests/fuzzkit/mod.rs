@@ -170,6 +170,28 @@ pub struct Bounds {
     pub per_input_memory: usize,
 }
 
+/// The test process's peak resident set (every format of a test binary runs in one process).
+pub const PEAK_RSS: usize = 512 * MIB;
+
+impl Bounds {
+    /// What both fuzz tests hold every format to: at least 25,000 inputs (`VRRT_FUZZ_INPUTS=N`
+    /// asks for more, for a soak), 2 s per input (debug build, a loaded 2-core machine), a hang
+    /// after 20 s, 8 MiB held by one input.
+    pub fn standard() -> Bounds {
+        const INPUTS: usize = 25_000;
+        let inputs = std::env::var("VRRT_FUZZ_INPUTS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .map_or(INPUTS, |n: usize| n.max(INPUTS));
+        Bounds {
+            inputs,
+            per_input: Duration::from_secs(2),
+            hang: Duration::from_secs(20),
+            per_input_memory: 8 * MIB,
+        }
+    }
+}
+
 /// One bug: the inputs that failed the same way (same panic location, or a broken property).
 pub struct Failure {
     /// `panic at file:line:col: message` or `broken property: …`.
@@ -244,6 +266,17 @@ impl Report {
             );
         }
         s
+    }
+
+    /// Prints the summary and the error kinds, then asserts the run clean
+    /// ([`Report::assert_clean`]) and the process's peak RSS under [`PEAK_RSS`].
+    pub fn finish(&self, bounds: &Bounds, inputs: &Inputs) {
+        println!("{}", self.summary());
+        println!("{}", self.kinds_line());
+        self.assert_clean(bounds, inputs);
+        if let Some(rss) = peak_rss() {
+            assert!(rss < PEAK_RSS, "peak RSS {} MiB", rss / MIB);
+        }
     }
 
     /// Panics unless the run held every bound: no panic, no broken property, no slow input, no
