@@ -67,10 +67,12 @@ fn accumulate_matches_cpu() {
         rng_wrap: 1 << 16,
         ..Default::default()
     };
+    let changes = vec![0u8; n * 4];
     let counters = [0u8; payload::COUNTERS_LEN as usize * 4];
-    let inputs: [&[u8]; 3] = [
+    let inputs: [&[u8]; 4] = [
         bytemuck::cast_slice(&history),
         bytemuck::cast_slice(&samples),
+        &changes,
         &counters,
     ];
     let p = bytemuck::bytes_of(&params);

@@ -27,9 +27,10 @@ fn accumulate_matches_cpu() {
     let n = W * H * PLANES;
     let history = b.buffer(bytemuck::cast_slice(&payloads(&mut rng, n)));
     let samples = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
+    let changes = b.buffer(&vec![0u8; n as usize * 4]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
-    let buffers = [history, samples, counters];
+    let buffers = [history, samples, changes, counters];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &buffers,
@@ -184,10 +185,11 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let history = b.buffer(bytemuck::cast_slice(&payloads(&mut rng, n)));
     let samples_buf = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
     let snapshot = b.buffer(&vec![0u8; n as usize * 8]);
+    let changes = b.buffer(&vec![0u8; n as usize * 4]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
     let params = accumulate_params();
     let params = bytemuck::bytes_of(&params);
-    let first = [history, samples_buf, counters];
+    let first = [history, samples_buf, changes, counters];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &first,
@@ -225,7 +227,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let mut args = vec![0u32; 4];
     args[1..].copy_from_slice(&groups);
     let args = b.buffer(bytemuck::cast_slice(&args));
-    let second = [history, samples_buf, counters];
+    let second = [history, samples_buf, changes, counters];
     b.dispatch(&Pass {
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: &second,
@@ -256,7 +258,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
 fn passes_are_timed() {
     let Some(mut gpu) = gpu() else { return };
     let n = W * H * PLANES;
-    let ids: Vec<BufferId> = [8, 8, 4]
+    let ids: Vec<BufferId> = [8, 8, 4, 4]
         .iter()
         .map(|s| gpu.create_buffer(n as u64 * s).unwrap())
         .collect();
@@ -297,7 +299,7 @@ fn plan_errors_are_reported() {
     let Some(mut gpu) = gpu() else { return };
     let a = gpu.create_buffer(64).unwrap();
     let params = accumulate_params();
-    let aliased = [a, a, a];
+    let aliased = [a, a, a, a];
     let err = gpu
         .dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ACCUMULATE,
@@ -324,7 +326,7 @@ fn plan_errors_are_reported() {
         .unwrap_err();
     assert!(matches!(err, WgpuError::Exec(ExecError::Plan(_))), "{err}");
     // Indirect counts in a buffer the pass writes (`history`, binding 0, accumulated in place).
-    let bufs = [0; 3].map(|_| gpu.create_buffer(64).unwrap());
+    let bufs = [0; 4].map(|_| gpu.create_buffer(64).unwrap());
     let err = gpu
         .dispatch(&Pass {
             kernel: &vrrt_core::kernels::ACCUMULATE,
@@ -470,9 +472,14 @@ fn embedded_in_an_engine() {
         gpu.create_buffer(counters).unwrap(),
         cpu.create_buffer(counters).unwrap(),
     );
+    let changes = n as u64 * 4;
+    let (changes_g, changes_c) = (
+        gpu.create_buffer(changes).unwrap(),
+        cpu.create_buffer(changes).unwrap(),
+    );
 
     let params = accumulate_params();
-    let gpu_buffers = [history_g, samples_g, counters_g];
+    let gpu_buffers = [history_g, samples_g, changes_g, counters_g];
     let gpu_pass = Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &gpu_buffers,
@@ -485,7 +492,7 @@ fn embedded_in_an_engine() {
     gpu.encode(&mut encoder, &[gpu_pass]).unwrap();
     queue.submit([encoder.finish()]);
     cpu.dispatch(&Pass {
-        buffers: &[history_c, samples_c, counters_c],
+        buffers: &[history_c, samples_c, changes_c, counters_c],
         ..gpu_pass
     })
     .unwrap();

@@ -107,6 +107,14 @@ pub struct Cell {
     pub temporal: f64,
     /// Mean relMSE of the moving region.
     pub moving_relmse: f64,
+    /// relMSE over the pixels without history, pooled over the sequence.
+    pub fresh_relmse: f64,
+    /// Rays the change detector traced per frame (per plane).
+    pub detector_rays_per_frame: f64,
+    /// Mean relMSE outside the moving region.
+    pub static_relmse: f64,
+    /// The change detector against the oracle's mask, summed over the sequence.
+    pub detection: Option<session::Detection>,
     /// Rays traced per frame.
     pub rays_per_frame: f64,
     /// Median over repeats of the mean ms per frame.
@@ -121,7 +129,7 @@ pub struct Cell {
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
 
-const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread";
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -246,6 +254,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             flip: r.mean_of(|f| f.flip),
                             temporal: s.temporal.unwrap_or(f64::NAN),
                             moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
+                            fresh_relmse: r.fresh_relmse(),
+                            detector_rays_per_frame: r.mean_of(|f| f.detector_rays as f64),
+                            static_relmse: r.mean_of(|f| f.static_relmse),
+                            detection: r.detection(),
                             rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
                             ms_per_frame: ms[ms.len() / 2],
                             ms_spread: ms[ms.len() - 1] - ms[0],
@@ -274,7 +286,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
 
     let csv = bench_csv(&cells);
-    let md = bench_md(&cells) + &adaptive_md(&cells);
+    let md = bench_md(&cells) + &adaptive_md(&cells) + &oracle_md(&cells);
     std::fs::write(args.out.join("bench.csv"), csv).context("writing bench.csv")?;
     std::fs::write(args.out.join("bench.md"), &md).context("writing bench.md")?;
     if let Err(e) = plots(&args.out, &cells) {
@@ -318,7 +330,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{}",
             c.scene,
             c.signal.name(),
             c.config.name(),
@@ -335,7 +347,13 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             fmt(c.moving_relmse, 7),
             c.rays_per_frame,
             c.ms_per_frame,
-            c.ms_spread
+            c.ms_spread,
+            c.detector_rays_per_frame / (c.size.0 * c.size.1) as f64,
+            fmt(c.fresh_relmse, 7),
+            fmt(moving_vs_oracle(cells, c), 4),
+            fmt(c.static_relmse, 7),
+            fmt(c.detection.map_or(f64::NAN, |d| d.miss_rate()), 4),
+            fmt(c.detection.map_or(f64::NAN, |d| d.false_positive_rate()), 5)
         );
         session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');
@@ -384,13 +402,7 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
         .iter()
         .filter(|c| matches!(c.config, Config::Vrrt | Config::VrrtSave))
     {
-        let Some(full) = cells.iter().find(|f| {
-            f.config == Config::VrrtNoskip
-                && f.scene == c.scene
-                && f.signal == c.signal
-                && f.budget == c.budget
-                && f.backend == c.backend
-        }) else {
+        let Some(full) = twin(cells, c, Config::VrrtNoskip) else {
             continue;
         };
         if s.is_empty() {
@@ -413,6 +425,77 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
             pct(c.moving_relmse, full.moving_relmse),
             pct(c.ms_per_frame, full.ms_per_frame),
             pct(c.rays_per_frame, full.rays_per_frame)
+        );
+    }
+    s
+}
+
+/// The cell of `config` rendering the same scene, signal, budget and backend as `c`.
+fn twin<'a>(cells: &'a [Cell], c: &Cell, config: Config) -> Option<&'a Cell> {
+    cells.iter().find(|f| {
+        f.config == config
+            && f.scene == c.scene
+            && f.signal == c.signal
+            && f.budget == c.budget
+            && f.backend == c.backend
+    })
+}
+
+/// `c`'s moving-region relMSE over the oracle's on the same frames (NaN without an oracle cell).
+fn moving_vs_oracle(cells: &[Cell], c: &Cell) -> f64 {
+    twin(cells, c, Config::VrrtOracle).map_or(f64::NAN, |o| c.moving_relmse / o.moving_relmse)
+}
+
+/// Dynamic events against the oracle: for every `vrrt` cell with a `vrrt-oracle` twin, the
+/// moving-region relMSE of `vrrt`, the oracle and `svgf-clamp` and their ratios, the whole
+/// sequence against `svgf`, the static region against `vrrt-nodetect`, the pixels without
+/// history and the detector's rays, misses and false positives. Empty when the matrix has no
+/// such pair.
+pub fn oracle_md(cells: &[Cell]) -> String {
+    let mut s = String::new();
+    for c in cells.iter().filter(|c| c.config == Config::Vrrt) {
+        let Some(oracle) = twin(cells, c, Config::VrrtOracle) else {
+            continue;
+        };
+        if s.is_empty() {
+            s.push_str(
+                "\nDynamic events against the oracle (`vrrt-oracle`: history dropped where the \
+                 reference changed):\n\n\
+                 | scene | signal | rpp | backend | moving: vrrt | oracle | svgf-clamp | vrrt / oracle | vrrt / svgf-clamp | oracle / svgf-clamp | relMSE vrrt / svgf | static vs no detector | fresh: vrrt | oracle | detector rays/px | missed | false positives |\n\
+                 |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+            );
+        }
+        let moving = |k| twin(cells, c, k).map_or(f64::NAN, |t| t.moving_relmse);
+        let clamp = moving(Config::SvgfClamp);
+        let svgf = twin(cells, c, Config::Svgf).map_or(f64::NAN, |t| t.relmse);
+        let px = (c.size.0 * c.size.1) as f64;
+        let still = twin(cells, c, Config::VrrtNodetect).map_or(f64::NAN, |t| {
+            100.0 * (c.static_relmse / t.static_relmse - 1.0)
+        });
+        let rate = |f: fn(&session::Detection) -> f64| {
+            c.detection
+                .map_or("n/a".to_string(), |d| format!("{:.2}%", 100.0 * f(&d)))
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:+.1}% | {} | {} | {:.4} | {} | {} |",
+            c.scene,
+            c.signal.name(),
+            c.budget,
+            c.backend,
+            fmt(c.moving_relmse, 5),
+            fmt(oracle.moving_relmse, 5),
+            fmt(clamp, 5),
+            fmt(c.moving_relmse / oracle.moving_relmse, 3),
+            fmt(c.moving_relmse / clamp, 3),
+            fmt(oracle.moving_relmse / clamp, 3),
+            fmt(c.relmse / svgf, 3),
+            still,
+            fmt(c.fresh_relmse, 5),
+            fmt(oracle.fresh_relmse, 5),
+            c.detector_rays_per_frame / px,
+            rate(session::Detection::miss_rate),
+            rate(session::Detection::false_positive_rate)
         );
     }
     s

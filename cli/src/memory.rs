@@ -111,6 +111,7 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
         camera,
         prev_camera,
         camera_cut: false,
+        changes: None,
     };
     frame.render(&mut exec, &scene, |_, _| Ok(()))?;
     exec.clear_timings();

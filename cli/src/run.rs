@@ -345,7 +345,7 @@ fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
 /// `relmse_<part>`), then per-pass milliseconds.
 pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&str]) -> String {
     let mut s = String::from(
-        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse",
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays",
     );
     let several = part_names.len() > 1;
     if several {
@@ -359,7 +359,7 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
     for r in records {
         let _ = write!(
             s,
-            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{}",
+            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{}",
             r.frame,
             r.rays_traced,
             r.budget,
@@ -378,6 +378,9 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
             fmt(r.flip, 5),
             fmt(r.temporal, 7),
             fmt(r.moving_relmse, 7),
+            fmt(r.fresh_relmse, 7),
+            r.fresh_pixels,
+            r.detector_rays,
         );
         if several {
             for k in 0..part_names.len() {

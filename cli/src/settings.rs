@@ -139,6 +139,9 @@ mod tests {
                 iterations: 0,
                 threshold: 0.123,
                 scale: 32.0,
+                detect_radius: 3,
+                detect_sigma: 2.5,
+                detect_min_variance: 3.0e-5,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -126,7 +126,8 @@ pub struct RateSettings {
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct GradientSettings {
     /// Stratum size in pixels, one re-traced sample per stratum and frame (0 = off, default;
-    /// 3..=8).
+    /// 1..=8: 3 and more re-trace a fraction of the rays; 1 also takes per-pixel changes the
+    /// host supplies, `FrameScene::changes`).
     pub stratum: u32,
     /// À-trous iterations of the gradient reconstruction at stratum resolution (0..=5; default 3).
     pub iterations: u32,
@@ -137,6 +138,16 @@ pub struct GradientSettings {
     /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
     /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
     pub scale: f32,
+    /// Change detector (`kernels::detect`, no extra rays): radius in pixels of the window over
+    /// which this frame's rays are tested against the history; 0 = off (0..=4; default 2, 5×5).
+    /// Its `λ` drops or shortens history as `threshold` says.
+    pub detect_radius: u32,
+    /// Significance, in standard deviations, from which a detected change counts fully (>= 1;
+    /// default 3).
+    pub detect_sigma: f32,
+    /// Per-ray variance the detector assumes at least (signal units squared, >= 0; default
+    /// 1e-4): a converged pixel's history may read 0.
+    pub detect_min_variance: f32,
 }
 
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,
@@ -219,6 +230,9 @@ impl Default for GradientSettings {
             iterations: 3,
             threshold: 0.5,
             scale: 1.0,
+            detect_radius: 2,
+            detect_sigma: 3.0,
+            detect_min_variance: 1e-4,
         }
     }
 }
@@ -304,6 +318,10 @@ impl Settings {
             filter: FilterSettings {
                 skip_sigma: 0.0,
                 ..self.filter
+            },
+            gradient: GradientSettings {
+                detect_radius: 0,
+                ..self.gradient
             },
             ..self
         }

@@ -121,6 +121,7 @@ impl GpuScene {
             camera: f.camera,
             prev_camera: f.prev_camera,
             camera_cut: f.camera_cut,
+            changes: None,
         }
     }
 
@@ -176,9 +177,11 @@ pub struct FrameOutput {
     pub requests: Vec<u32>,
     /// Overlays: history length (plane 0) after accumulation.
     pub history_accumulated: Vec<f32>,
-    /// Whether the temporal-gradient prepass ran this frame (false: off, reset, or skipped
-    /// because nothing moved).
+    /// Whether a temporal gradient (the prepass's, or the host's changes) was used this frame
+    /// (false: off, reset, or skipped because nothing moved).
     pub gradient_ran: bool,
+    /// History was reset this frame (the first frame, a camera cut): every pixel starts fresh.
+    pub reset: bool,
     /// Rays the gradient prepass re-traced (over all planes; 0 when it did not run).
     pub gradient_rays: u64,
     /// Gradient cells across and down (stratum resolution).
@@ -187,6 +190,9 @@ pub struct FrameOutput {
     pub gradient_raw: Vec<f32>,
     /// Overlays, when the prepass ran: reconstructed `λ` per cell and plane.
     pub gradient: Vec<f32>,
+    /// The change detector's `λ` per pixel and plane (plane-stacked), when kept
+    /// ([`Renderer::keep_changes`]) and the detector ran this frame; empty otherwise.
+    pub changes: Vec<f32>,
     /// The frame's signal has no source (shadows without a light): nothing was traced or
     /// denoised, `denoised` is all 1 (unshadowed), and the next frame with a source starts fresh.
     pub signal_absent: bool,
@@ -242,6 +248,12 @@ impl Renderer {
         self.frame.denoiser()
     }
 
+    /// Reads back the change detector's `λ` with every frame from now on
+    /// ([`FrameOutput::changes`]; 4 bytes per pixel and plane more on the device).
+    pub fn keep_changes<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        self.frame.keep_changes(exec).map(|_| ())
+    }
+
     /// Renders one frame and reads back its outputs.
     pub fn render<E: Executor>(
         &mut self,
@@ -249,15 +261,30 @@ impl Renderer {
         f: &FrameGeometry,
         readback: Readback,
     ) -> Result<FrameOutput, E::Error> {
+        self.render_with_changes(exec, f, readback, None)
+    }
+
+    /// [`Self::render`] with the host's knowledge of where the signal changed
+    /// ([`FrameScene::changes`]: one `GradientSample` per cell of the denoiser's
+    /// `gradient_size()` and plane), which replaces the temporal-gradient prepass.
+    pub fn render_with_changes<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        f: &FrameGeometry,
+        readback: Readback,
+        changes: Option<&[GradientSample]>,
+    ) -> Result<FrameOutput, E::Error> {
         let (w, h) = self.frame.denoiser().size();
         let planes = self.frame.layout().planes;
         self.gpu.upload(exec, f)?;
         let gpu = &self.gpu;
-        let report = self
-            .frame
-            .render(exec, &gpu.frame_scene(f), |exec, target| {
-                gpu.gbuffer(exec, f, w, h, target)
-            })?;
+        let scene = FrameScene {
+            changes,
+            ..gpu.frame_scene(f)
+        };
+        let report = self.frame.render(exec, &scene, |exec, target| {
+            gpu.gbuffer(exec, f, w, h, target)
+        })?;
         if report.absent {
             return Ok(FrameOutput {
                 denoised: vec![1.0; (w * h * planes) as usize],
@@ -271,7 +298,8 @@ impl Renderer {
         let mut gradient_rays = 0;
         let gradient_size = d.gradient_size();
         let mut gradient_overlays = (Vec::new(), Vec::new());
-        if report.gradient_ran {
+        // Supplied changes trace no rays (and leave the prepass's keys unwritten).
+        if report.gradient_ran && changes.is_none() {
             let cells = (gradient_size.0 * gradient_size.1) as usize;
             let keys: Vec<u32> = read(exec, d.gradient_keys(), cells)?;
             gradient_rays = keys.iter().filter(|&&k| k != EMPTY_KEY).count() as u64 * planes as u64;
@@ -285,6 +313,10 @@ impl Renderer {
             }
         }
         let n = (w * h * planes) as usize;
+        let detected = match d.changes() {
+            Some(b) => read(exec, b, n)?,
+            None => Vec::new(),
+        };
         let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
         let rays = d.read_rays(exec)?;
@@ -304,10 +336,12 @@ impl Renderer {
             decision: decision[0],
             flags,
             gradient_ran: report.gradient_ran,
+            reset: report.reset,
             gradient_rays,
             gradient_size,
             gradient_raw: gradient_overlays.0,
             gradient: gradient_overlays.1,
+            changes: detected,
             tiles: tiles.try_into().expect("histogram length"),
             ..FrameOutput::default()
         };

@@ -8,7 +8,9 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::kernels::{accumulate, atrous, buckets, classify, copy, fill, reproject, variance};
+use vrrt_core::kernels::{
+    accumulate, atrous, buckets, classify, copy, detect, fill, reproject, variance,
+};
 use vrrt_core::payload::{
     self, Filtered, PackedFiltered, PackedPayload, PackedSample, Payload, Sample,
 };
@@ -22,6 +24,7 @@ pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
 /// Every kernel's generator. Adding a kernel adds one line here.
 pub static TABLE: &[(&str, Generator)] = &[
     ("accumulate", accumulate_case),
+    ("detect", detect_case),
     ("atrous", atrous_case),
     ("classify", classify_case),
     ("count_buckets", buckets_case),
@@ -129,9 +132,9 @@ pub(crate) const SAMPLE: &[Word] = &[Word::U32, Word::U32];
 pub(crate) const FLOATS: &[Word] = &[Word::F32];
 pub(crate) const INTS: &[Word] = &[Word::U32];
 
-fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let n = (w * h * PLANES) as usize;
-    let history: Vec<PackedPayload> = (0..n)
+/// History with ordinary and extreme lengths (0, fractional, at and past the clamp).
+fn histories(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
+    (0..n)
         .map(|_| {
             Payload {
                 m1: value(rng),
@@ -141,15 +144,19 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             }
             .pack()
         })
-        .collect();
-    // Some samples are non-finite: the clean-up policy drops and counts them.
+        .collect()
+}
+
+/// This frame's samples, some non-finite (the clean-up policy drops and counts them) and some
+/// untraced.
+fn hostile_samples(rng: &mut Pcg32, n: usize) -> Vec<PackedSample> {
     let hostile = |rng: &mut Pcg32| match rng.random_range(0..40) {
         0 => f32::NAN,
         1 => f32::INFINITY,
         2 => f32::NEG_INFINITY,
         _ => value(rng),
     };
-    let samples: Vec<PackedSample> = (0..n)
+    (0..n)
         .map(|_| Sample {
             m1: hostile(rng),
             m2: hostile(rng),
@@ -157,6 +164,15 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             first: 0.0,
         })
         .map(|s| s.pack())
+        .collect()
+}
+
+fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let history = histories(rng, n);
+    let samples = hostile_samples(rng, n);
+    let changes: Vec<f32> = (0..n)
+        .map(|_| [0.0, 0.0, 0.25, 0.5, 0.75, 1.0][rng.random_range(0..6)])
         .collect();
     let storage = [quantize::STORAGE_F16, quantize::STORAGE_UNORM8][rng.random_range(0..2)];
     let params = accumulate::AccumulateParams {
@@ -172,20 +188,49 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         clamp_gamma: 1.0,
         firefly_max: if rng.random_bool(0.5) { 10.0 } else { 0.0 },
         storage,
+        use_changes: rng.random_range(0..2),
+        change_threshold: 0.5,
+        _pad: [0; 2],
     };
     Case {
         name: format!(
-            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage}",
-            params.clamp_radius
+            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {}",
+            params.clamp_radius, params.use_changes
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),
             BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&changes, FLOATS),
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ACCUMULATE, w, h, PLANES),
+    }
+}
+
+fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let history = histories(rng, n);
+    let samples = hostile_samples(rng, n);
+    let params = detect::DetectParams {
+        width: w,
+        height: h,
+        radius: rng.random_range(0..4),
+        z_full: [1.0, 3.0, 5.0][rng.random_range(0..3)],
+        min_variance: [0.0, 1e-4][rng.random_range(0..2)],
+        ..Default::default()
+    };
+    Case {
+        name: format!("detect {w}x{h}x{PLANES} radius {}", params.radius),
+        kernel: &vrrt_core::kernels::DETECT,
+        buffers: vec![
+            BufferSpec::from_pod(&history, PAYLOAD),
+            BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&vec![0.5f32; n], FLOATS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::DETECT, w, h, PLANES),
     }
 }
 

@@ -1,7 +1,8 @@
-//! Temporal gradients (A-SVGF prepass) on the built-in room with moving light and objects, CPU
-//! backend: the prepass runs when something moves and is skipped when nothing does, and with it
-//! VRRT (no variance clamping) tracks the changing shadows better than both VRRT without it and
-//! SVGF with variance clamping, while static regions stay at least as sharp.
+//! Reacting to change on the built-in room with moving light and objects, CPU backend: the A-SVGF
+//! prepass runs when something moves and is skipped when nothing does, and with either the
+//! prepass or the change detector (on by default) VRRT (no variance clamping) tracks the changing
+//! shadows better than both VRRT with neither and SVGF with variance clamping, while static
+//! regions stay as sharp.
 
 use vrrt_core::settings::{GradientSettings, Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
@@ -50,7 +51,7 @@ fn errors(settings: Settings, refs: &[Vec<f32>]) -> (f64, f64, u32) {
 }
 
 #[test]
-fn gradients_beat_variance_clamping_on_moving_shadows() {
+fn detection_beats_variance_clamping_on_moving_shadows() {
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
     let mut exec = CpuExecutor::new();
     let refs: Vec<Vec<f32>> = (FIRST - 1..=LAST)
@@ -69,16 +70,25 @@ fn gradients_beat_variance_clamping_on_moving_shadows() {
             .mean
         })
         .collect();
+    let neither = GradientSettings {
+        detect_radius: 0,
+        ..Default::default()
+    };
     let grad = Settings {
         gradient: GradientSettings {
             stratum: 4,
             scale: 32.0,
-            ..Default::default()
+            ..neither
         },
         ..Settings::default()
     };
     let (g_moving, g_still, ran) = errors(grad, &refs);
-    let (v_moving, v_still, _) = errors(Settings::default(), &refs);
+    let none = Settings {
+        gradient: neither,
+        ..Settings::default()
+    };
+    let (v_moving, v_still, _) = errors(none, &refs);
+    let (d_moving, d_still, _) = errors(Settings::default(), &refs);
     let svgf = Settings::svgf(1.0);
     let clamp = Settings {
         temporal: TemporalSettings {
@@ -88,8 +98,8 @@ fn gradients_beat_variance_clamping_on_moving_shadows() {
         ..svgf
     };
     let (c_moving, c_still, _) = errors(clamp, &refs);
-    println!("moving-region MSE: VRRT+gradients {g_moving:.5}, VRRT {v_moving:.5}, SVGF+clamp {c_moving:.5}");
-    println!("static-region MSE: VRRT+gradients {g_still:.6}, VRRT {v_still:.6}, SVGF+clamp {c_still:.6}");
+    println!("moving-region MSE: VRRT+prepass {g_moving:.5}, VRRT+detector {d_moving:.5}, VRRT {v_moving:.5}, SVGF+clamp {c_moving:.5}");
+    println!("static-region MSE: VRRT+prepass {g_still:.6}, VRRT+detector {d_still:.6}, VRRT {v_still:.6}, SVGF+clamp {c_still:.6}");
     assert_eq!(
         ran,
         LAST - FIRST + 1,
@@ -98,10 +108,13 @@ fn gradients_beat_variance_clamping_on_moving_shadows() {
     assert!(g_moving < 0.9 * c_moving, "{g_moving} vs clamp {c_moving}");
     assert!(g_moving < 0.75 * v_moving, "{g_moving} vs VRRT {v_moving}");
     assert!(g_still <= v_still, "{g_still} vs VRRT {v_still}");
+    assert!(d_moving < 0.9 * c_moving, "{d_moving} vs clamp {c_moving}");
+    assert!(d_moving < 0.75 * v_moving, "{d_moving} vs VRRT {v_moving}");
+    assert!(d_still <= 1.02 * v_still, "{d_still} vs VRRT {v_still}");
 }
 
 #[test]
-fn prepass_is_skipped_when_nothing_moves() {
+fn prepass_and_detector_are_skipped_when_nothing_moves() {
     let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
     let mut exec = CpuExecutor::new();
     let settings = Settings {
@@ -120,11 +133,16 @@ fn prepass_is_skipped_when_nothing_moves() {
         settings,
     )
     .unwrap();
+    r.keep_changes(&mut exec).unwrap();
     for i in 0..4 {
         let out = r
             .render(&mut exec, &scene.frame(i), Readback::default())
             .unwrap();
         assert!(!out.gradient_ran, "frame {i}");
+        assert!(
+            out.changes.is_empty(),
+            "the detector ran on still frame {i}"
+        );
         assert_eq!(out.gradient_rays, 0);
     }
 }

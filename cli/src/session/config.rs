@@ -24,11 +24,18 @@ pub enum Config {
     /// Full VRRT with nothing skipped: every tile runs every filter iteration and still pixels
     /// keep their rays (what the adaptive plan is measured against).
     VrrtNoskip,
+    /// Full VRRT told by an oracle where the converged reference changed since the previous
+    /// frame (per pixel and plane, beyond the references' own noise): history is dropped there
+    /// as a detected change would drop it, and supersampling follows. The best any change
+    /// detector can do with this denoiser: the yardstick of `moving_vs_oracle`.
+    VrrtOracle,
+    /// Full VRRT with the change detector off: what the detector is measured against.
+    VrrtNodetect,
 }
 
 impl Config {
     /// Every configuration, baselines first.
-    pub const ALL: [Config; 8] = [
+    pub const ALL: [Config; 10] = [
         Config::Raw,
         Config::Svgf,
         Config::SvgfClamp,
@@ -37,6 +44,8 @@ impl Config {
         Config::Vrrt,
         Config::VrrtSave,
         Config::VrrtNoskip,
+        Config::VrrtOracle,
+        Config::VrrtNodetect,
     ];
 
     /// The command-line name.
@@ -50,13 +59,15 @@ impl Config {
             Config::Vrrt => "vrrt",
             Config::VrrtSave => "vrrt-save",
             Config::VrrtNoskip => "vrrt-noskip",
+            Config::VrrtOracle => "vrrt-oracle",
+            Config::VrrtNodetect => "vrrt-nodetect",
         }
     }
 
     /// Denoiser settings for a budget of `rpp` rays per pixel and `signal`: this configuration's
     /// changes on top of `base` (`Settings::default()`, or a settings file), which they win over.
     /// Temporal gradients are off for signals with reflections, which the gradient prepass cannot
-    /// re-trace (`Renderer::new` refuses them).
+    /// re-trace (`Renderer::new` refuses them), except for the oracle, which re-traces nothing.
     pub fn settings(self, base: Settings, rpp: f32, signal: Signal) -> Settings {
         let mut s = base;
         s.rates.rays_per_pixel = rpp;
@@ -77,11 +88,26 @@ impl Config {
                 s.filter.skip_sigma = 0.0;
                 s.rates.still_sigma = 0.0;
             }
+            Config::VrrtNodetect => s.gradient.detect_radius = 0,
+            Config::VrrtOracle => {
+                // Changes come per pixel, used as given: no reconstruction blur, no gain.
+                s.gradient.stratum = 1;
+                s.gradient.iterations = 0;
+                s.gradient.threshold = 0.5;
+                s.gradient.scale = 1.0;
+                s.gradient.detect_radius = 0;
+                return s;
+            }
         }
         if signal.reflections().is_some() {
             s.gradient.stratum = 0;
         }
         s
+    }
+
+    /// True when the host supplies the changes from the references ([`Config::VrrtOracle`]).
+    pub fn is_oracle(self) -> bool {
+        self == Config::VrrtOracle
     }
 
     /// True when the reported image is the raw samples rather than the denoised output.

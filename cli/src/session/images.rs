@@ -1,6 +1,8 @@
 //! A frame's stacked planes as images, and the moving-region mask derived from the references:
 //! the per-frame inputs of the metrics.
 
+use super::FrameReference;
+use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::reproject::FLAG_DISOCCLUDED;
 use vrrt_scene::image::Image;
 
@@ -39,5 +41,59 @@ pub fn moving_mask(flags: &[u32], reference: &Image, previous: Option<&Image>) -
             });
             disoccluded || changed
         })
+        .collect()
+}
+
+/// Standard errors of the difference of two references that a pixel must move by before the
+/// oracle calls it a change: at 4σ the references' own noise flags about 1 static pixel in
+/// 16,000.
+pub const ORACLE_SIGMAS: f32 = 4.0;
+
+/// The oracle's changes for one part whose planes start at `first_plane`: `λ = 1` (history
+/// dropped) for each pixel and plane whose reference moved since the previous frame by more than
+/// [`ORACLE_SIGMAS`] standard errors of the difference, or by the [`moving_mask`] rule where the
+/// references' errors are unknown. Written into `out`, one `GradientSample` per pixel and plane
+/// (plane-stacked over every plane of the frame).
+pub fn oracle_changes(
+    now: &FrameReference,
+    before: &FrameReference,
+    first_plane: usize,
+    planes: usize,
+    out: &mut [GradientSample],
+) {
+    let (image, prev) = (&now.image, &before.image);
+    let pixels = image.width() * image.height();
+    let c = image.channels();
+    let sigma = |e: &Option<Image>, i: usize, k: usize| {
+        e.as_ref().map_or(f32::NAN, |e| {
+            let ch = if e.channels() == 1 { 0 } else { k };
+            e.data()[i * e.channels() + ch]
+        })
+    };
+    for k in 0..planes {
+        for i in 0..pixels {
+            let (a, b) = (image.data()[i * c + k], prev.data()[i * c + k]);
+            let (sa, sb) = (sigma(&now.stderr, i, k), sigma(&before.stderr, i, k));
+            let noise = (sa * sa + sb * sb).sqrt();
+            let changed = if noise.is_nan() {
+                (a - b).abs() > MOVING_THRESHOLD * b.abs().max(1.0)
+            } else {
+                (a - b).abs() > ORACLE_SIGMAS * noise
+            };
+            if changed {
+                out[(first_plane + k) * pixels + i] = GradientSample {
+                    delta: 1.0,
+                    luminance: 1.0,
+                };
+            }
+        }
+    }
+}
+
+/// Pixels without history: all of a reset frame, else the disoccluded ones.
+pub fn fresh_mask(flags: &[u32], reset: bool) -> Vec<bool> {
+    flags
+        .iter()
+        .map(|f| reset || f & FLAG_DISOCCLUDED != 0)
         .collect()
 }

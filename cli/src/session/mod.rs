@@ -15,9 +15,13 @@ mod setup;
 mod signal;
 
 pub use config::Config;
-pub use images::{moving_mask, planes_to_image, MOVING_THRESHOLD};
+pub use images::{
+    fresh_mask, moving_mask, oracle_changes, planes_to_image, MOVING_THRESHOLD, ORACLE_SIGMAS,
+};
 pub use parse::{parse_backend, parse_rpp, parse_size, MAX_DIMENSION};
-pub use record::{FrameRecord, FrameView, PartFrame, PartMetrics, SequenceResult, WARMUP_FRAMES};
+pub use record::{
+    Detection, FrameRecord, FrameView, PartFrame, PartMetrics, SequenceResult, WARMUP_FRAMES,
+};
 pub use references::{FrameReference, ReferenceRequest, References, REFERENCE_VERSION};
 pub use report::{fmt, mean, mean_finite, pass_columns, pass_header};
 pub use sequence::{run_sequence, SequenceOptions};

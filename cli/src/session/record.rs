@@ -2,6 +2,7 @@
 //! to the caller after each frame, and the whole-sequence results and their averages.
 
 use super::{mean, mean_finite, Part};
+use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_scene::image::Image;
 use vrrt_scene::metrics::{self, SequenceMetrics, SequenceSummary};
 use vrrt_scene::render::FrameOutput;
@@ -10,6 +11,56 @@ use vrrt_scene::render::FrameOutput;
 /// a kernel first runs (some first run on the second frame, e.g. the gradient prepass) and
 /// allocate on first use.
 pub const WARMUP_FRAMES: usize = 2;
+
+/// Pixel-planes of a frame where the change detector acted on history (`λ > 0`: shortened or
+/// dropped) against those where the oracle dropped it.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Detection {
+    /// Both.
+    pub hits: u64,
+    /// The oracle only.
+    pub misses: u64,
+    /// The detector only.
+    pub false_positives: u64,
+    /// Neither.
+    pub quiet: u64,
+}
+
+impl Detection {
+    /// Scores the detector's `λ` against the oracle's changes (same layout; `λ` 0 or 1).
+    pub fn score(lambda: &[f32], oracle: &[GradientSample]) -> Detection {
+        let mut d = Detection::default();
+        for (l, o) in lambda.iter().zip(oracle) {
+            match (*l > 0.0, o.lambda() > 0.5) {
+                (true, true) => d.hits += 1,
+                (false, true) => d.misses += 1,
+                (true, false) => d.false_positives += 1,
+                (false, false) => d.quiet += 1,
+            }
+        }
+        d
+    }
+
+    /// The sum of two scores.
+    pub fn plus(self, o: Detection) -> Detection {
+        Detection {
+            hits: self.hits + o.hits,
+            misses: self.misses + o.misses,
+            false_positives: self.false_positives + o.false_positives,
+            quiet: self.quiet + o.quiet,
+        }
+    }
+
+    /// Share of the oracle's changes the detector missed (NaN without any).
+    pub fn miss_rate(&self) -> f64 {
+        self.misses as f64 / (self.hits + self.misses) as f64
+    }
+
+    /// Share of the unchanged pixels the detector flagged (NaN without any).
+    pub fn false_positive_rate(&self) -> f64 {
+        self.false_positives as f64 / (self.false_positives + self.quiet) as f64
+    }
+}
 
 /// One frame's numbers (a row of `frames.csv`). With several parts, each metric is the mean over
 /// the parts (PSNR: of their mean MSE), so that a signal with many planes does not outweigh one.
@@ -41,6 +92,17 @@ pub struct FrameRecord {
     pub moving_relmse: f64,
     /// relMSE of the raw samples (the denoiser's input).
     pub raw_relmse: f64,
+    /// relMSE over the pixels without history: every pixel of a reset frame (the first, a camera
+    /// cut), else the disoccluded ones (NaN when there are none).
+    pub fresh_relmse: f64,
+    /// Pixels [`Self::fresh_relmse`] is over.
+    pub fresh_pixels: usize,
+    /// Rays the change detector traced (per plane; 0 when it did not run or re-traces nothing).
+    pub detector_rays: u64,
+    /// relMSE outside the moving mask (what a detector's false positives would cost).
+    pub static_relmse: f64,
+    /// The change detector's mask against the oracle's, when both were there.
+    pub detection: Option<Detection>,
     /// relMSE of each part, in the order of [`SequenceResult::parts`].
     pub part_relmse: Vec<f64>,
     /// Wall-clock milliseconds of the frame (render and read back).
@@ -153,6 +215,30 @@ impl SequenceResult {
     /// Mean over all frames of a per-frame value (NaN skipped).
     pub fn mean_of(&self, value: impl Fn(&FrameRecord) -> f64) -> f64 {
         mean_finite(self.records.iter().map(value))
+    }
+
+    /// The detector's scores summed over the frames that have one (`None`: never scored).
+    pub fn detection(&self) -> Option<Detection> {
+        self.records
+            .iter()
+            .filter_map(|r| r.detection)
+            .reduce(Detection::plus)
+    }
+
+    /// relMSE over every pixel without history in the sequence, pooled (each fresh pixel counts
+    /// once, so the first frame, the cut and a disoccluded sliver weigh by their pixels); NaN
+    /// when there are none.
+    pub fn fresh_relmse(&self) -> f64 {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for r in self.records.iter().filter(|r| !r.fresh_relmse.is_nan()) {
+            sum += r.fresh_relmse * r.fresh_pixels as f64;
+            n += r.fresh_pixels;
+        }
+        if n == 0 {
+            f64::NAN
+        } else {
+            sum / n as f64
+        }
     }
 
     /// The frames whose timings count: all after the first [`WARMUP_FRAMES`], or every frame of

@@ -15,12 +15,15 @@ use vrrt_scene::FrameGeometry;
 /// renderer's estimator changes so that stale references are not reused.
 pub const REFERENCE_VERSION: u32 = 1;
 
-/// A reference image and its mean standard error over pixels.
+/// A reference image and its standard error.
+#[derive(Clone)]
 pub struct FrameReference {
     /// The converged image, interleaved planes.
     pub image: Image,
     /// Mean over pixels and planes of the per-pixel standard error.
     pub mean_stderr: f64,
+    /// Per-pixel standard error (one channel, or as many as `image`), where known.
+    pub stderr: Option<Image>,
     /// True when it came from the cache.
     pub cached: bool,
 }
@@ -83,13 +86,14 @@ impl References {
         );
         let planes = signal.planes(f.lights.len());
         if let Some(hit) = self.cache.as_ref().and_then(|c| c.load(&key)) {
-            let mean_stderr = match &hit.stderr {
-                StdErr::Scalar(v) => *v,
-                StdErr::Image(img) => mean(img.data()),
+            let (mean_stderr, stderr) = match hit.stderr {
+                StdErr::Scalar(v) => (v, None),
+                StdErr::Image(img) => (mean(img.data()), Some(img)),
             };
             return Ok(FrameReference {
                 image: hit.image,
                 mean_stderr,
+                stderr,
                 cached: true,
             });
         }
@@ -119,13 +123,14 @@ impl References {
         let stderr = planes_to_image(&r.stderr, width, height, planes);
         let mean_stderr = mean(&r.stderr);
         if let Some(cache) = &self.cache {
-            if let Err(e) = cache.store(&key, image.view(), &StdErr::Image(stderr)) {
+            if let Err(e) = cache.store(&key, image.view(), &StdErr::Image(stderr.clone())) {
                 eprintln!("warning: reference not cached: {e}");
             }
         }
         Ok(FrameReference {
             image,
             mean_stderr,
+            stderr: Some(stderr),
             cached: false,
         })
     }

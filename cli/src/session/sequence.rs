@@ -2,16 +2,18 @@
 //! measures every part against its reference and collects the timings.
 
 use super::{
-    mean_finite, moving_mask, parts, planes_to_image, Config, FrameRecord, FrameView, LoadedScene,
-    PartFrame, PartMetrics, ReferenceRequest, References, SequenceResult,
+    fresh_mask, mean_finite, moving_mask, oracle_changes, parts, planes_to_image, Config,
+    Detection, FrameRecord, FrameReference, FrameView, LoadedScene, PartFrame, PartMetrics,
+    ReferenceRequest, References, SequenceResult,
 };
 use crate::backend::Backend;
 use anyhow::{anyhow, Context, Result};
 use std::collections::HashMap;
 use std::time::Instant;
+use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::plan::Executor;
 use vrrt_core::settings::Settings;
-use vrrt_scene::image::{Image, ImageRef};
+use vrrt_scene::image::ImageRef;
 use vrrt_scene::metrics::{self, SequenceMetrics};
 use vrrt_scene::render::{Readback, Renderer, Signal};
 
@@ -54,6 +56,13 @@ pub fn run_sequence(
     let settings = opts.config.settings(opts.base, opts.rpp, opts.signal);
     let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
         .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
+    // The detector's λ, to score it against the oracle's mask.
+    let score_detector = opts.measure && settings.gradient.detect_radius > 0;
+    if score_detector {
+        renderer
+            .keep_changes(exec)
+            .map_err(|e| anyhow!("keeping the detector's output: {e}"))?;
+    }
     let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
         .into_iter()
         .map(|part| PartMetrics {
@@ -64,12 +73,14 @@ pub fn run_sequence(
         .collect();
     let mut records = Vec::new();
     let mut pass_names: Vec<&'static str> = Vec::new();
-    let mut prev_references: Vec<Option<Image>> = vec![None; parts.len()];
+    let mut prev_references: Vec<Option<FrameReference>> = vec![None; parts.len()];
+    // The oracle reads the references even when a timing repeat measures nothing.
+    let with_references = opts.measure || opts.config.is_oracle();
     for i in 0..opts.frames {
         let f = sc.frame(i);
         let mut references = Vec::new();
         for p in &parts {
-            references.push(if opts.measure {
+            references.push(if with_references {
                 Some(refs.get(
                     exec,
                     ReferenceRequest {
@@ -84,15 +95,19 @@ pub fn run_sequence(
                 None
             });
         }
+        let oracle = (opts.config.is_oracle() || score_detector)
+            .then(|| oracle_frame(pixels, &parts, &references, &prev_references));
+        let changes = oracle.as_deref().filter(|_| opts.config.is_oracle());
         exec.clear_timings();
         let start = Instant::now();
         let out = renderer
-            .render(
+            .render_with_changes(
                 exec,
                 &f,
                 Readback {
                     overlays: opts.overlays,
                 },
+                changes,
             )
             .map_err(|e| anyhow!("rendering frame {i}: {e}"))?;
         let ms_frame = start.elapsed().as_secs_f64() * 1e3;
@@ -138,9 +153,19 @@ pub fn run_sequence(
             temporal: f64::NAN,
             moving_relmse: f64::NAN,
             raw_relmse: f64::NAN,
+            fresh_relmse: f64::NAN,
+            fresh_pixels: 0,
+            static_relmse: f64::NAN,
+            detection: None,
+            detector_rays: out.gradient_rays / renderer_planes(&parts) as u64,
             part_relmse: Vec::new(),
         };
+        let fresh = fresh_mask(&out.flags, out.reset);
+        if let (Some(o), false) = (&oracle, out.changes.is_empty()) {
+            record.detection = Some(Detection::score(&out.changes, o));
+        }
         let mut frames = Vec::new();
+        let mut references_kept = Vec::new();
         let mut measured: Vec<PartError> = Vec::new();
         for ((p, reference), prev) in parts.iter_mut().zip(references).zip(&prev_references) {
             let (first, planes) = p.part.planes;
@@ -152,8 +177,9 @@ pub fn run_sequence(
                 planes_to_image(&out.denoised[range], width, height, planes)
             };
             let mut moving = None;
+            let reference = reference.filter(|_| opts.measure);
             if let Some(r) = &reference {
-                let mask = moving_mask(&out.flags, &r.image, prev.as_ref());
+                let mask = moving_mask(&out.flags, &r.image, prev.as_ref().map(|p| &p.image));
                 let fm = p
                     .metrics
                     .push(test.view(), r.image.view(), Some(&mask))
@@ -161,6 +187,11 @@ pub fn run_sequence(
                 let rm = p
                     .raw_metrics
                     .push(raw.view(), r.image.view(), None)
+                    .context("metrics")?;
+                let fresh_error = metrics::masked_error(test.view(), r.image.view(), &fresh)
+                    .context("metrics")?;
+                let still: Vec<bool> = mask.iter().map(|m| !m).collect();
+                let static_error = metrics::masked_error(test.view(), r.image.view(), &still)
                     .context("metrics")?;
                 measured.push(PartError {
                     relmse: fm.metrics.rel_mse,
@@ -171,6 +202,8 @@ pub fn run_sequence(
                     temporal: fm.temporal.unwrap_or(f64::NAN),
                     moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
                     raw_relmse: rm.metrics.rel_mse,
+                    fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
+                    static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
                 });
                 moving = Some(mask);
             }
@@ -178,9 +211,10 @@ pub fn run_sequence(
                 part: p.part,
                 test,
                 raw,
-                reference: reference.map(|r| r.image),
+                reference: reference.as_ref().map(|r| r.image.clone()),
                 moving,
             });
+            references_kept.push(reference);
         }
         if !measured.is_empty() {
             let avg = |v: fn(&PartError) -> f64| mean_finite(measured.iter().map(v));
@@ -192,6 +226,9 @@ pub fn run_sequence(
             record.temporal = avg(|e| e.temporal);
             record.moving_relmse = avg(|e| e.moving_relmse);
             record.raw_relmse = avg(|e| e.raw_relmse);
+            record.fresh_relmse = mean_finite(measured.iter().filter_map(|e| e.fresh.map(|f| f.0)));
+            record.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
+            record.static_relmse = avg(|e| e.static_relmse);
             record.part_relmse = measured.iter().map(|e| e.relmse).collect();
         }
         on_frame(&FrameView {
@@ -200,7 +237,7 @@ pub fn run_sequence(
             parts: &frames,
         })?;
         records.push(record);
-        prev_references = frames.into_iter().map(|p| p.reference).collect();
+        prev_references = references_kept;
     }
     Ok(SequenceResult {
         records,
@@ -219,6 +256,35 @@ struct PartError {
     temporal: f64,
     moving_relmse: f64,
     raw_relmse: f64,
+    /// relMSE and pixel count over the fresh pixels, when there are any.
+    fresh: Option<(f64, usize)>,
+    /// relMSE outside the moving mask.
+    static_relmse: f64,
+}
+
+/// Planes of the frame: the parts' planes, back to back.
+fn renderer_planes(parts: &[PartMetrics]) -> u32 {
+    parts.iter().map(|p| p.part.planes.1).sum::<u32>().max(1)
+}
+
+/// The oracle's changes for this frame ([`oracle_changes`] per part), one cell per pixel and
+/// plane (`Config::VrrtOracle` sets stratum 1). Nothing changes where a reference or last
+/// frame's is missing (the first frame resets anyway).
+fn oracle_frame(
+    pixels: usize,
+    parts: &[PartMetrics],
+    references: &[Option<FrameReference>],
+    previous: &[Option<FrameReference>],
+) -> Vec<GradientSample> {
+    let planes = renderer_planes(parts) as usize;
+    let mut out = vec![GradientSample::default(); pixels * planes];
+    for ((p, now), before) in parts.iter().zip(references).zip(previous) {
+        if let (Some(now), Some(before)) = (now, before) {
+            let (first, count) = p.part.planes;
+            oracle_changes(now, before, first as usize, count as usize, &mut out);
+        }
+    }
+    out
 }
 
 fn flip(test: ImageRef<'_>, reference: ImageRef<'_>) -> f64 {

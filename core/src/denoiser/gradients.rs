@@ -122,4 +122,34 @@ impl Denoiser {
         self.gradient_ran = true;
         Ok(true)
     }
+
+    /// Uses `changes` (`GradientSample` per cell of [`Self::gradient_size`] and plane,
+    /// plane-stacked) as this frame's temporal gradient instead of the prepass: reprojection
+    /// shortens or drops history by its `λ` exactly as if the prepass had measured it. Skipped,
+    /// like the prepass, when gradients are off (`stratum` 0) and on reset frames. Returns whether
+    /// it was used.
+    ///
+    /// # Panics
+    /// If `changes` does not hold one sample per cell and plane (hosts check first; a short
+    /// buffer would leave last frame's `λ` in the rest).
+    pub fn supply_gradient<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        changes: &[gradient::GradientSample],
+    ) -> Result<bool, E::Error> {
+        self.gradient_ran = false;
+        if self.settings.gradient.stratum == 0 || self.frame.reset {
+            return Ok(false);
+        }
+        let (gw, gh) = self.gradient_size();
+        let expected = (gw * gh * self.settings.planes) as usize;
+        assert_eq!(
+            changes.len(),
+            expected,
+            "supplied gradient: one sample per cell and plane"
+        );
+        exec.write_buffer(self.gradient(), bytemuck::cast_slice(changes))?;
+        self.gradient_ran = true;
+        Ok(true)
+    }
 }

@@ -36,7 +36,7 @@ use crate::buffers::{self, TooLarge};
 use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
-    self, accumulate, apply, atrous, balance, buckets, classify, fill, reproject, variance,
+    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, reproject, variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -160,6 +160,8 @@ pub struct Denoiser {
     gradient: [BufferId; 2],
     gradient_out: usize,
     gradient_ran: bool,
+    kept_changes: Option<BufferId>,
+    detect_ran: bool,
     tiles: BufferId,
     tile_histogram: BufferId,
     importance: BufferId,
@@ -230,6 +232,8 @@ impl Denoiser {
             gradient: id("gradient"),
             gradient_out: 0,
             gradient_ran: false,
+            kept_changes: None,
+            detect_ran: false,
             tiles: id("tiles")[0],
             tile_histogram: id("tile_histogram")[0],
             importance: id("importance")[0],
@@ -430,6 +434,24 @@ impl Denoiser {
     /// landed): one re-traced ray per plane for every other cell.
     pub fn gradient_keys(&self) -> BufferId {
         self.gradient_keys
+    }
+
+    /// Keeps the change detector's `λ` (`f32` per pixel and plane, plane-stacked) in a buffer of
+    /// its own from now on, for the host to read after a frame ([`Self::changes`]): 4 bytes per
+    /// pixel and plane more. Without it `λ` lives in a filter buffer the filter overwrites.
+    pub fn keep_changes<E: Executor>(&mut self, exec: &mut E) -> Result<BufferId, E::Error> {
+        if let Some(b) = self.kept_changes {
+            return Ok(b);
+        }
+        let bytes = self.width as u64 * self.height as u64 * self.settings.planes as u64 * 4;
+        let b = exec.create_buffer(bytes)?;
+        self.kept_changes = Some(b);
+        Ok(b)
+    }
+
+    /// The buffer of [`Self::keep_changes`], when kept and the detector ran this frame.
+    pub fn changes(&self) -> Option<BufferId> {
+        self.kept_changes.filter(|_| self.detect_ran)
     }
 
     /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera

@@ -8,6 +8,27 @@ impl Denoiser {
     pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h, planes) = (self.width, self.height, s.planes);
+        // The detector's λ goes to a filter buffer: the filter writes them only after
+        // accumulation, and the work list aliased there is spent by raygen.
+        let changes = self.kept_changes.unwrap_or(self.filtered[0]);
+        let detect = s.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved;
+        self.detect_ran = detect;
+        if detect {
+            let p = detect::DetectParams {
+                width: w,
+                height: h,
+                radius: s.gradient.detect_radius,
+                z_full: s.gradient.detect_sigma,
+                min_variance: s.gradient.detect_min_variance,
+                ..Default::default()
+            };
+            let pass = kernels::DetectBindings {
+                history: self.history[self.cur],
+                samples: self.samples,
+                changes,
+            };
+            exec.dispatch(&pass.over_grid(&p, w, h, planes))?;
+        }
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,
@@ -22,10 +43,14 @@ impl Denoiser {
                 } else {
                     crate::quantize::STORAGE_NO_CORRECTION
                 },
+            use_changes: detect as u32,
+            change_threshold: s.gradient.threshold,
+            _pad: [0; 2],
         };
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],
             samples: self.samples,
+            changes,
             counters: self.counters,
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;

@@ -29,6 +29,7 @@ pub use signal::{PlaneLayout, Signal};
 use crate::camera::{Camera, View};
 use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
 use crate::kernels::gbuffer::InstanceData;
+use crate::kernels::gradient::GradientSample;
 use crate::kernels::raygen::AreaLight;
 use crate::plan::{BufferId, Executor};
 use crate::reflections::{ReflectionScene, Reflections};
@@ -56,6 +57,11 @@ pub struct FrameScene<'a> {
     pub prev_camera: Camera,
     /// The camera jumped: history is worthless.
     pub camera_cut: bool,
+    /// Where the host knows the signal changed since last frame, as a temporal gradient
+    /// (`GradientSample` per gradient cell and plane, plane-stacked; see
+    /// [`Denoiser::supply_gradient`]): an engine's moved instances and lights, or the bench's
+    /// oracle. When given it replaces the re-tracing prepass, on every signal.
+    pub changes: Option<&'a [GradientSample]>,
 }
 
 impl FrameScene<'_> {
@@ -148,7 +154,7 @@ impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
     /// plane count and the parallax plane of `settings` are set from the layout. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
-    /// must be 0.
+    /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
         exec: &mut E,
         width: u32,
@@ -162,11 +168,12 @@ impl Frame {
         settings.parallax_plane = layout
             .reflections
             .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
-        if layout.reflections.is_some() && settings.gradient.stratum != 0 {
+        if layout.reflections.is_some() && settings.gradient.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
                 field: "gradient.stratum",
                 value: settings.gradient.stratum as f32,
-                range: "0 with reflections (the prepass has no reflection re-trace)",
+                range: "0, or 1 for host-supplied changes, with reflections (the prepass has no \
+                        reflection re-trace)",
             }));
         }
         let denoiser = Denoiser::new(exec, width, height, settings)?;
@@ -194,6 +201,11 @@ impl Frame {
     /// The signal.
     pub fn signal(&self) -> Signal {
         self.signal
+    }
+
+    /// Keeps the change detector's `λ` for the host ([`Denoiser::keep_changes`]).
+    pub fn keep_changes<E: Executor>(&mut self, exec: &mut E) -> Result<BufferId, E::Error> {
+        self.denoiser.keep_changes(exec)
     }
 
     /// Where each signal lives among the planes.
@@ -285,12 +297,16 @@ impl Frame {
         Ok(info)
     }
 
-    /// The gradient stage: the A-SVGF prepass where the signal can be re-traced.
+    /// The gradient stage: the host's changes where it gave them, else the A-SVGF prepass where
+    /// the signal can be re-traced.
     fn gradients<E: Executor>(
         &mut self,
         exec: &mut E,
         scene: &FrameScene<'_>,
     ) -> Result<bool, E::Error> {
+        if let Some(changes) = scene.changes {
+            return self.denoiser.supply_gradient(exec, changes);
+        }
         let cur = (self.frames % 2) as usize;
         let geometry = [self.geometry[cur], self.geometry[1 - cur]];
         match scene.gradient_scene(self.signal, geometry) {
@@ -317,6 +333,7 @@ mod tests {
             camera,
             prev_camera: camera,
             camera_cut: false,
+            changes: None,
         }
     }
 

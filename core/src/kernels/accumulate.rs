@@ -6,7 +6,8 @@
 //! runs without it and relies on temporal gradients instead.
 //!
 //! Order per pixel and plane: input clean-up ([`payload::clean`], counted in the counters buffer),
-//! firefly clamp, optional variance clamp of the history, f32 merge, then storage at the history's
+//! firefly clamp, history shortened where [`super::detect`] found a change, optional variance
+//! clamp of the history, f32 merge, then storage at the history's
 //! precision with the stuck correction ([`payload::store`]).
 
 use super::plane_index;
@@ -38,6 +39,13 @@ pub struct AccumulateParams {
     /// Storage precision of the history moments (`quantize::STORAGE_*`, optionally with
     /// `quantize::STORAGE_NO_CORRECTION`); also sets the ceiling samples are clamped to.
     pub storage: u32,
+    /// Read `changes` ([`super::detect`]'s `λ`): history is shortened to `count · (1 − λ)`, and
+    /// dropped like a disocclusion above `change_threshold`; 0 leaves `changes` unread.
+    pub use_changes: u32,
+    /// `λ` above which history is dropped.
+    pub change_threshold: f32,
+    /// Padding.
+    pub _pad: [u32; 2],
 }
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
@@ -91,6 +99,7 @@ pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
     let AccumulateIo {
         history,
         samples,
+        changes,
         counters,
     } = io;
     if id.x >= p.width || id.y >= p.height {
@@ -107,10 +116,20 @@ pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
         curr.m1 = math::min(curr.m1, p.firefly_max);
         curr.m2 = math::min(curr.m2, p.firefly_max * p.firefly_max);
     }
+    let mut prev = history[i].unpack();
+    if p.use_changes != 0 {
+        let lambda = changes[i];
+        // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
+        prev.count = if lambda > p.change_threshold {
+            0.0
+        } else {
+            prev.count * (1.0 - lambda)
+        };
+    }
     let prev = if p.clamp_radius > 0 {
-        clamp_history(id, p, samples, history[i].unpack())
+        clamp_history(id, p, samples, prev)
     } else {
-        history[i].unpack()
+        prev
     };
     let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
     history[i] = payload::store(prev, curr, merged, p.storage).pack();

@@ -10,6 +10,7 @@ pub mod balance;
 pub mod buckets;
 pub mod classify;
 pub mod copy;
+pub mod detect;
 pub mod fill;
 pub mod gbuffer;
 pub mod gradient;

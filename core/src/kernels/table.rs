@@ -11,13 +11,23 @@ use super::names::*;
 
 crate::kernel_table! {
     /// [`accumulate::accumulate`]: temporal accumulation of the new samples into the reprojected
-    /// history, in place (each invocation reads and writes its own element); `counters` has
-    /// `payload::COUNTERS_LEN` words.
+    /// history, in place (each invocation reads and writes its own element); `changes` is
+    /// [`detect::detect`]'s `λ`; `counters` has `payload::COUNTERS_LEN` words.
     accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
         history: update PackedPayload,
         samples: read PackedSample,
+        changes: read f32,
         counters: atomic u32,
+    }
+
+    /// [`detect::detect`]: the change detector, between raygen and accumulation (it reads the
+    /// neighbours' history, which accumulation then overwrites in place).
+    detect => DETECT, DetectBindings, DetectIo: fn detect::detect,
+    threads(8, 8, 1), params detect::DetectParams {
+        history: read PackedPayload,
+        samples: read PackedSample,
+        changes: write f32,
     }
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.

@@ -26,7 +26,12 @@ fn svgf_is_the_default_with_rates_off() {
     assert!(!s.rates.load_balance && !s.rates.undersample);
     assert!(s.rates.spend_saved_rays);
     assert_eq!(s.filter.skip_sigma, 0.0);
-    assert_eq!((s.temporal, s.gradient), (d.temporal, d.gradient));
+    assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
+    let gradient = GradientSettings {
+        detect_radius: d.gradient.detect_radius,
+        ..s.gradient
+    };
+    assert_eq!((s.temporal, gradient), (d.temporal, d.gradient));
     assert_eq!(
         FilterSettings {
             skip_sigma: d.filter.skip_sigma,
@@ -111,7 +116,7 @@ fn out_of_range_names_stage_and_field() {
         (
             Settings {
                 gradient: GradientSettings {
-                    stratum: 2,
+                    stratum: 9,
                     ..d.gradient
                 },
                 ..d

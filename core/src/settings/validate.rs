@@ -142,10 +142,10 @@ impl GradientSettings {
     pub fn validate(&self) -> Result<(), SettingsError> {
         let finite = |v: f32| v.is_finite();
         check(
-            self.stratum == 0 || (3..=8).contains(&self.stratum),
+            self.stratum <= 8,
             "gradient.stratum",
             self.stratum as f32,
-            "0 or 3..=8",
+            "0..=8",
         )?;
         check(
             self.iterations <= 5,
@@ -163,6 +163,24 @@ impl GradientSettings {
             finite(self.scale) && self.scale >= 0.0,
             "gradient.scale",
             self.scale,
+            ">= 0",
+        )?;
+        check(
+            self.detect_radius <= 4,
+            "gradient.detect_radius",
+            self.detect_radius as f32,
+            "0..=4",
+        )?;
+        check(
+            finite(self.detect_sigma) && self.detect_sigma >= 1.0,
+            "gradient.detect_sigma",
+            self.detect_sigma,
+            ">= 1",
+        )?;
+        check(
+            finite(self.detect_min_variance) && self.detect_min_variance >= 0.0,
+            "gradient.detect_min_variance",
+            self.detect_min_variance,
             ">= 0",
         )
     }
