@@ -143,7 +143,8 @@ pub struct GradientSettings {
     /// Its `λ` drops or shortens history as `threshold` says.
     pub detect_radius: u32,
     /// Significance, in standard deviations, from which a detected change counts fully (>= 1;
-    /// default 3).
+    /// default 1.5: room at 1 rpp, moving-region relMSE of shadows 0.556 at 3, 0.490 at 2, 0.466
+    /// at 1.5, and the static regions better too).
     pub detect_sigma: f32,
     /// Per-ray variance the detector assumes at least (signal units squared, >= 0; default
     /// 1e-4): a converged pixel's history may read 0.
@@ -231,7 +232,7 @@ impl Default for GradientSettings {
             threshold: 0.5,
             scale: 1.0,
             detect_radius: 2,
-            detect_sigma: 3.0,
+            detect_sigma: 1.5,
             detect_min_variance: 1e-4,
         }
     }
