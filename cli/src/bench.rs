@@ -3,6 +3,7 @@
 
 use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
+use crate::page::Page;
 use crate::plot::{self, Curve};
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
@@ -54,8 +55,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
     /// Output directory. It holds only this bench's files: what an earlier bench wrote there
-    /// (`bench.csv`, `bench.md`, `relmse_vs_*.png`; with `--passes`, `passes.csv`) is removed
-    /// first, and nothing else in it is touched.
+    /// (`bench.csv`, `bench.md`, `relmse_vs_*.png`, `report.html` and `report/*.png`; with
+    /// `--passes`, `passes.csv`) is removed first, and nothing else in it is touched.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
     /// Per-pass report against the bandwidth floor instead of the matrix: renders one
@@ -70,6 +71,10 @@ pub struct BenchArgs {
     /// `parallax_plane` of the file are not used).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
+    /// Do not write the page `report.html` (with its images in `report/`): crops of what moves
+    /// in the frames after each event of the scene, every configuration side by side.
+    #[arg(long)]
+    pub no_page: bool,
     /// Limits on a mesh file given as the scene.
     #[command(flatten, next_help_heading = "Limits on a mesh file")]
     pub limits: LimitArgs,
@@ -181,6 +186,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .map(|s| load_scene(s, &limits))
         .collect::<Result<Vec<_>>>()?;
     outdir::prepare(&args.out, &BENCH_OUTPUTS)?;
+    let mut page = Page::new(&args.out, !args.no_page)?;
 
     match which("oidnDenoise") {
         Some(p) => println!(
@@ -230,9 +236,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         };
                         let mut ms = Vec::new();
                         let mut first = None;
+                        let mut shots = page.sequence(&exec, scene, &opts);
                         for _ in 0..repeats {
-                            let r =
-                                session::run_sequence(&mut exec, scene, &opts, &refs, |_| Ok(()))?;
+                            let r = session::run_sequence(&mut exec, scene, &opts, &refs, |v| {
+                                shots.frame(v)
+                            })?;
                             ms.push(r.mean_of(|f| f.ms_frame));
                             first.get_or_insert(r);
                             opts.measure = false;
@@ -292,6 +300,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if let Err(e) = plots(&args.out, &cells) {
         eprintln!("warning: plots not written: {e:#}");
     }
+    page.write()?;
     println!("{md}");
     println!(
         "{} cells in {:.1} s; results in {}",

@@ -7,6 +7,7 @@ pub mod info;
 pub mod limits;
 pub mod memory;
 pub mod outdir;
+pub mod page;
 pub mod passes;
 pub mod plot;
 pub mod progress;

@@ -8,6 +8,7 @@ pub mod animation;
 pub mod builtin;
 pub mod bvh;
 pub mod error;
+pub mod events;
 pub mod image;
 pub mod load;
 pub mod mesh;
@@ -18,5 +19,6 @@ pub mod scene;
 pub mod shapes;
 
 pub use error::SceneError;
+pub use events::{Event, EventKind};
 pub use mesh::Mesh;
 pub use scene::{FrameGeometry, Scene};
