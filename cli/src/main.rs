@@ -1,9 +1,9 @@
-//! The `vrrt` command: `run`, `reference`, `info` and `bench`. Every error is one line on
+//! The `vrrt` command: `run`, `reference`, `info`, `bench` and `fetch`. Every error is one line on
 //! stderr and exit code 2.
 
 use clap::Parser;
 use std::process::ExitCode;
-use vrrt_cli::{bench, info, reference, run, Cli, Command};
+use vrrt_cli::{bench, fetch, info, reference, run, Cli, Command};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -12,6 +12,7 @@ fn main() -> ExitCode {
         Command::Reference(a) => reference::run(a),
         Command::Info(a) => info::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Fetch(a) => fetch::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -56,6 +56,8 @@ fn bench_writes_csv() {
     let o = vrrt(
         &[
             "bench",
+            "--scenes",
+            "room",
             "--size",
             "24x16",
             "--frames",
@@ -154,6 +156,29 @@ fn bad_input_exits_2_with_a_message() {
     assert_usage_error(&["run", "--frames", "0"], "--frames");
 }
 
+#[test]
+fn mesh_scenes_without_their_meshes_name_vrrt_fetch() {
+    // The default bench (room, bunny, dragon) stops before rendering anything.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench");
+    for args in [
+        &["bench", "--out", out.to_str().unwrap()][..],
+        &["run", "--scene", "dragon"][..],
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_vrrt"))
+            .args(args)
+            .env("VRRT_REFERENCE_CACHE", dir.path().join("cache"))
+            .env("VRRT_MESH_CACHE", dir.path().join("meshes"))
+            .output()
+            .expect("run vrrt");
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("needs the Stanford"), "{err}");
+        assert!(err.contains("run `vrrt fetch` first"), "{err}");
+    }
+    assert!(!out.exists(), "nothing rendered or written");
+}
+
 /// The columns of `frames.csv` that do not depend on timing (frame … moving_relmse).
 fn deterministic_columns(csv: &str) -> Vec<String> {
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
@@ -235,6 +260,8 @@ fn run_and_bench_take_a_partial_settings_file() {
     let o = vrrt(
         &[
             "bench",
+            "--scenes",
+            "room",
             "--size",
             "24x16",
             "--frames",

@@ -345,6 +345,7 @@ fn check_size(i: usize, bytes: &[u8]) -> Result<Verdict, String> {
             Command::Info(a) => a.size,
             Command::Bench(a) => a.size.unwrap_or_default(),
             Command::Reference(a) => a.size,
+            Command::Fetch(_) => return Err(format!("`{form:?} {s}` parsed as `vrrt fetch`")),
         },
     };
     if Ok(size) != direct {
@@ -402,6 +403,7 @@ fn check_limit(i: usize, bytes: &[u8]) -> Result<Verdict, String> {
             Command::Bench(a) => a.limits.limits(),
             Command::Reference(a) => a.limits.limits(),
             Command::Info(_) => return Err("`info` has no limits".into()),
+            Command::Fetch(_) => return Err("`fetch` has no limits".into()),
         },
     };
     let got = match form[1] {

@@ -97,6 +97,7 @@ pub fn check_error(path: &Path, e: &SceneError) {
             e,
             SceneError::UnsupportedFormat { .. }
                 | SceneError::UnknownScene { .. }
+                | SceneError::MeshNotFetched { .. }
                 | SceneError::InvalidScene { .. }
         ),
         "an error no mesh file can give: {msg}"

@@ -1,11 +1,14 @@
-//! Built-in procedural scenes (embedded, no files), designed to break denoisers, and a registry
-//! to list and pick them by name.
+//! Built-in scenes, designed to break denoisers, and a registry to list and pick them by name:
+//! the procedural `room` (embedded, no files) and the scenes on meshes `vrrt fetch` downloads
+//! (`bunny`, `dragon`: [`crate::mesh_scenes`]).
 //!
 //! Y is up, units are metres, 30 fps.
 
 use crate::animation::{CameraKey, CameraPath, Light, Motion, RigidKey};
 use crate::error::SceneError;
 use crate::mesh::Mesh;
+use crate::mesh_cache::{self, CachedMesh};
+use crate::mesh_scenes::{self, on_floor};
 use crate::scene::Scene;
 use crate::shapes::{cuboid, cylinder, quad, uv_sphere};
 use vrrt_core::glam::{Affine3A, Quat, Vec3};
@@ -18,6 +21,8 @@ pub struct BuiltinInfo {
     pub name: &'static str,
     /// One-line description (for `--list`).
     pub description: &'static str,
+    /// The downloaded mesh it is built on (`vrrt fetch`), if any.
+    pub mesh: Option<CachedMesh>,
 }
 
 /// Every built-in scene.
@@ -27,16 +32,33 @@ pub const BUILTINS: &[BuiltinInfo] = &[
         description: "open-top room, 120 frames: box sliding along a wall (contact-shadow ghosting), \
                       sphere crossing in front of the camera (disocclusion), thin railing and poles, \
                       moving area light, camera cut at frame 60",
+        mesh: None,
     },
     BuiltinInfo {
         name: "room_static",
         description: "the room at frame 0 with nothing moving (camera, objects, light): convergence \
                       tests; still, so it runs any number of frames",
+        mesh: None,
+    },
+    BuiltinInfo {
+        name: "bunny",
+        description: mesh_scenes::BUNNY_DESCRIPTION,
+        mesh: Some(CachedMesh::Bunny),
+    },
+    BuiltinInfo {
+        name: "dragon",
+        description: mesh_scenes::DRAGON_DESCRIPTION,
+        mesh: Some(CachedMesh::Dragon),
     },
 ];
 
-/// The built-in scene called `name`.
+/// The built-in scene called `name`. A scene on a downloaded mesh loads it from the mesh cache
+/// ([`mesh_cache::load_default`]); [`SceneError::MeshNotFetched`] says to run `vrrt fetch`.
 pub fn builtin(name: &str) -> Result<Scene, SceneError> {
+    if let Some(which) = CachedMesh::for_scene(name) {
+        let mesh = mesh_cache::load_default(which)?;
+        return Ok(mesh_scenes::build(which, &mesh));
+    }
     match name {
         "room" => Ok(room(true)),
         "room_static" => Ok(room(false)),
@@ -242,14 +264,7 @@ fn room(animated: bool) -> Scene {
 pub fn showcase(name: &str, mesh: &Mesh) -> Scene {
     let mut s = Scene::new(name, "a loaded mesh on a floor in front of a wall");
     s.frame_count = 64;
-    let (lo, hi) = mesh.bounds();
-    let size = (hi - lo).max_element().max(1e-12);
-    let scale = 2.0 / size;
-    let centre = (lo + hi) * 0.5;
-    let place = Affine3A::from_translation(Vec3::new(0.0, (hi.y - lo.y) * 0.5 * scale, 0.0))
-        * Affine3A::from_scale(Vec3::splat(scale))
-        * Affine3A::from_translation(-centre);
-    s.add_object(name, mesh.clone(), Motion::Static(place), 1.0);
+    s.add_object(name, mesh.clone(), Motion::Static(on_floor(mesh, 2.0)), 1.0);
     let fixed = Motion::Static(Affine3A::IDENTITY);
     s.add_object(
         "floor",
@@ -277,9 +292,15 @@ mod tests {
 
     #[test]
     fn registry_builds_every_scene() {
+        // Scenes on downloaded meshes are built on a stand-in (no network in tests).
+        let stand_in = uv_sphere(Vec3::ZERO, 1.0, 24, 48);
         for b in BUILTINS {
-            let s = builtin(b.name).unwrap();
+            let s = match b.mesh {
+                Some(which) => mesh_scenes::build(which, &stand_in),
+                None => builtin(b.name).unwrap(),
+            };
             assert_eq!(s.name, b.name);
+            assert_eq!(s.description, b.description);
             let f = s.frame(0);
             assert!(f.geometry.triangles.len() > 1000);
             assert_eq!(f.lights.len(), 1);

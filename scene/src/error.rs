@@ -82,6 +82,16 @@ pub enum SceneError {
         /// The names that exist, comma-separated.
         known: String,
     },
+    /// A built-in scene's mesh is not in the mesh cache ([`crate::mesh_cache`]): `vrrt fetch`
+    /// downloads it.
+    MeshNotFetched {
+        /// The scene's name.
+        scene: String,
+        /// What the mesh is, e.g. "the Stanford bunny".
+        mesh: &'static str,
+        /// Where it was looked for; `None` when no cache directory is known.
+        path: Option<PathBuf>,
+    },
     /// A scene whose camera, animation or lights cannot give a defined image (NaN or infinite
     /// transforms, a camera looking at its own position, a field of view outside (0, π)).
     InvalidScene {
@@ -195,6 +205,26 @@ impl fmt::Display for SceneError {
             SceneError::UnknownScene { name, known } => {
                 write!(f, "no built-in scene named `{name}` (known: {known})")
             }
+            SceneError::MeshNotFetched {
+                scene,
+                mesh,
+                path: Some(path),
+            } => write!(
+                f,
+                "scene `{scene}` needs {mesh}, which is not in the mesh cache ({}): \
+                 run `vrrt fetch` first",
+                path.display()
+            ),
+            SceneError::MeshNotFetched {
+                scene,
+                mesh,
+                path: None,
+            } => write!(
+                f,
+                "scene `{scene}` needs {mesh}, but no mesh cache directory is known (set \
+                 {}, XDG_CACHE_HOME or HOME): set one, then run `vrrt fetch` first",
+                crate::mesh_cache::MeshCache::ENV_VAR
+            ),
             SceneError::InvalidScene { scene, message } => {
                 write!(f, "scene `{scene}`: {message}")
             }

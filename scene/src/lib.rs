@@ -12,6 +12,8 @@ pub mod events;
 pub mod image;
 pub mod load;
 pub mod mesh;
+pub mod mesh_cache;
+pub mod mesh_scenes;
 pub mod metrics;
 pub mod reference_cache;
 pub mod render;

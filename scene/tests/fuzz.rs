@@ -116,6 +116,7 @@ fn kind(e: &SceneError) -> &'static str {
         SceneError::AllDegenerate { .. } => "AllDegenerate",
         SceneError::UnsupportedFormat { .. } => "UnsupportedFormat",
         SceneError::UnknownScene { .. } => "UnknownScene",
+        SceneError::MeshNotFetched { .. } => "MeshNotFetched",
         SceneError::InvalidScene { .. } => "InvalidScene",
     }
 }
@@ -138,6 +139,7 @@ fn check_load(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Verdict,
             match e {
                 SceneError::UnsupportedFormat { .. }
                 | SceneError::UnknownScene { .. }
+                | SceneError::MeshNotFetched { .. }
                 | SceneError::InvalidScene { .. } => {
                     Err(format!("an error no mesh file can give: {msg}"))
                 }

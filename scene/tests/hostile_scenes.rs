@@ -36,8 +36,20 @@ fn refused(s: &Scene, needle: &str) {
 
 #[test]
 fn every_builtin_scene_is_valid() {
+    // Scenes on downloaded meshes are checked on a stand-in (and on the real mesh when
+    // `vrrt fetch` has cached it).
+    let stand_in = vrrt_scene::shapes::uv_sphere(Vec3::ZERO, 1.0, 12, 24);
     for b in BUILTINS {
-        builtin(b.name).unwrap().validate().unwrap();
+        match (builtin(b.name), b.mesh) {
+            (Ok(s), _) => s.validate().unwrap(),
+            (Err(e @ SceneError::MeshNotFetched { .. }), Some(_)) => println!("skipped: {e}"),
+            (Err(e), _) => panic!("{}: {e}", b.name),
+        }
+        if let Some(which) = b.mesh {
+            vrrt_scene::mesh_scenes::build(which, &stand_in)
+                .validate()
+                .unwrap();
+        }
     }
 }
 

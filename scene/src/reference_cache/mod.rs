@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use crate::image::{Image, ImageRef};
 use entry::{decode_entry, encode_entry, EncodeError};
 pub use key::{ReferenceKey, SceneHash, ESTIMATOR_VERSION};
-use store::write_atomically;
+pub(crate) use store::write_atomically;
 pub use store::ORPHAN_AGE;
 
 /// Monte Carlo standard error of a cached reference: its own noise level.
@@ -99,6 +99,20 @@ impl std::error::Error for CacheError {
     }
 }
 
+/// `$<env_var>` if set, else `$XDG_CACHE_HOME/vrrt/<leaf>`, else `$HOME/.cache/vrrt/<leaf>`;
+/// `None` if none of these variables is set (non-empty). Shared with the mesh cache, so every
+/// cache of ours lives in one place outside the clone.
+pub(crate) fn user_cache_dir(env_var: &str, leaf: &str) -> Option<PathBuf> {
+    let var = |name: &str| {
+        std::env::var_os(name)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    var(env_var)
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("vrrt").join(leaf)))
+        .or_else(|| var("HOME").map(|d| d.join(".cache").join("vrrt").join(leaf)))
+}
+
 /// A directory of cached references.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReferenceCache {
@@ -118,14 +132,7 @@ impl ReferenceCache {
     /// `$XDG_CACHE_HOME/vrrt/references`, else `$HOME/.cache/vrrt/references`; `None` if none of
     /// these variables is set (non-empty).
     pub fn default_dir() -> Option<PathBuf> {
-        let var = |name: &str| {
-            std::env::var_os(name)
-                .filter(|v| !v.is_empty())
-                .map(PathBuf::from)
-        };
-        var(Self::ENV_VAR)
-            .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("vrrt").join("references")))
-            .or_else(|| var("HOME").map(|d| d.join(".cache").join("vrrt").join("references")))
+        user_cache_dir(Self::ENV_VAR, "references")
     }
 
     /// A cache at [`default_dir`](Self::default_dir).

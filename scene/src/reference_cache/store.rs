@@ -33,7 +33,7 @@ pub const ORPHAN_AGE: Duration = Duration::from_secs(10 * 60);
 
 /// Writes `bytes` to `path` via a temporary file in the same directory (see the module docs),
 /// after removing orphaned temporary files there.
-pub(super) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), CacheError> {
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), CacheError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|source| CacheError::Io {
