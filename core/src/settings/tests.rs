@@ -106,6 +106,36 @@ fn out_of_range_names_stage_and_field() {
         (
             Settings {
                 rates: RateSettings {
+                    budget_ms: f32::NAN,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_ms",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    budget_floor: 0.0,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_floor",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    budget_ceiling: 0.2,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_ceiling",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
                     variance_threshold: [1e-2, 1e-3, 0.0, 0.0],
                     ..d.rates
                 },
