@@ -44,7 +44,7 @@ fn svgf_is_the_default_with_rates_off() {
 #[test]
 fn out_of_range_names_stage_and_field() {
     let d = Settings::default();
-    let cases: [(Settings, &str); 10] = [
+    let cases: [(Settings, &str); 13] = [
         (Settings { planes: 5, ..d }, "planes"),
         (
             Settings {
