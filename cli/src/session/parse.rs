@@ -48,7 +48,7 @@ pub fn parse_budget_ms(s: &str) -> Result<f32, String> {
         .trim()
         .parse()
         .map_err(|_| format!("`{s}` is not a number of milliseconds"))?;
-    if !(v >= 0.0 && v <= 1000.0) {
+    if !(0.0..=1000.0).contains(&v) {
         return Err(format!(
             "ray budget of {v} ms is out of range (0 = off, or 0 < ms <= 1000)"
         ));
