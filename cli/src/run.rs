@@ -5,9 +5,9 @@ use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
 use crate::progress::Progress;
 use crate::session::{
-    self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_rpp, parse_size,
-    plane_names, Config, FrameRecord, FrameView, References, SequenceOptions, SignalKind,
-    WARMUP_FRAMES,
+    self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_budget_ms, parse_rpp,
+    parse_size, plane_names, Config, FrameRecord, FrameView, References, SequenceOptions,
+    SignalKind, WARMUP_FRAMES,
 };
 use crate::{outdir, plot};
 use anyhow::{anyhow, bail, Context, Result};
@@ -40,6 +40,12 @@ pub struct RunArgs {
     /// `--settings`, 1 without). Wins over the settings file.
     #[arg(long, value_parser = parse_rpp)]
     pub rpp: Option<f32>,
+    /// Ray budget in milliseconds of ray tracing per frame (`rates.budget_ms`): each frame's
+    /// rays per pixel follow from the measured cost of the last frames, between
+    /// `rates.budget_floor` and `rates.budget_ceiling`, starting from `--rpp`. 0 = the fixed
+    /// `--rpp`. Wins over the settings file.
+    #[arg(long, value_name = "MS", value_parser = parse_budget_ms)]
+    pub budget_ms: Option<f32>,
     /// Denoiser settings file (TOML: `planes`, `parallax_plane`, and the tables `[temporal]`,
     /// `[rates]`, `[gradient]`, `[filter]`; fields left out keep their defaults, unknown fields
     /// are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
@@ -102,7 +108,10 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.every == 0 {
         bail!("--every must be at least 1");
     }
-    let base = load_settings(args.settings.as_deref())?;
+    let mut base = load_settings(args.settings.as_deref())?;
+    if let Some(ms) = args.budget_ms {
+        base.rates.budget_ms = ms;
+    }
     let rpp = args.rpp.unwrap_or(base.rates.rays_per_pixel);
     let scene = load_scene(&args.scene, &args.limits.limits())?;
     let frames = clamp_frames(args.frames, scene.scene.frames_available());
@@ -189,7 +198,15 @@ pub fn run(args: &RunArgs) -> Result<()> {
     row(
         &mut t,
         "denoiser / budget",
-        format!("{} at {rpp} rpp", args.denoiser.name()),
+        if opts.base.rates.budget_ms > 0.0 {
+            format!(
+                "{} at {} ms of ray tracing (from {rpp} rpp)",
+                args.denoiser.name(),
+                opts.base.rates.budget_ms
+            )
+        } else {
+            format!("{} at {rpp} rpp", args.denoiser.name())
+        },
     );
     let ao_radius = opts
         .signal
@@ -255,6 +272,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
         &mut t,
         "rays per frame",
         format!("{rays:.0} ({:.3} per pixel)", rays / pixels),
+    );
+    row(
+        &mut t,
+        "ray tracing",
+        tracing_summary(&rs.records, opts.base.rates.budget_ms),
     );
     let overshoot = rs
         .records
@@ -342,6 +364,31 @@ fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
     }
 }
 
+/// The tracing time per frame against the target of `--budget-ms` (0: none), and the budgets.
+fn tracing_summary(records: &[FrameRecord], target_ms: f32) -> String {
+    let traced: Vec<&FrameRecord> = records.iter().filter(|r| !r.signal_absent).collect();
+    let n = traced.len().max(1) as f64;
+    let mean = traced.iter().map(|r| r.trace_ms).sum::<f64>() / n;
+    let worst = traced.iter().map(|r| r.trace_ms).fold(0.0, f64::max);
+    let budget = traced.iter().map(|r| r.budget_rpp).sum::<f64>() / n;
+    let mut line = format!("{mean:.3} ms a frame (worst {worst:.3}), budget {budget:.3} rpp");
+    if target_ms > 0.0 {
+        let target = target_ms as f64;
+        let over = traced.iter().filter(|r| r.trace_ms > 1.1 * target).count();
+        let (lo, hi) = traced.iter().fold((f64::MAX, 0.0f64), |(lo, hi), r| {
+            (lo.min(r.budget_rpp), hi.max(r.budget_rpp))
+        });
+        let _ = write!(
+            line,
+            " ({lo:.3}..{hi:.3}); target {target} ms: mean {:+.1}%, worst {:+.1}%, {over} frames \
+             over +10%",
+            100.0 * (mean / target - 1.0),
+            100.0 * (worst / target - 1.0),
+        );
+    }
+    line
+}
+
 /// `frames.csv`: one row per frame (with several parts, their mean metrics and then each part's
 /// `relmse_<part>`), then per-pass milliseconds.
 pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&str]) -> String {
@@ -354,7 +401,7 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
             let _ = write!(s, ",relmse_{p}");
         }
     }
-    s.push_str(",ms_frame");
+    s.push_str(",ms_frame,budget_rpp,trace_ms");
     session::pass_header(&mut s, pass_names);
     s.push('\n');
     for r in records {
@@ -389,7 +436,11 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
                 let _ = write!(s, ",{}", fmt(v, 7));
             }
         }
-        let _ = write!(s, ",{:.3}", r.ms_frame);
+        let _ = write!(
+            s,
+            ",{:.3},{:.4},{:.4}",
+            r.ms_frame, r.budget_rpp, r.trace_ms
+        );
         session::pass_columns(&mut s, &r.passes, pass_names);
         s.push('\n');
     }

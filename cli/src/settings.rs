@@ -124,6 +124,9 @@ mod tests {
             },
             rates: RateSettings {
                 rays_per_pixel: 0.3,
+                budget_ms: 2.5,
+                budget_floor: 0.125,
+                budget_ceiling: 3.0,
                 supersample_target: 7.0,
                 load_balance: false,
                 spend_saved_rays: false,

@@ -34,7 +34,7 @@ fn run_writes_frames_csv() {
     let mut lines = csv.lines();
     let header = lines.next().unwrap();
     assert!(header.starts_with(
-        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays,ms_frame,ms_"
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays,ms_frame,budget_rpp,trace_ms,ms_"
     ));
     assert_eq!(lines.count(), 3);
     for f in [
@@ -47,6 +47,52 @@ fn run_writes_frames_csv() {
     }
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("relMSE, 2nd half"), "{stdout}");
+}
+
+#[test]
+fn run_with_a_budget_in_ms_writes_the_budget_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = vrrt(
+        &[
+            "run",
+            "--size",
+            "32x18",
+            "--frames",
+            "4",
+            "--spp",
+            "8",
+            "--budget-ms",
+            "0.5",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &dir.path().join("cache"),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let (rpp, ms) = (col("budget_rpp"), col("trace_ms"));
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 4);
+    // The first frame runs at `--rpp` (1); every budget stays within the floor and ceiling.
+    assert_eq!(rows[0][rpp], 1.0);
+    for r in &rows {
+        assert!((0.25..=4.0).contains(&r[rpp]), "{csv}");
+        assert!(r[ms] > 0.0, "{csv}");
+    }
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("target 0.5 ms"), "{stdout}");
+    assert_usage_error(&["run", "--budget-ms", "2000"], "out of range");
 }
 
 #[test]

@@ -25,6 +25,8 @@ extern crate std;
 pub mod atomic;
 pub mod blue_noise;
 #[cfg(not(target_arch = "spirv"))]
+pub mod budget;
+#[cfg(not(target_arch = "spirv"))]
 pub mod buffers;
 pub mod camera;
 pub mod declare;

@@ -76,8 +76,20 @@ pub struct TemporalSettings {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct RateSettings {
-    /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1).
+    /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1). With `budget_ms`
+    /// it is the first frame's budget only.
     pub rays_per_pixel: f32,
+    /// Ray budget in milliseconds of tracing per frame (the `raygen_*` passes): each frame's
+    /// rays per pixel follow from the cost of recent frames ([`MsBudget`](crate::budget::MsBudget));
+    /// 0 = off, the fixed `rays_per_pixel` (0 or 0 < t <= 1000; default 0).
+    pub budget_ms: f32,
+    /// Lowest budget `budget_ms` may set, rays per pixel: however slow the rays, the image keeps
+    /// this many (0 < r <= 16; default 0.25).
+    pub budget_floor: f32,
+    /// Highest budget `budget_ms` may set, rays per pixel (`budget_floor..=16`; default 4: past
+    /// 2 rays VRRT's error barely falls, and it caps what the first frames after a stretch of
+    /// cheap ones may cost).
+    pub budget_ceiling: f32,
     /// VRRT supersampling: pixels with less history than this many rays ask for the difference
     /// (up to 16 a frame); 0 turns VRRT off: every pixel traces `rays_per_pixel`, fractions by a
     /// blue-noise test, and `load_balance` is moot (rays; 0 or 1..=`temporal.max_history`;
@@ -211,6 +223,9 @@ impl Default for RateSettings {
     fn default() -> Self {
         RateSettings {
             rays_per_pixel: 1.0,
+            budget_ms: 0.0,
+            budget_floor: 0.25,
+            budget_ceiling: 4.0,
             supersample_target: 16.0,
             load_balance: true,
             spend_saved_rays: true,

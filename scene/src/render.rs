@@ -4,6 +4,7 @@
 
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
+use vrrt_core::budget::{self, MsBudget, TraceCost};
 use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameScene, GBuffer, RaygenTarget};
@@ -169,6 +170,12 @@ pub struct FrameOutput {
     pub rays: Vec<u32>,
     /// Rays traced in the frame, per plane.
     pub rays_traced: u64,
+    /// The ray budget the frame ran with, rays per pixel (`rates.rays_per_pixel`, or what the
+    /// budget in milliseconds decided).
+    pub rays_per_pixel: f32,
+    /// Milliseconds the ray-tracing passes took (`budget::trace_ms` of the executor's timings
+    /// for this frame; 0 when the executor reports none).
+    pub trace_ms: f64,
     /// The load balancer's decision.
     pub decision: Balance,
     /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
@@ -219,6 +226,8 @@ impl FrameOutput {
 pub struct Renderer {
     frame: Frame,
     gpu: GpuScene,
+    /// The budget in milliseconds (`rates.budget_ms`), fed after each frame.
+    budget: Option<MsBudget>,
 }
 
 impl Renderer {
@@ -232,10 +241,17 @@ impl Renderer {
         lights: usize,
         settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
+        let frame = Frame::new(exec, width, height, signal, lights, settings)?;
         Ok(Renderer {
-            frame: Frame::new(exec, width, height, signal, lights, settings)?,
+            budget: MsBudget::from_settings(&frame.denoiser().settings().rates),
+            frame,
             gpu: GpuScene::default(),
         })
+    }
+
+    /// The controller of the budget in milliseconds, when `rates.budget_ms` is set.
+    pub fn budget(&self) -> Option<&MsBudget> {
+        self.budget.as_ref()
     }
 
     /// The reflection effect, when the signal has reflections.
@@ -254,7 +270,9 @@ impl Renderer {
         self.frame.keep_changes(exec).map(|_| ())
     }
 
-    /// Renders one frame and reads back its outputs.
+    /// Renders one frame and reads back its outputs. With a budget in milliseconds, the
+    /// frame's tracing time (from the executor's timings, which this does not clear) sets the
+    /// next frame's budget.
     pub fn render<E: Executor>(
         &mut self,
         exec: &mut E,
@@ -276,6 +294,8 @@ impl Renderer {
     ) -> Result<FrameOutput, E::Error> {
         let (w, h) = self.frame.denoiser().size();
         let planes = self.frame.layout().planes;
+        let rays_per_pixel = self.frame.denoiser().settings().rates.rays_per_pixel;
+        let first_timing = exec.timings().len();
         self.gpu.upload(exec, f)?;
         let gpu = &self.gpu;
         let scene = FrameScene {
@@ -290,6 +310,7 @@ impl Renderer {
                 denoised: vec![1.0; (w * h * planes) as usize],
                 raw: vec![1.0; (w * h * planes) as usize],
                 rays: vec![0; (w * h) as usize],
+                rays_per_pixel,
                 signal_absent: true,
                 ..FrameOutput::default()
             });
@@ -325,13 +346,18 @@ impl Renderer {
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
         let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
+        // The readbacks waited for the frame, so its timings are in.
+        let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
+        let rays_traced = rays.iter().map(|&r| r as u64).sum();
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.unpack().value).collect(),
             raw: samples
                 .iter()
                 .map(|s| if s.rays > 0 { s.m1 } else { 0.0 })
                 .collect(),
-            rays_traced: rays.iter().map(|&r| r as u64).sum(),
+            rays_traced,
+            rays_per_pixel,
+            trace_ms,
             rays,
             decision: decision[0],
             flags,
@@ -350,6 +376,15 @@ impl Renderer {
             let history: Vec<PackedPayload> = read(exec, d.history(), pixels)?;
             out.requests = requests.iter().map(|&r| reproject::bucket_of(r)).collect();
             out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
+        }
+        if let Some(b) = &mut self.budget {
+            let next = b.update(TraceCost {
+                rays_per_pixel,
+                rays: rays_traced,
+                ms: trace_ms,
+            });
+            // Within `budget_floor..=budget_ceiling`, validated with the settings: accepted.
+            let _ = self.frame.set_rays_per_pixel(next);
         }
         Ok(out)
     }

@@ -41,3 +41,17 @@ pub fn parse_rpp(s: &str) -> Result<f32, String> {
 pub fn parse_backend(s: &str) -> Result<BackendKind, String> {
     s.parse()
 }
+
+/// Parses a ray budget in milliseconds of tracing per frame (0 = off; at most 1000).
+pub fn parse_budget_ms(s: &str) -> Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of milliseconds"))?;
+    if !(0.0..=1000.0).contains(&v) {
+        return Err(format!(
+            "ray budget of {v} ms is out of range (0 = off, or 0 < ms <= 1000)"
+        ));
+    }
+    Ok(v)
+}

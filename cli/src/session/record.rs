@@ -107,6 +107,10 @@ pub struct FrameRecord {
     pub part_relmse: Vec<f64>,
     /// Wall-clock milliseconds of the frame (render and read back).
     pub ms_frame: f64,
+    /// The ray budget the frame ran with, rays per pixel (fixed, or from `--budget-ms`).
+    pub budget_rpp: f64,
+    /// Milliseconds of the ray-tracing passes (`raygen_*`), what `--budget-ms` controls.
+    pub trace_ms: f64,
     /// Milliseconds per pass entry point, summed over dispatches of the frame.
     pub passes: Vec<(&'static str, f64)>,
     /// The temporal-gradient prepass ran.

@@ -144,6 +144,8 @@ pub fn run_sequence(
             requested: d.requested as f64,
             granted: d.granted as f64,
             ms_frame,
+            budget_rpp: out.rays_per_pixel as f64,
+            trace_ms: out.trace_ms,
             passes: order.iter().map(|&p| (p, per_pass[p])).collect(),
             relmse: f64::NAN,
             rmse: f64::NAN,

@@ -261,6 +261,20 @@ impl Denoiser {
         &self.settings
     }
 
+    /// Sets the ray budget from the next [`Self::plan_rays`] on (`rates.rays_per_pixel`; what a
+    /// [`MsBudget`](crate::budget::MsBudget) decides each frame). Every other setting is fixed
+    /// at creation; the budget may change any frame, as it only sets the balancer's target and
+    /// the base rate.
+    pub fn set_rays_per_pixel(&mut self, rays_per_pixel: f32) -> Result<(), SettingsError> {
+        let rates = crate::settings::RateSettings {
+            rays_per_pixel,
+            ..self.settings.rates
+        };
+        rates.validate()?;
+        self.settings.rates = rates;
+        Ok(())
+    }
+
     /// Image size.
     pub fn size(&self) -> (u32, u32) {
         (self.width, self.height)

@@ -223,6 +223,11 @@ impl Frame {
         self.reflections.as_ref()
     }
 
+    /// Sets the ray budget of the next frames ([`Denoiser::set_rays_per_pixel`]).
+    pub fn set_rays_per_pixel(&mut self, rays_per_pixel: f32) -> Result<(), SettingsError> {
+        self.denoiser.set_rays_per_pixel(rays_per_pixel)
+    }
+
     /// This frame's G-buffer: the denoiser's inputs and the renderer's geometry.
     pub fn gbuffer(&self) -> GBuffer {
         GBuffer::of(&self.denoiser, self.geometry[(self.frames % 2) as usize])

@@ -44,7 +44,7 @@ fn svgf_is_the_default_with_rates_off() {
 #[test]
 fn out_of_range_names_stage_and_field() {
     let d = Settings::default();
-    let cases: [(Settings, &str); 10] = [
+    let cases: [(Settings, &str); 13] = [
         (Settings { planes: 5, ..d }, "planes"),
         (
             Settings {
@@ -102,6 +102,36 @@ fn out_of_range_names_stage_and_field() {
                 ..d
             },
             "rates.rays_per_pixel",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    budget_ms: f32::NAN,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_ms",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    budget_floor: 0.0,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_floor",
+        ),
+        (
+            Settings {
+                rates: RateSettings {
+                    budget_ceiling: 0.2,
+                    ..d.rates
+                },
+                ..d
+            },
+            "rates.budget_ceiling",
         ),
         (
             Settings {

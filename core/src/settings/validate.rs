@@ -88,6 +88,26 @@ impl RateSettings {
             "0 < r <= 16",
         )?;
         check(
+            finite(self.budget_ms) && self.budget_ms >= 0.0 && self.budget_ms <= 1000.0,
+            "rates.budget_ms",
+            self.budget_ms,
+            "0 (off) or 0 < t <= 1000",
+        )?;
+        check(
+            finite(self.budget_floor) && self.budget_floor > 0.0 && self.budget_floor <= 16.0,
+            "rates.budget_floor",
+            self.budget_floor,
+            "0 < r <= 16",
+        )?;
+        check(
+            finite(self.budget_ceiling)
+                && self.budget_ceiling >= self.budget_floor
+                && self.budget_ceiling <= 16.0,
+            "rates.budget_ceiling",
+            self.budget_ceiling,
+            "rates.budget_floor..=16",
+        )?;
+        check(
             finite(self.supersample_target)
                 && (self.supersample_target == 0.0
                     || (self.supersample_target >= 1.0 && self.supersample_target <= MAX_HISTORY)),
