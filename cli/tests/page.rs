@@ -18,6 +18,8 @@ fn vrrt(args: &[&str], cache: &Path) -> Output {
 fn bench(out: &Path, cache: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "bench",
+        "--scenes",
+        "room",
         "--size",
         "24x16",
         "--frames",
