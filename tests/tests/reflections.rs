@@ -269,28 +269,21 @@ fn parallax_reprojection_follows_the_reflection() {
 /// asks for comes out of the others' rays, and alone a signal gains more from it (frame 40 with
 /// it on: AO 0.00449 shared vs 0.00284 alone, shadows 0.162 vs 0.086). That is the coupled rates'
 /// cost, not the sharing this test is about.
-fn shared_frame_settings() -> Settings {
-    Settings {
+fn shared_frame_renderer(exec: &mut CpuExecutor, signal: Signal) -> Renderer {
+    let settings = Settings {
         gradient: GradientSettings {
             detect_radius: 0,
             ..Default::default()
         },
         ..Settings::default()
-    }
+    };
+    Renderer::new(exec, SIZE.0, SIZE.1, signal, 1, settings).unwrap()
 }
 
 /// Denoised output of frame `last` of `signal` on the room.
 fn last_frame(scene: &Scene, signal: Signal, last: u32) -> Vec<f32> {
     let mut exec = CpuExecutor::new();
-    let mut r = Renderer::new(
-        &mut exec,
-        SIZE.0,
-        SIZE.1,
-        signal,
-        1,
-        shared_frame_settings(),
-    )
-    .unwrap();
+    let mut r = shared_frame_renderer(&mut exec, signal);
     let mut out = Vec::new();
     for i in 0..=last {
         out = r
@@ -314,15 +307,7 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     let last = 40;
     let refs = references(&scene, &[last], signal, 256);
     let mut exec = CpuExecutor::new();
-    let mut r = Renderer::new(
-        &mut exec,
-        SIZE.0,
-        SIZE.1,
-        signal,
-        1,
-        shared_frame_settings(),
-    )
-    .unwrap();
+    let mut r = shared_frame_renderer(&mut exec, signal);
     let pixels = (SIZE.0 * SIZE.1) as usize;
     let (tw, th) = reflect::tile_grid(SIZE.0, SIZE.1);
     let mut all = Vec::new();
