@@ -56,6 +56,8 @@ pub fn run_sequence(
     let settings = opts.config.settings(opts.base, opts.rpp, opts.signal);
     let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
         .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
+    // The frame's planes, all signals' (the renderer sets them from the signal's layout).
+    let frame_planes = renderer.denoiser().settings().planes as usize;
     // The detector's λ, to score it against the oracle's mask.
     let score_detector = opts.measure && settings.gradient.detect_radius > 0;
     if score_detector {
@@ -96,7 +98,7 @@ pub fn run_sequence(
             });
         }
         let oracle = (opts.config.is_oracle() || score_detector)
-            .then(|| oracle_frame(pixels, &parts, &references, &prev_references));
+            .then(|| oracle_frame(pixels * frame_planes, &parts, &references, &prev_references));
         let changes = oracle.as_deref().filter(|_| opts.config.is_oracle());
         exec.clear_timings();
         let start = Instant::now();
@@ -159,7 +161,7 @@ pub fn run_sequence(
             fresh_pixels: 0,
             static_relmse: f64::NAN,
             detection: None,
-            detector_rays: out.gradient_rays / renderer_planes(&parts) as u64,
+            detector_rays: out.gradient_rays / frame_planes as u64,
             part_relmse: Vec::new(),
         };
         let fresh = fresh_mask(&out.flags, out.reset);
@@ -179,8 +181,9 @@ pub fn run_sequence(
                 planes_to_image(&out.denoised[range], width, height, planes)
             };
             let mut moving = None;
-            let reference = reference.filter(|_| opts.measure);
-            if let Some(r) = &reference {
+            // Kept for the oracle's next frame even when this repeat measures nothing.
+            let measured_reference = reference.as_ref().filter(|_| opts.measure);
+            if let Some(r) = measured_reference {
                 let mask = moving_mask(&out.flags, &r.image, prev.as_ref().map(|p| &p.image));
                 let fm = p
                     .metrics
@@ -213,7 +216,7 @@ pub fn run_sequence(
                 part: p.part,
                 test,
                 raw,
-                reference: reference.as_ref().map(|r| r.image.clone()),
+                reference: measured_reference.map(|r| r.image.clone()),
                 moving,
             });
             references_kept.push(reference);
@@ -264,22 +267,16 @@ struct PartError {
     static_relmse: f64,
 }
 
-/// Planes of the frame: the parts' planes, back to back.
-fn renderer_planes(parts: &[PartMetrics]) -> u32 {
-    parts.iter().map(|p| p.part.planes.1).sum::<u32>().max(1)
-}
-
 /// The oracle's changes for this frame ([`oracle_changes`] per part), one cell per pixel and
 /// plane (`Config::VrrtOracle` sets stratum 1). Nothing changes where a reference or last
 /// frame's is missing (the first frame resets anyway).
 fn oracle_frame(
-    pixels: usize,
+    cells: usize,
     parts: &[PartMetrics],
     references: &[Option<FrameReference>],
     previous: &[Option<FrameReference>],
 ) -> Vec<GradientSample> {
-    let planes = renderer_planes(parts) as usize;
-    let mut out = vec![GradientSample::default(); pixels * planes];
+    let mut out = vec![GradientSample::default(); cells];
     for ((p, now), before) in parts.iter().zip(references).zip(previous) {
         if let (Some(now), Some(before)) = (now, before) {
             let (first, count) = p.part.planes;

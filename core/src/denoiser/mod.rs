@@ -161,7 +161,6 @@ pub struct Denoiser {
     gradient_out: usize,
     gradient_ran: bool,
     kept_changes: Option<BufferId>,
-    detect_ran: bool,
     tiles: BufferId,
     tile_histogram: BufferId,
     importance: BufferId,
@@ -233,7 +232,6 @@ impl Denoiser {
             gradient_out: 0,
             gradient_ran: false,
             kept_changes: None,
-            detect_ran: false,
             tiles: id("tiles")[0],
             tile_histogram: id("tile_histogram")[0],
             importance: id("importance")[0],
@@ -465,7 +463,13 @@ impl Denoiser {
 
     /// The buffer of [`Self::keep_changes`], when kept and the detector ran this frame.
     pub fn changes(&self) -> Option<BufferId> {
-        self.kept_changes.filter(|_| self.detect_ran)
+        self.kept_changes.filter(|_| self.detects())
+    }
+
+    /// Whether this frame runs the change detector: on, and the frame neither resets history nor
+    /// stands still.
+    pub(super) fn detects(&self) -> bool {
+        self.settings.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved
     }
 
     /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera

@@ -11,8 +11,7 @@ impl Denoiser {
         // The detector's λ goes to a filter buffer: the filter writes them only after
         // accumulation, and the work list aliased there is spent by raygen.
         let changes = self.kept_changes.unwrap_or(self.filtered[0]);
-        let detect = s.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved;
-        self.detect_ran = detect;
+        let detect = self.detects();
         if detect {
             let p = detect::DetectParams {
                 width: w,
