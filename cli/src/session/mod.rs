@@ -15,7 +15,9 @@ mod setup;
 mod signal;
 
 pub use config::Config;
-pub use images::{fresh_mask, moving_mask, oracle_changes, planes_to_image, MOVING_THRESHOLD};
+pub use images::{
+    fresh_mask, moving_mask, oracle_changes, planes_to_image, MOVING_THRESHOLD, ORACLE_SIGMAS,
+};
 pub use parse::{parse_backend, parse_budget_ms, parse_rpp, parse_size, MAX_DIMENSION};
 pub use record::{
     Detection, FrameRecord, FrameView, PartFrame, PartMetrics, SequenceResult, WARMUP_FRAMES,
