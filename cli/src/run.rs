@@ -467,7 +467,7 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
             }
         })
         .collect();
-    let granted: Vec<f32> = o.rays.iter().map(|&r| r as f32).collect();
+    let granted: Vec<f32> = o.rays.clone();
     let max_rays = requested
         .iter()
         .chain(&granted)

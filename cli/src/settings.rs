@@ -111,6 +111,7 @@ mod tests {
         let s = Settings {
             planes: 3,
             parallax_plane: Some(2),
+            plane_groups: 0x110,
             temporal: TemporalSettings {
                 max_history: 1000.5,
                 normal_threshold: -0.3,
@@ -136,6 +137,8 @@ mod tests {
                 variance_rate: [1.0 / 64.0, 0.7, 16.0, 1.0 / 3.0],
                 still_sigma: 0.0,
                 vrs_mask: true,
+                per_signal: false,
+                signal_floor: 0.6,
             },
             gradient: GradientSettings {
                 stratum: 5,

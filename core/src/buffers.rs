@@ -45,6 +45,7 @@ pub fn denoiser_buffers(
 ) -> [BufferSize; DENOISER_BUFFERS] {
     let pixels = width as u64 * height as u64;
     let planes = pixels * settings.planes as u64;
+    let groups = settings.groups() as u64;
     let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
     let cells = gw as u64 * gh as u64;
     let gradient = cells * settings.planes as u64 * size_of::<GradientSample>() as u64;
@@ -93,15 +94,20 @@ pub fn denoiser_buffers(
             bytes(if settings.rates.vrs_mask { pixels } else { 1 }, 4),
             "VrsMask",
         ),
-        size("requests", 1, bytes(pixels, 4), "Request"),
-        size("counts", 1, bytes(buckets::COUNTS_LEN as u64, 4), "u32"),
+        size("requests", 1, bytes(pixels * groups, 4), "Request"),
+        size(
+            "counts",
+            1,
+            bytes(groups * buckets::COUNTS_LEN as u64, 4),
+            "u32",
+        ),
         size(
             "decision",
             1,
-            bytes(1, size_of::<balance::Balance>()),
+            bytes(groups, size_of::<balance::Balance>()),
             "Balance",
         ),
-        size("args", 1, bytes(apply::ARGS_LEN as u64, 4), "u32"),
+        size("args", 1, bytes(groups * apply::ARGS_LEN as u64, 4), "u32"),
         size("gradient_keys", 1, bytes(cells, 4), "GradientKey"),
         size("gradient_raw", 1, gradient, "GradientSample"),
         size("gradient", 2, gradient, "GradientSample"),

@@ -298,7 +298,8 @@ impl Reflections {
             plane: self.plane,
             lights: scene.light_count,
             frame: target.frame,
-            _pad: [0; 3],
+            list: target.list(self.plane),
+            _pad: [0; 2],
             shading: self.shading(scene),
         };
         let pass = kernels::RaygenReflectBindings {
@@ -315,7 +316,7 @@ impl Reflections {
             out: target.out,
             hits: self.hits,
         };
-        exec.dispatch(&pass.pass(&p, target.groups()))
+        exec.dispatch(&pass.pass(&p, target.groups(p.list)))
     }
 
     /// After the reflection rays of [`Self::raygen`] over the denoiser's work list: ray reuse

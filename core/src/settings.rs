@@ -27,6 +27,13 @@ pub struct Settings {
     /// the caller runs into `Denoiser::parallax` before `Denoiser::plan_rays`) instead of the
     /// surface motion (0..planes); `None` (default) for none.
     pub parallax_plane: Option<u32>,
+    /// Which group each plane belongs to, 4 bits per plane from plane 0 up
+    /// (`kernels::plane_group`; groups number 0, 1, … in plane order). Each group (a signal: AO,
+    /// the shadows of every light, reflections) has its own ray requests, decision and work list
+    /// under one shared budget ([`RateSettings::signal_floor`]). 0 (default): one group, every
+    /// plane traced together. `Frame` sets it from the signal's layout when
+    /// [`RateSettings::per_signal`].
+    pub plane_groups: u32,
     /// Reprojection and accumulation of history.
     pub temporal: TemporalSettings,
     /// Ray rates: the budget, VRRT's supersampling, undersampling and load balancing.
@@ -129,6 +136,14 @@ pub struct RateSettings {
     /// `u32` per pixel, 0 = needs no ray) and pixels it rules out ask for none (default off: no
     /// mask is kept, 4 bytes per pixel saved).
     pub vrs_mask: bool,
+    /// A frame with several signals (`Signal::All`) gives each its own ray requests and work list
+    /// ([`Settings::plane_groups`]) instead of one request per pixel that traces every signal
+    /// (default on).
+    pub per_signal: bool,
+    /// Least share of the budget a signal keeps when the balancer shares it by the signals'
+    /// measured errors (`kernels::balance::group_rates`), as a fraction of its equal share; 1
+    /// gives every signal `rays_per_pixel` (0..=1; default 0.25).
+    pub signal_floor: f32,
 }
 
 /// Temporal gradients (A-SVGF, `kernels::gradient`): one re-traced sample per stratum tells where
@@ -195,6 +210,7 @@ impl Default for Settings {
         Settings {
             planes: 1,
             parallax_plane: None,
+            plane_groups: 0,
             temporal: TemporalSettings::default(),
             rates: RateSettings::default(),
             gradient: GradientSettings::default(),
@@ -235,6 +251,8 @@ impl Default for RateSettings {
             variance_rate: [0.125, 0.25, 0.5, 1.0],
             still_sigma: 0.045,
             vrs_mask: false,
+            per_signal: true,
+            signal_floor: 0.25,
         }
     }
 }
@@ -353,6 +371,12 @@ impl Settings {
             self.planes as f32,
             "1..=4",
         )?;
+        check(
+            groups_in_order(self.plane_groups, self.planes),
+            "plane_groups",
+            self.plane_groups as f32,
+            "4 bits per plane: groups 0, 1, … in plane order, at most 4, none past the planes",
+        )?;
         if let Some(z) = self.parallax_plane {
             check(
                 z < self.planes,
@@ -379,6 +403,37 @@ impl Settings {
             "1..=temporal.max_history",
         )
     }
+}
+
+impl Settings {
+    /// Plane groups ([`Settings::plane_groups`]): each has its own requests and work list.
+    pub fn groups(&self) -> u32 {
+        crate::kernels::plane_group(self.plane_groups, self.planes.max(1) - 1) + 1
+    }
+}
+
+/// Whether `groups` numbers the `planes` planes 0, 1, … in order (each plane in its
+/// predecessor's group or the next), with at most `balance::MAX_GROUPS` groups and no bits past
+/// the last plane.
+fn groups_in_order(groups: u32, planes: u32) -> bool {
+    use crate::kernels::{balance::MAX_GROUPS, plane_group, MAX_GROUPED_PLANES};
+    if planes == 0 || planes > MAX_GROUPED_PLANES {
+        return groups == 0;
+    }
+    let mut prev = 0;
+    for z in 0..planes {
+        let g = plane_group(groups, z);
+        if g != prev && !(z > 0 && g == prev + 1) {
+            return false;
+        }
+        prev = g;
+    }
+    let unused = if planes == MAX_GROUPED_PLANES {
+        0
+    } else {
+        groups >> (4 * planes)
+    };
+    prev < MAX_GROUPS && unused == 0
 }
 
 #[cfg(all(test, feature = "std"))]

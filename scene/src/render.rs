@@ -13,7 +13,7 @@ use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{self, classify, reproject};
+use vrrt_core::kernels::{self, classify, plane_group, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
@@ -166,9 +166,11 @@ pub struct FrameOutput {
     pub denoised: Vec<f32>,
     /// This frame's raw samples (mean of the rays traced; 0 where none).
     pub raw: Vec<f32>,
-    /// Rays traced per pixel (all planes trace the same count).
-    pub rays: Vec<u32>,
-    /// Rays traced in the frame, per plane.
+    /// Rays traced per pixel and plane, averaged over the planes (with per-signal rates each
+    /// signal traces its own count).
+    pub rays: Vec<f32>,
+    /// Rays traced in the frame, per plane (the sum of `rays`, rounded): one ray of every plane
+    /// counts once, so coupled and per-signal rates compare at equal total rays.
     pub rays_traced: u64,
     /// The ray budget the frame ran with, rays per pixel (`rates.rays_per_pixel`, or what the
     /// budget in milliseconds decided).
@@ -176,8 +178,15 @@ pub struct FrameOutput {
     /// Milliseconds the ray-tracing passes took (`budget::trace_ms` of the executor's timings
     /// for this frame; 0 when the executor reports none).
     pub trace_ms: f64,
-    /// The load balancer's decision.
-    pub decision: Balance,
+    /// The load balancer's decision of each signal (plane group).
+    pub decisions: Vec<Balance>,
+    /// The frame's budget, in rays per plane like `rays_traced` (the groups' budgets weighted by
+    /// their planes).
+    pub budget: f64,
+    /// Expected rays requested, per plane.
+    pub requested: f64,
+    /// Expected rays granted, per plane.
+    pub granted: f64,
     /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
     pub flags: Vec<u32>,
     /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none).
@@ -309,7 +318,7 @@ impl Renderer {
             return Ok(FrameOutput {
                 denoised: vec![1.0; (w * h * planes) as usize],
                 raw: vec![1.0; (w * h * planes) as usize],
-                rays: vec![0; (w * h) as usize],
+                rays: vec![0.0; (w * h) as usize],
                 rays_per_pixel,
                 signal_absent: true,
                 ..FrameOutput::default()
@@ -340,15 +349,46 @@ impl Renderer {
         };
         let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
-        let rays = d.read_rays(exec)?;
-        let decision: Vec<Balance> = read(exec, d.decision(), 1)?;
+        let settings = d.settings();
+        let groups = settings.groups();
+        let group_rays = d.read_rays(exec)?;
+        let decisions: Vec<Balance> = read(exec, d.decision(), groups as usize)?;
+        // A group's ray costs one ray of each of its planes.
+        let weight: Vec<f64> = (0..groups)
+            .map(|g| {
+                let of_group = (0..planes).filter(|&z| plane_group(settings.plane_groups, z) == g);
+                of_group.count() as f64 / planes as f64
+            })
+            .collect();
+        let pixels = (w * h) as usize;
+        let rays: Vec<f32> = (0..pixels)
+            .map(|i| {
+                let per_group = group_rays.iter().skip(i).step_by(pixels);
+                per_group
+                    .zip(&weight)
+                    .map(|(&r, &c)| r as f64 * c)
+                    .sum::<f64>() as f32
+            })
+            .collect();
+        let per_plane = |f: fn(&Balance) -> f32| -> f64 {
+            decisions
+                .iter()
+                .zip(&weight)
+                .map(|(d, &c)| f(d) as f64 * c)
+                .sum()
+        };
+        let (budget, requested, granted) = (
+            per_plane(|d| d.budget),
+            per_plane(|d| d.requested),
+            per_plane(|d| d.granted),
+        );
         // Resolve does not write the requests (with the flags).
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
         let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         // The readbacks waited for the frame, so its timings are in.
         let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
-        let rays_traced = rays.iter().map(|&r| r as u64).sum();
+        let rays_traced = rays.iter().map(|&r| r as f64).sum::<f64>().round() as u64;
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.unpack().value).collect(),
             raw: samples
@@ -359,7 +399,10 @@ impl Renderer {
             rays_per_pixel,
             trace_ms,
             rays,
-            decision: decision[0],
+            decisions,
+            budget,
+            requested,
+            granted,
             flags,
             gradient_ran: report.gradient_ran,
             reset: report.reset,
@@ -474,6 +517,7 @@ pub fn reference<E: Executor>(
             history,
             out,
             frame: 0,
+            plane_groups: 0,
         };
         let scene = gpu.frame_scene(f);
         trace_planes(exec, signal, &layout, &scene, reflections.as_ref(), &target)?;

@@ -7,22 +7,27 @@ use rand_pcg::Pcg32;
 use vrrt_core::kernels::{apply, balance, buckets};
 use vrrt_core::payload::{PackedSample, Sample};
 
-/// A bucket histogram of random requests, as `count_buckets` would produce.
+/// Random requests of two plane groups (group-stacked) and their bucket histograms, as
+/// `count_buckets` would produce.
 fn histogram(rng: &mut Pcg32, w: u32, h: u32) -> (Vec<u32>, Vec<u32>) {
-    let requests: Vec<u32> = (0..w * h)
-        .map(|_| match rng.random_range(0..10) {
-            0 => buckets::NO_RAYS,
-            1..4 => buckets::MIN_RATE_DIVISOR + rng.random_range(0..buckets::MAX_RATE),
-            4..6 => buckets::MIN_RATE_DIVISOR,
-            _ => rng.random_range(0..buckets::BUCKET_COUNT),
-        })
-        .collect();
-    let mut counts = vec![0u32; buckets::COUNTS_LEN as usize];
-    for (i, &b) in requests.iter().enumerate() {
-        if b < buckets::BUCKET_COUNT {
-            let ring = buckets::ring_id(i as u32 % w, i as u32 / w, w, h);
-            counts[b as usize] += 1;
-            counts[((1 + ring) * buckets::BUCKET_COUNT + b) as usize] += 1;
+    let pixels = w * h;
+    let mut requests = Vec::new();
+    let mut counts = vec![0u32; 2 * buckets::COUNTS_LEN as usize];
+    for g in 0..2 {
+        let base = (g * buckets::COUNTS_LEN) as usize;
+        for i in 0..pixels {
+            let b = match rng.random_range(0..10) {
+                0 => buckets::NO_RAYS,
+                1..4 => buckets::MIN_RATE_DIVISOR + rng.random_range(0..buckets::MAX_RATE),
+                4..6 => buckets::MIN_RATE_DIVISOR,
+                _ => rng.random_range(0..buckets::BUCKET_COUNT),
+            };
+            if b < buckets::BUCKET_COUNT {
+                let ring = buckets::ring_id(i % w, i / w, w, h);
+                counts[base + b as usize] += 1;
+                counts[base + ((1 + ring) * buckets::BUCKET_COUNT + b) as usize] += 1;
+            }
+            requests.push(b);
         }
     }
     (requests, counts)
@@ -40,6 +45,7 @@ const BALANCE: &[Word] = &[
 ];
 
 fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
+    let groups = rng.random_range(1..=2);
     balance::BalanceParams {
         rays_per_pixel: [0.25f32, 0.5, 1.0, 2.0, 4.0][rng.random_range(0..5)],
         ring_count: buckets::ring_count(w, h),
@@ -50,6 +56,10 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
             balance::POLICY_BALANCE,
             balance::POLICY_FIXED,
         ][rng.random_range(0..4)],
+        groups,
+        plane_groups: if groups == 2 { 0x10 } else { 0 },
+        planes: PLANES,
+        signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
     }
 }
 
@@ -57,12 +67,15 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (_, counts) = histogram(rng, w, h);
     let params = balance_params(rng, w, h);
     Case {
-        name: format!("balance {w}x{h} rpp {}", params.rays_per_pixel),
+        name: format!(
+            "balance {w}x{h} rpp {} groups {}",
+            params.rays_per_pixel, params.groups
+        ),
         kernel: &vrrt_core::kernels::BALANCE,
         buffers: vec![
             BufferSpec::from_pod(&counts, INTS),
-            BufferSpec::from_pod(&[balance::Balance::default()], BALANCE),
-            BufferSpec::from_pod(&[7u32, 7, 7, 7], INTS),
+            BufferSpec::from_pod(&[balance::Balance::default(); 2], BALANCE),
+            BufferSpec::from_pod(&[7u32; 8], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: [1, 1, 1],
@@ -71,7 +84,11 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (requests, counts) = histogram(rng, w, h);
-    let decision = balance::solve(&counts, &balance_params(rng, w, h));
+    let p = balance_params(rng, w, h);
+    let rates = balance::group_rates(&counts, &p);
+    let decisions: Vec<balance::Balance> = (0..p.groups)
+        .map(|g| balance::solve(&counts, g, rates[g as usize], &p))
+        .collect();
     let n = (w * h) as usize;
     let samples: Vec<PackedSample> = (0..n * PLANES as usize)
         .map(|_| Sample {
@@ -87,19 +104,23 @@ pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         planes: PLANES,
         frame_index: rng.random(),
+        plane_groups: p.plane_groups,
     };
     Case {
-        name: format!("apply {w}x{h}x{PLANES} mode {}", decision.mode),
+        name: format!(
+            "apply {w}x{h}x{PLANES} groups {} mode {}",
+            p.groups, decisions[0].mode
+        ),
         kernel: &vrrt_core::kernels::APPLY,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
-            BufferSpec::from_pod(&[decision], BALANCE),
+            BufferSpec::from_pod(&decisions, BALANCE),
             BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
-            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
-            BufferSpec::from_pod(&[0u32, 0, 1, 1], INTS),
+            BufferSpec::from_pod(&vec![0u32; 2 * n], INTS).unordered(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),
             BufferSpec::from_pod(&samples, SAMPLE),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::APPLY, w, h, 1),
+        groups: groups(&vrrt_core::kernels::APPLY, w, h, p.groups),
     }
 }

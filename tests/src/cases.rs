@@ -307,7 +307,8 @@ fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 }
 
 fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let requests: Vec<u32> = (0..w * h)
+    // Two plane groups' requests.
+    let requests: Vec<u32> = (0..w * h * 2)
         .map(|_| match rng.random_range(0..20) {
             0 => buckets::NO_RAYS,
             1 => buckets::BUCKET_COUNT + rng.random_range(0..100),
@@ -315,7 +316,7 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     // Counts accumulate into whatever the buffer holds.
-    let counts: Vec<u32> = (0..buckets::COUNTS_LEN)
+    let counts: Vec<u32> = (0..2 * buckets::COUNTS_LEN)
         .map(|_| rng.random_range(0..3))
         .collect();
     let params = buckets::BucketParams {
@@ -323,14 +324,14 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
     };
     Case {
-        name: format!("count_buckets {w}x{h}"),
+        name: format!("count_buckets {w}x{h}x2"),
         kernel: &vrrt_core::kernels::COUNT_BUCKETS,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&counts, INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::COUNT_BUCKETS, w, h, 1),
+        groups: groups(&vrrt_core::kernels::COUNT_BUCKETS, w, h, 2),
     }
 }
 
@@ -401,8 +402,10 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         still_history: [0.0, 2.0][rng.random_range(0..2)],
         still_variance: [0.0, 1e-3, 1.0][rng.random_range(0..3)],
         max_history: [3.0, 64.0, 128.0][rng.random_range(0..3)],
-        use_importance: rng.random_range(0..2),
+        importance_group: [reproject::NO_GROUP, 0, 1][rng.random_range(0..3)],
         parallax_plane: [reproject::NO_PLANE, 0, 1][rng.random_range(0..3)],
+        // One group for both planes, or one each.
+        plane_groups: [0, 0x10][rng.random_range(0..2)],
         ..Default::default()
     };
     let (tw, th) = vrrt_core::kernels::reflect::tile_grid(w, h);
@@ -440,7 +443,10 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         Images::pack(&previous, w, &view),
     );
     Case {
-        name: format!("reproject {w}x{h}x{PLANES} reset {}", params.reset),
+        name: format!(
+            "reproject {w}x{h}x{PLANES} reset {} groups {:x}",
+            params.reset, params.plane_groups
+        ),
         kernel: &vrrt_core::kernels::REPROJECT,
         buffers: vec![
             cur.depth(),
@@ -455,7 +461,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&importance, FLOATS),
             BufferSpec::from_pod(&parallax, FLOATS),
             BufferSpec::from_pod(&vec![PackedPayload::default(); n], PAYLOAD),
-            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
+            BufferSpec::from_pod(&vec![0u32; n], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REPROJECT, w, h, 1),
@@ -557,20 +563,23 @@ mod tests {
 
     #[test]
     fn buckets_count_every_requesting_pixel_once() {
-        let case = buckets_case(&mut rng(7), 130, 67);
-        let before = case.buffers[1].data.clone();
+        let (w, h) = (130, 67);
+        let case = buckets_case(&mut rng(7), w, h);
+        let before = &case.buffers[1].data;
         let out = crate::run_case(&mut vrrt_cpu::CpuExecutor::new(), &case).unwrap();
-        let requests = &case.buffers[0].data;
-        for b in 0..buckets::BUCKET_COUNT as usize {
-            let want = requests.iter().filter(|&&r| r as usize == b).count() as u32;
-            assert_eq!(out[1][b] - before[b], want, "bucket {b}");
-            let per_ring: u32 = (1..=buckets::MAX_RINGS as usize)
-                .map(|ring| {
-                    out[1][ring * buckets::BUCKET_COUNT as usize + b]
-                        - before[ring * buckets::BUCKET_COUNT as usize + b]
-                })
-                .sum();
-            assert_eq!(per_ring, want, "rings of bucket {b}");
+        let pixels = (w * h) as usize;
+        for g in 0..2 {
+            let requests = &case.buffers[0].data[g * pixels..(g + 1) * pixels];
+            let base = g * buckets::COUNTS_LEN as usize;
+            let added = |i: usize| out[1][base + i] - before[base + i];
+            for b in 0..buckets::BUCKET_COUNT as usize {
+                let want = requests.iter().filter(|&&r| r as usize == b).count() as u32;
+                assert_eq!(added(b), want, "group {g} bucket {b}");
+                let per_ring: u32 = (1..=buckets::MAX_RINGS as usize)
+                    .map(|ring| added(ring * buckets::BUCKET_COUNT as usize + b))
+                    .sum();
+                assert_eq!(per_ring, want, "rings of group {g} bucket {b}");
+            }
         }
     }
 }

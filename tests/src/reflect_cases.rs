@@ -110,7 +110,8 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         plane: rng.random_range(0..planes),
         lights: rng.random_range(0..=lights.len() as u32),
         frame: rng.random(),
-        _pad: [0; 3],
+        list: list.list,
+        _pad: [0; 2],
         shading: shading(rng, &frame),
     };
     let [work, args] = list.buffers();
@@ -119,7 +120,9 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     Case {
         name: format!(
             "raygen_reflect {w}x{h} plane {} frame {} list {}",
-            params.plane, frame.index, list.args[0]
+            params.plane,
+            frame.index,
+            list.count()
         ),
         kernel: &vrrt_core::kernels::RAYGEN_REFLECT,
         buffers: vec![

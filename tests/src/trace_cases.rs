@@ -119,25 +119,38 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 /// (1..=4, `apply::work_entry`), and the reprojected history holding each pixel's rng index (including indices about to wrap).
 pub(crate) struct WorkList {
     work: Vec<u32>,
-    pub(crate) args: [u32; 4],
+    args: [u32; 8],
+    /// Which of the two lists (plane groups) the kernel traces.
+    pub(crate) list: u32,
     pub(crate) history: Vec<PackedPayload>,
     pub(crate) groups: [u32; 3],
 }
 
 impl WorkList {
+    /// Two shuffled work lists of random pixels and rays, one after the other as `apply` lays out
+    /// two plane groups' lists, and which one to trace: the other must be left alone.
     pub(crate) fn new(rng: &mut Pcg32, w: u32, h: u32, planes: u32) -> WorkList {
         let pixels = w * h;
-        let mut work: Vec<u32> = (0..pixels)
-            .filter(|_| rng.random_range(0..4) != 0)
-            .collect::<Vec<u32>>()
-            .into_iter()
-            .map(|pix| apply::work_entry(pix, rng.random_range(1..5)))
-            .collect();
-        for i in (1..work.len()).rev() {
-            work.swap(i, rng.random_range(0..=i));
+        let mut work = Vec::new();
+        let mut args = [0u32; 8];
+        for list in 0..2 {
+            let traced: Vec<u32> = (0..pixels)
+                .filter(|_| rng.random_range(0..4) != 0)
+                .collect();
+            let mut entries: Vec<u32> = traced
+                .into_iter()
+                .map(|pix| apply::work_entry(pix, rng.random_range(1..5)))
+                .collect();
+            for i in (1..entries.len()).rev() {
+                entries.swap(i, rng.random_range(0..=i));
+            }
+            let count = entries.len() as u32;
+            entries.resize(pixels as usize, 0);
+            work.extend(entries);
+            let groups = count.div_ceil(vrrt_core::kernels::RAYGEN_AO.workgroup_size[0]);
+            args[4 * list..4 * list + 4].copy_from_slice(&[count, groups, 1, 1]);
         }
-        let count = work.len() as u32;
-        work.resize(pixels as usize, 0);
+        let list = rng.random_range(0..2);
         let history = (0..pixels * planes)
             .map(|_| {
                 Payload {
@@ -152,17 +165,19 @@ impl WorkList {
             })
             .collect();
         // One group more than the list needs: invocations past the count must do nothing.
-        let groups = [
-            count.div_ceil(vrrt_core::kernels::RAYGEN_AO.workgroup_size[0]) + 1,
-            1,
-            1,
-        ];
+        let groups = [args[4 * list as usize + 1] + 1, 1, 1];
         WorkList {
             work,
-            args: [count, groups[0] - 1, 1, 1],
+            args,
+            list,
             history,
             groups,
         }
+    }
+
+    /// Entries of the traced list.
+    pub(crate) fn count(&self) -> u32 {
+        self.args[4 * self.list as usize]
     }
 
     pub(crate) fn buffers(&self) -> [BufferSpec; 2] {
@@ -187,13 +202,15 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         planes,
         max_distance: rng.random_range(0.2..4.0),
+        list: list.list,
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
             "raygen_ao {w}x{h}x{planes} frame {} list {}",
-            frame.index, list.args[0]
+            frame.index,
+            list.count()
         ),
         kernel: &vrrt_core::kernels::RAYGEN_AO,
         buffers: vec![
@@ -235,13 +252,15 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         planes: planes - first_plane,
         first_plane,
+        list: list.list,
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
             "raygen_shadow {w}x{h}x{planes} frame {} list {}",
-            frame.index, list.args[0]
+            frame.index,
+            list.count()
         ),
         kernel: &vrrt_core::kernels::RAYGEN_SHADOW,
         buffers: vec![

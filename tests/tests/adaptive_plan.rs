@@ -68,7 +68,7 @@ fn run(
         }
         if measure.contains(&i) {
             traced += out.rays_traced;
-            budget += out.decision.budget as f64;
+            budget += out.budget;
             runs += out.gradient_ran as u32;
             let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
             tiles_run += run;

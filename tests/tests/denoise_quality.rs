@@ -54,7 +54,7 @@ fn run(settings: Settings, references: &[(u32, Vec<f32>)]) -> Run {
         let out = r
             .render(&mut exec, &scene.frame(i), Readback::default())
             .unwrap();
-        let d = out.decision;
+        let d = out.decisions[0];
         if d.mode != MODE_KEEP {
             assert!(
                 d.granted as f64 <= d.budget as f64 * (1.0 + 1e-5),

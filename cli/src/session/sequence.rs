@@ -124,7 +124,6 @@ pub fn run_sequence(
                 pass_names.push(t.entry);
             }
         }
-        let d = out.decision;
         let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
         let all_tiles: u32 = out.tiles.iter().sum();
         let mut record = FrameRecord {
@@ -142,9 +141,9 @@ pub fn run_sequence(
             signal_absent: out.signal_absent,
             frame: i,
             rays_traced: out.rays_traced,
-            budget: d.budget as f64,
-            requested: d.requested as f64,
-            granted: d.granted as f64,
+            budget: out.budget,
+            requested: out.requested,
+            granted: out.granted,
             ms_frame,
             budget_rpp: out.rays_per_pixel as f64,
             trace_ms: out.trace_ms,

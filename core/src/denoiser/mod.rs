@@ -85,9 +85,10 @@ pub struct FrameInfo {
     /// Something moved since last frame (camera, objects or lights). When false the
     /// temporal-gradient prepass is skipped: every re-trace would return last frame's value.
     pub moved: bool,
-    /// Scale each pixel's ray request by its tile's [`Denoiser::importance`], which the caller
-    /// wrote this frame (the reflection tile classification).
-    pub use_importance: bool,
+    /// Scale the ray requests of this plane's group by the pixel's tile's
+    /// [`Denoiser::importance`], which the caller wrote this frame (the reflection tile
+    /// classification, for the reflection plane).
+    pub importance_plane: Option<u32>,
     /// This frame's and last frame's camera: positions are reconstructed from view depth through
     /// them, and last frame's from the motion's depth change.
     pub view: View,
@@ -243,7 +244,7 @@ impl Denoiser {
                 reset: true,
                 pixel_angle: 1.0 / height as f32,
                 moved: true,
-                use_importance: false,
+                importance_plane: None,
                 view: View::default(),
             },
         })
@@ -311,7 +312,7 @@ impl Denoiser {
     }
 
     /// Request scale per tile (`f32` per `reflect::TILE`² tile, row-major over
-    /// `reflect::tile_grid`), read when [`FrameInfo::use_importance`] is set; the caller writes
+    /// `reflect::tile_grid`), read when [`FrameInfo::importance_plane`] is set; the caller writes
     /// it (`reflect::reflect_tiles`).
     pub fn importance(&self) -> BufferId {
         self.importance
@@ -323,50 +324,56 @@ impl Denoiser {
         self.parallax
     }
 
-    /// Per pixel (after [`Self::plan_rays`]): the requested bucket and the reprojection flags
-    /// (`reproject::FLAG_*`) in one word; `reproject::bucket_of` and `reproject::flags_of` read
-    /// them.
+    /// Per pixel and plane group (after [`Self::plan_rays`]; group-stacked like planes): the
+    /// requested bucket and the reprojection flags (`reproject::FLAG_*`) in one word;
+    /// `reproject::bucket_of` and `reproject::flags_of` read them.
     pub fn requests(&self) -> BufferId {
         self.requests
     }
 
-    /// The balancer's decision (`balance::Balance`, after [`Self::plan_rays`]).
+    /// The balancer's decision per plane group (`balance::Balance`, after [`Self::plan_rays`]).
     pub fn decision(&self) -> BufferId {
         self.decision
     }
 
-    /// Compacted list of tracing pixels and their granted rays (one `u32` each,
-    /// `apply::work_entry`, decoded by `apply::work_item`): raygen traces exactly these,
-    /// `args[0]` of them. Valid from [`Self::plan_rays`] to [`Self::resolve`]: it lives in the
-    /// filter's scratch copy, which is free until the variance pass (the copy that does not hold
-    /// the output).
+    /// Compacted lists of tracing pixels and their granted rays, one per plane group at
+    /// `group × pixels` (one `u32` each, `apply::work_entry`, decoded by `apply::work_item`):
+    /// raygen traces exactly these, `args[4 · group]` of them. Valid from [`Self::plan_rays`] to
+    /// [`Self::resolve`]: it lives in the filter's scratch copy, which is free until the variance
+    /// pass (the copy that does not hold the output; it has a word per pixel and plane, and there
+    /// are no more groups than planes).
     pub fn work(&self) -> BufferId {
         self.filtered[1 - self.settings.filter.atrous_iterations as usize % 2]
     }
 
-    /// Rays granted per pixel this frame (after [`Self::plan_rays`], until the next frame's):
-    /// apply's own rule ([`apply::resolve_rays`]) on the host, from the requests, the decision
-    /// and the blue noise, which outlive the work list. For hosts that trace on the CPU or
-    /// inspect the plan; a GPU ray pass reads the work list itself.
+    /// Rays granted per pixel and plane group this frame (after [`Self::plan_rays`], until the
+    /// next frame's; group-stacked): apply's own rule ([`apply::resolve_rays`]) on the host, from
+    /// the requests, the decisions and the blue noise, which outlive the work lists. For hosts
+    /// that trace on the CPU or inspect the plan; a GPU ray pass reads the work lists itself.
     #[cfg(feature = "std")]
     pub fn read_rays<E: Executor>(&self, exec: &mut E) -> Result<std::vec::Vec<u32>, E::Error> {
         let (w, h) = (self.width, self.height);
-        let mut requests = std::vec![0u32; w as usize * h as usize];
+        let groups = self.settings.groups();
+        let pixels = w * h;
+        let mut requests = std::vec![0u32; (pixels * groups) as usize];
         exec.read_buffer(self.requests, bytemuck::cast_slice_mut(&mut requests))?;
-        let mut decision = [balance::Balance::default()];
+        let mut decision = std::vec![balance::Balance::default(); groups as usize];
         exec.read_buffer(self.decision, bytemuck::cast_slice_mut(&mut decision))?;
         let mut noise = std::vec![0.0f32; blue_noise::LEN];
         exec.read_buffer(self.noise, bytemuck::cast_slice_mut(&mut noise))?;
         let p = self.apply_params();
-        Ok((0..w * h)
+        Ok((0..pixels * groups)
             .map(|i| {
+                let (g, pix) = (i / pixels, i % pixels);
                 let bucket = reproject::bucket_of(requests[i as usize]);
-                apply::resolve_rays(i % w, i / w, bucket, &p, &decision[0], &noise)
+                let d = &decision[g as usize];
+                apply::resolve_rays(pix % w, pix / w, g, bucket, &p, d, &noise)
             })
             .collect())
     }
 
-    /// `[count, groups_x, 1, 1]` of the work list: indirect dispatch arguments at byte offset 4.
+    /// `[count, groups_x, 1, 1]` of each plane group's work list: the indirect dispatch arguments
+    /// of group `g` at byte offset `16·g + 4`.
     pub fn args(&self) -> BufferId {
         self.args
     }

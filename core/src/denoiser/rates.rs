@@ -58,8 +58,14 @@ impl Denoiser {
             still_history: if still_rule { history } else { 0.0 },
             still_variance: s.rates.still_sigma * s.rates.still_sigma,
             max_history: history,
-            use_importance: self.frame.use_importance as u32,
+            importance_group: self
+                .frame
+                .importance_plane
+                .map_or(reproject::NO_GROUP, |z| {
+                    kernels::plane_group(s.plane_groups, z)
+                }),
             parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
+            plane_groups: s.plane_groups,
             ..Default::default()
         };
         let reproject = kernels::ReprojectBindings {
@@ -79,8 +85,9 @@ impl Denoiser {
         };
         exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;
 
+        let groups = s.groups();
         let clear = fill::FillParams {
-            len: buckets::COUNTS_LEN,
+            len: groups * buckets::COUNTS_LEN,
             value: 0,
         };
         let counts = kernels::FillBindings { buf: self.counts };
@@ -93,7 +100,7 @@ impl Denoiser {
             requests: self.requests,
             counts: self.counts,
         };
-        exec.dispatch(&buckets.over_grid(&count, w, h, 1))?;
+        exec.dispatch(&buckets.over_grid(&count, w, h, groups))?;
 
         let bal = balance::BalanceParams {
             rays_per_pixel: s.rates.rays_per_pixel,
@@ -106,6 +113,10 @@ impl Denoiser {
             } else {
                 balance::POLICY_KEEP
             },
+            groups,
+            plane_groups: s.plane_groups,
+            planes: s.planes,
+            signal_floor: s.rates.signal_floor,
         };
         let balance = kernels::BalanceBindings {
             counts: self.counts,
@@ -123,7 +134,7 @@ impl Denoiser {
             args: self.args,
             samples: self.samples,
         };
-        exec.dispatch(&apply.over_grid(&app, w, h, 1))
+        exec.dispatch(&apply.over_grid(&app, w, h, groups))
     }
 
     /// Whether this frame applies the still rule (`rates.still_sigma`): nothing moved, the rule
@@ -160,6 +171,7 @@ impl Denoiser {
             height: self.height,
             planes: self.settings.planes,
             frame_index: self.frame.index,
+            plane_groups: self.settings.plane_groups,
         }
     }
 }

@@ -168,6 +168,11 @@ impl Frame {
         settings.parallax_plane = layout
             .reflections
             .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
+        settings.plane_groups = if settings.rates.per_signal {
+            layout.plane_groups()
+        } else {
+            0
+        };
         if layout.reflections.is_some() && settings.gradient.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
                 field: "gradient.stratum",
@@ -289,7 +294,7 @@ impl Frame {
             reset: self.frames == 0 || scene.camera_cut || self.resume,
             pixel_angle: 2.0 * scene.camera.tan_half_fov_y / height as f32,
             moved,
-            use_importance: self.reflections.is_some(),
+            importance_plane: self.reflections.as_ref().map(|r| r.plane()),
             view: View {
                 camera: scene.camera,
                 prev_camera: scene.prev_camera,

@@ -2,7 +2,7 @@
 
 use super::{FrameScene, PlaneLayout, Signal};
 use crate::denoiser::{Denoiser, Inputs};
-use crate::kernels::{self, raygen};
+use crate::kernels::{self, apply, raygen};
 use crate::plan::{BufferId, Executor, Groups};
 use crate::reflections::Reflections;
 
@@ -63,6 +63,8 @@ pub struct RaygenTarget {
     pub out: BufferId,
     /// Frame stamp of the reflection ray records.
     pub frame: u32,
+    /// Which plane group (work list) traces each plane (`Settings::plane_groups`).
+    pub plane_groups: u32,
 }
 
 impl RaygenTarget {
@@ -77,14 +79,20 @@ impl RaygenTarget {
             history: denoiser.history(),
             out: denoiser.samples(),
             frame: denoiser.frame().index,
+            plane_groups: denoiser.settings().plane_groups,
         }
     }
 
-    /// The indirect dispatch of the work list.
-    pub fn groups(&self) -> Groups {
+    /// The work list that traces plane `plane`.
+    pub fn list(&self, plane: u32) -> u32 {
+        kernels::plane_group(self.plane_groups, plane)
+    }
+
+    /// The indirect dispatch of work list `list`.
+    pub fn groups(&self, list: u32) -> Groups {
         Groups::Indirect {
             buffer: self.args,
-            offset: 4,
+            offset: 4 * apply::ARGS_LEN as u64 * list as u64 + 4,
         }
     }
 }
@@ -112,14 +120,15 @@ pub fn trace_planes<E: Executor>(
         tris: scene.tris,
         out: target.out,
     };
-    if let Some(max_distance) = signal.ao_distance() {
+    if let (Some(max_distance), Some(plane)) = (signal.ao_distance(), layout.ao) {
         let p = raygen::AoParams {
             width,
             height,
             planes: 1,
             max_distance,
+            list: target.list(plane),
         };
-        exec.dispatch(&ao.pass(&p, target.groups()))?;
+        exec.dispatch(&ao.pass(&p, target.groups(p.list)))?;
     }
     if let Some((first_plane, planes)) = layout.shadows {
         let p = raygen::ShadowParams {
@@ -127,6 +136,7 @@ pub fn trace_planes<E: Executor>(
             height,
             planes,
             first_plane,
+            list: target.list(first_plane),
         };
         let shadow = kernels::RaygenShadowBindings {
             work: ao.work,
@@ -141,7 +151,7 @@ pub fn trace_planes<E: Executor>(
             lights: scene.lights,
             out: ao.out,
         };
-        exec.dispatch(&shadow.pass(&p, target.groups()))?;
+        exec.dispatch(&shadow.pass(&p, target.groups(p.list)))?;
     }
     if let Some(r) = reflections {
         r.raygen(exec, &scene.reflection_scene(), target)?;

@@ -38,6 +38,33 @@ pub struct PlaneLayout {
     pub planes: u32,
 }
 
+impl PlaneLayout {
+    /// One plane group per signal, in plane order (`Settings::plane_groups`): AO, the shadows
+    /// of every light, reflections.
+    pub fn plane_groups(&self) -> u32 {
+        let mut packed = 0;
+        let mut group = 0;
+        let mut z = 0;
+        let mut put = |planes: u32| {
+            for _ in 0..planes {
+                packed |= group << (4 * z);
+                z += 1;
+            }
+            group += 1;
+        };
+        if self.ao.is_some() {
+            put(1);
+        }
+        if let Some((_, n)) = self.shadows {
+            put(n);
+        }
+        if self.reflections.is_some() {
+            put(1);
+        }
+        packed
+    }
+}
+
 impl Signal {
     /// The planes of each signal for a frame with `lights` lights.
     pub fn layout(&self, lights: usize) -> PlaneLayout {
@@ -117,5 +144,21 @@ impl fmt::Display for Signal {
                 reflect(f, reflections)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_signal_is_its_own_plane_group() {
+        let all = Signal::All {
+            max_distance: 1.0,
+            reflections: ReflectionSettings::default(),
+        };
+        assert_eq!(all.layout(2).plane_groups(), 0x2110);
+        assert_eq!(all.layout(1).plane_groups(), 0x210);
+        assert_eq!(Signal::Shadows.layout(3).plane_groups(), 0);
     }
 }

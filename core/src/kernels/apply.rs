@@ -57,14 +57,19 @@ pub struct ApplyParams {
     pub planes: u32,
     /// Frame number: animates the blue-noise thresholds.
     pub frame_index: u32,
+    /// Which group each plane belongs to (`super::plane_group`); the dispatch's z is the group.
+    pub plane_groups: u32,
 }
 
-/// Rays pixel `(x, y)` traces: its granted rate, whose fractional part is realised by a blue-noise
-/// test (1.5 is one ray, plus a second where the noise is below 1/2).
+/// Rays pixel `(x, y)` traces for plane group `group`: its granted rate, whose fractional part is
+/// realised by a blue-noise test (1.5 is one ray, plus a second where the noise is below 1/2).
+/// Each group reads the mask shifted by its own offset, so groups at the same fractional rate
+/// trace different pixels instead of all stacking on the same ones.
 #[inline]
 pub fn resolve_rays(
     x: u32,
     y: u32,
+    group: u32,
     bucket: u32,
     p: &ApplyParams,
     d: &Balance,
@@ -75,12 +80,21 @@ pub fn resolve_rays(
     }
     let rate = granted_rate(bucket, ring_id(x, y, p.width, p.height), d);
     let whole = math::floor(rate);
-    whole as u32 + (rate - whole > blue_noise(noise, x, y, p.frame_index)) as u32
+    let (nx, ny) = (
+        x + group * GROUP_NOISE_SHIFT[0],
+        y + group * GROUP_NOISE_SHIFT[1],
+    );
+    whole as u32 + (rate - whole > blue_noise(noise, nx, ny, p.frame_index)) as u32
 }
 
-/// One invocation per pixel. Appends each tracing pixel and its rays to `work` ([`work_entry`])
-/// and counts them in `args[0]`; `args[1]` ends as the number of [`LIST_GROUP`]-wide groups (the balancer
-/// reset `args` to `[0, 0, 1, 1]` before this pass).
+/// Offset of the blue-noise mask per plane group (coprime with the mask's edge, far apart).
+pub const GROUP_NOISE_SHIFT: [u32; 2] = [23, 41];
+
+/// One invocation per pixel and plane group (z). Appends each tracing pixel and its rays to the
+/// group's list, `work[group · pixels..]` ([`work_entry`]), and counts them in
+/// `args[4 · group]`; `args[4 · group + 1]` ends as the number of [`LIST_GROUP`]-wide groups (the
+/// balancer reset the arguments to `[0, 0, 1, 1]` before this pass). A pixel that traces nothing
+/// gets empty samples in the group's planes.
 pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let ApplyIo {
         requests,
@@ -93,20 +107,26 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     if id.x >= p.width || id.y >= p.height {
         return;
     }
+    let pixels = p.width * p.height;
     let pix = pixel_index(id.x, id.y, p.width);
-    let bucket = super::reproject::bucket_of(requests[pix]);
-    let n = resolve_rays(id.x, id.y, bucket, p, &decision[0], noise);
+    let group = id.z;
+    let bucket = super::reproject::bucket_of(requests[(group * pixels) as usize + pix]);
+    let d = &decision[group as usize];
+    let n = resolve_rays(id.x, id.y, group, bucket, p, d, noise);
     if n == 0 {
         let mut z = 0;
         while z < p.planes {
-            samples[(z * p.width * p.height) as usize + pix] = PackedSample::default();
+            if super::plane_group(p.plane_groups, z) == group {
+                samples[(z * pixels) as usize + pix] = PackedSample::default();
+            }
             z += 1;
         }
         return;
     }
-    let slot = atomic::add(&mut args[0], 1);
-    work[slot as usize] = work_entry(pix as u32, n);
+    let a = (group * ARGS_LEN) as usize;
+    let slot = atomic::add(&mut args[a], 1);
+    work[(group * pixels + slot) as usize] = work_entry(pix as u32, n);
     if slot.is_multiple_of(LIST_GROUP) {
-        atomic::max(&mut args[1], slot / LIST_GROUP + 1);
+        atomic::max(&mut args[a + 1], slot / LIST_GROUP + 1);
     }
 }

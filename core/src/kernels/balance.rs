@@ -24,7 +24,7 @@
 //! fractional (1.5 is one ray plus a second with probability 1/2), so baselines spend the same
 //! budget as VRRT.
 
-use super::buckets::{bucket_to_rate, BUCKET_COUNT};
+use super::buckets::{bucket_to_rate, BUCKET_COUNT, COUNTS_LEN};
 use super::BalanceIo;
 use crate::math;
 use bytemuck::{Pod, Zeroable};
@@ -46,12 +46,15 @@ pub const POLICY_BALANCE: u32 = 1;
 /// Ignore the requests' rates: every requesting pixel traces `rays_per_pixel` (SVGF baseline).
 pub const POLICY_FIXED: u32 = 2;
 
+/// Most plane groups (signals) balanced in one frame.
+pub const MAX_GROUPS: u32 = 4;
+
 /// Push constants of the balancer.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BalanceParams {
-    /// Target average rays per pixel. The frame's budget `R` is this times the pixels that asked
-    /// for rays (sky and VRS-masked pixels neither cost nor earn budget).
+    /// Target average rays per pixel and plane. The frame's budget is this times the pixels that
+    /// asked for rays (sky and VRS-masked pixels neither cost nor earn budget) times the planes.
     pub rays_per_pixel: f32,
     /// Rings of the image (`buckets::ring_count`).
     pub ring_count: u32,
@@ -59,6 +62,15 @@ pub struct BalanceParams {
     pub raise: u32,
     /// [`POLICY_KEEP`], [`POLICY_BALANCE`] or [`POLICY_FIXED`].
     pub policy: u32,
+    /// Plane groups (1..=[`MAX_GROUPS`]), each with its own requests, decision and work list.
+    pub groups: u32,
+    /// Which group each plane belongs to (`super::plane_group`).
+    pub plane_groups: u32,
+    /// Signal planes: a group's ray costs one ray per plane it has.
+    pub planes: u32,
+    /// Least share of the rays a group gets under [`POLICY_BALANCE`], as a fraction of its equal
+    /// share (0..=1); 1 gives every group `rays_per_pixel` ([`group_rates`]).
+    pub signal_floor: f32,
 }
 
 /// The balancer's decision (what [`super::apply`] reads) and its bookkeeping.
@@ -124,13 +136,14 @@ pub fn granted_rate(b: u32, ring: u32, d: &Balance) -> f32 {
     }
 }
 
-/// Expected rays if every bucket `b` is mapped to `min(b, t)` (`down`) or `max(b, t)`.
-fn rays_at(counts: &[u32], t: u32, down: bool) -> f32 {
+/// Expected rays if every bucket `b` of the histogram at `base` is mapped to `min(b, t)` (`down`)
+/// or `max(b, t)`.
+fn rays_at(counts: &[u32], base: usize, t: u32, down: bool) -> f32 {
     let mut sum = 0.0f32;
     let mut b = 0;
     while b < BUCKET_COUNT {
         let g = if down == (b < t) { b } else { t };
-        sum += counts[b as usize] as f32 * bucket_to_rate(g);
+        sum += counts[base + b as usize] as f32 * bucket_to_rate(g);
         b += 1;
     }
     sum
@@ -138,8 +151,8 @@ fn rays_at(counts: &[u32], t: u32, down: bool) -> f32 {
 
 /// Pixels of ring `r` that the extra step of threshold `t` would change (`b > t` over budget,
 /// `b <= t` under).
-fn ring_pixels_moved(counts: &[u32], r: u32, t: u32, down: bool) -> f32 {
-    let base = ((1 + r) * BUCKET_COUNT) as usize;
+fn ring_pixels_moved(counts: &[u32], base: usize, r: u32, t: u32, down: bool) -> f32 {
+    let base = base + ((1 + r) * BUCKET_COUNT) as usize;
     let mut n = 0u32;
     let mut b = 0;
     while b < BUCKET_COUNT {
@@ -151,17 +164,133 @@ fn ring_pixels_moved(counts: &[u32], r: u32, t: u32, down: bool) -> f32 {
     n as f32
 }
 
-/// Solves for the thresholds. `counts` is the histogram of `buckets::count` (totals, then one row
-/// per ring).
-pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
-    let requested = rays_at(counts, 0, false);
+/// Rays per pixel of each plane group: one budget of `rays_per_pixel` rays for every plane,
+/// shared by what each group asks for.
+///
+/// A group's share of the frame's rays is its share of the rays requested (each group's ray
+/// costs one ray per plane it has), so every signal gets the same fraction of its request: a
+/// quiet, converged AO asks for fractions of a ray and gives its rays to a signal refilling
+/// history or still noisy. Requests already carry each signal's measured state (history length,
+/// temporal variance; `reproject::requested_rate`). Every group keeps at least `signal_floor` of
+/// its equal share, so none stops reacting. Equal rates with one group, when nothing is asked
+/// for, and outside [`POLICY_BALANCE`].
+///
+/// Why requests and not a Neyman split by each signal's relative variance: history is clamped
+/// in rays, so past the refill a signal's steady-state noise barely depends on its rays a frame;
+/// the rays pay off where history is young, which is what the requests count. On the
+/// multi-signal room frame (README "Per-signal ray rates") every split by measured variance
+/// tried ended worse than equal shares.
+pub fn group_rates(counts: &[u32], p: &BalanceParams) -> [f32; MAX_GROUPS as usize] {
+    let equal = [p.rays_per_pixel; MAX_GROUPS as usize];
+    if p.groups < 2 || p.groups > MAX_GROUPS || p.policy != POLICY_BALANCE || p.signal_floor >= 1.0
+    {
+        return equal;
+    }
+    let mut cost = [0.0f32; MAX_GROUPS as usize];
+    let mut z = 0;
+    while z < p.planes {
+        let g = super::plane_group(p.plane_groups, z);
+        if g < MAX_GROUPS {
+            cost[g as usize] += 1.0;
+        }
+        z += 1;
+    }
+    // Weights: rays requested, times the planes each ray costs. Groups without a requesting
+    // pixel get no floor (they would spend nothing of it).
+    let mut weight = [0.0f32; MAX_GROUPS as usize];
+    let mut floor = [0.0f32; MAX_GROUPS as usize];
+    let (mut planes, mut total) = (0.0f32, 0.0f32);
+    let mut g = 0;
+    while g < p.groups {
+        let i = g as usize;
+        weight[i] = rays_at(counts, (g * COUNTS_LEN) as usize, 0, false) * cost[i];
+        planes += cost[i];
+        total += weight[i];
+        g += 1;
+    }
+    if !(total > 0.0) {
+        return equal;
+    }
+    g = 0;
+    while g < p.groups {
+        let i = g as usize;
+        if weight[i] > 0.0 {
+            floor[i] = p.signal_floor * cost[i] / planes;
+        }
+        g += 1;
+    }
+    // Groups whose share falls under their floor get the floor; the others share the rest by
+    // weight. Each round fixes at least one more group or ends.
+    let mut fixed = [0u32; MAX_GROUPS as usize];
+    let mut round = 0;
+    while round < MAX_GROUPS {
+        let (left, weights) = free_share(&weight, &floor, &fixed, p.groups);
+        let mut changed = false;
+        g = 0;
+        while g < p.groups {
+            let i = g as usize;
+            if fixed[i] == 0 && !(left * weight[i] >= floor[i] * weights) {
+                fixed[i] = 1;
+                changed = true;
+            }
+            g += 1;
+        }
+        if !changed {
+            break;
+        }
+        round += 1;
+    }
+    let (left, weights) = free_share(&weight, &floor, &fixed, p.groups);
+    let mut rates = equal;
+    g = 0;
+    while g < p.groups {
+        let i = g as usize;
+        let share = if fixed[i] != 0 {
+            floor[i]
+        } else if weights > 0.0 {
+            left * weight[i] / weights
+        } else {
+            0.0
+        };
+        rates[i] = share * planes * p.rays_per_pixel / cost[i];
+        g += 1;
+    }
+    rates
+}
+
+/// What the groups not `fixed` at their floor share: the share left and their summed weight.
+fn free_share(
+    weight: &[f32; MAX_GROUPS as usize],
+    floor: &[f32; MAX_GROUPS as usize],
+    fixed: &[u32; MAX_GROUPS as usize],
+    groups: u32,
+) -> (f32, f32) {
+    let (mut left, mut weights) = (1.0f32, 0.0f32);
+    let mut g = 0;
+    while g < groups {
+        let i = g as usize;
+        if fixed[i] != 0 {
+            left -= floor[i];
+        } else {
+            weights += weight[i];
+        }
+        g += 1;
+    }
+    (left, weights)
+}
+
+/// Solves for the thresholds of plane group `group` at `rays_per_pixel`. Its histogram is the
+/// group's part of `counts` (`buckets::count`: totals, then one row per ring).
+pub fn solve(counts: &[u32], group: u32, rays_per_pixel: f32, p: &BalanceParams) -> Balance {
+    let base = (group * COUNTS_LEN) as usize;
+    let requested = rays_at(counts, base, 0, false);
     let mut active = 0u32;
     let mut b = 0;
     while b < BUCKET_COUNT {
-        active += counts[b as usize];
+        active += counts[base + b as usize];
         b += 1;
     }
-    let budget = p.rays_per_pixel * active as f32;
+    let budget = rays_per_pixel * active as f32;
     if p.policy == POLICY_FIXED {
         return Balance {
             mode: MODE_FIXED,
@@ -169,7 +298,7 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
             requested: budget,
             granted: budget,
             budget,
-            fixed_rate: p.rays_per_pixel,
+            fixed_rate: rays_per_pixel,
             ..Balance::default()
         };
     }
@@ -187,25 +316,25 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
     }
     // Largest t whose total fits (both sums are non-decreasing in t).
     let mut t = 0u32;
-    let mut base = rays_at(counts, 0, down);
+    let mut fit = rays_at(counts, base, 0, down);
     let mut cand = 1;
     while cand < BUCKET_COUNT {
-        let r = rays_at(counts, cand, down);
+        let r = rays_at(counts, base, cand, down);
         if r <= budget {
             t = cand;
-            base = r;
+            fit = r;
         }
         cand += 1;
     }
     // Rings from the centre outward get t + 1 while it fits; the next ring out gets the rest as
     // a fraction of the step.
     let mut k = p.ring_count;
-    let mut granted = base;
+    let mut granted = fit;
     let mut partial = 0.0f32;
-    if base <= budget && t + 1 < BUCKET_COUNT {
+    if fit <= budget && t + 1 < BUCKET_COUNT {
         let step = bucket_to_rate(t + 1) - bucket_to_rate(t);
         while k > 0 {
-            let add = step * ring_pixels_moved(counts, k - 1, t, down);
+            let add = step * ring_pixels_moved(counts, base, k - 1, t, down);
             if granted + add > budget {
                 partial = math::clamp((budget - granted) / add, 0.0, 1.0);
                 granted += partial * add;
@@ -227,16 +356,23 @@ pub fn solve(counts: &[u32], p: &BalanceParams) -> Balance {
     }
 }
 
-/// One invocation: writes [`solve`]'s decision to `out[0]` and resets the apply pass's work-list
-/// arguments to `[0, 0, 1, 1]` (count, groups x, y, z).
+/// One invocation: writes each plane group's decision ([`solve`] at its [`group_rates`]) to
+/// `out[group]` and resets its work list's arguments, `args[4·group..]`, to `[0, 0, 1, 1]`
+/// (count, groups x, y, z).
 pub fn balance(id: UVec3, p: &BalanceParams, io: BalanceIo<'_>) {
     let BalanceIo { counts, out, args } = io;
     if id.x == 0 && id.y == 0 && id.z == 0 {
-        out[0] = solve(counts, p);
-        args[0] = 0;
-        args[1] = 0;
-        args[2] = 1;
-        args[3] = 1;
+        let rates = group_rates(counts, p);
+        let mut g = 0;
+        while g < p.groups {
+            out[g as usize] = solve(counts, g, rates[g as usize], p);
+            let a = (g * super::apply::ARGS_LEN) as usize;
+            args[a] = 0;
+            args[a + 1] = 0;
+            args[a + 2] = 1;
+            args[a + 3] = 1;
+            g += 1;
+        }
     }
 }
 
@@ -251,7 +387,16 @@ mod tests {
             ring_count,
             raise,
             policy: POLICY_BALANCE,
+            groups: 1,
+            plane_groups: 0,
+            planes: 1,
+            signal_floor: 1.0,
         }
+    }
+
+    /// The decision of a one-group histogram.
+    fn solve_one(c: &[u32], p: &BalanceParams) -> Balance {
+        solve(c, 0, p.rays_per_pixel, p)
     }
 
     /// A histogram with `n` pixels per (bucket, ring) entry given.
@@ -280,13 +425,13 @@ mod tests {
     fn converged_image_at_one_and_a_half_rays_gives_the_centre_two() {
         // 4 rings of 100 pixels, all asking for 1 ray; budget 1.5 rays per pixel.
         let c = histogram(&[(64, 0, 100), (64, 1, 100), (64, 2, 100), (64, 3, 100)]);
-        let d = solve(&c, &params(1.5, 4, 1));
+        let d = solve_one(&c, &params(1.5, 4, 1));
         assert_eq!(d.mode, MODE_UNDER);
         assert_eq!(d.bucket_threshold, 64);
         assert_eq!(d.ring_threshold, 2, "inner half of the rings get 2 rays");
         assert_eq!(granted(&c, 4, &d), 600.0);
         // Save mode leaves the budget unspent.
-        let d = solve(&c, &params(1.5, 4, 0));
+        let d = solve_one(&c, &params(1.5, 4, 0));
         assert_eq!(d.mode, MODE_KEEP);
     }
 
@@ -294,7 +439,7 @@ mod tests {
     fn over_budget_drops_the_highest_requests_first() {
         // 10 disoccluded pixels want 16 rays, 90 converged want 1; budget 1 ray per pixel.
         let c = histogram(&[(79, 0, 10), (64, 0, 90)]);
-        let d = solve(&c, &params(1.0, 1, 1));
+        let d = solve_one(&c, &params(1.0, 1, 1));
         assert_eq!(d.mode, MODE_OVER);
         assert!(granted(&c, 1, &d) <= 100.0);
         assert_eq!(
@@ -310,7 +455,7 @@ mod tests {
         // 50 converged pixels at 1/4 ray, 50 asking for 1; budget 1/2 ray per pixel (50 rays).
         // Clamping to 1/2 spends 37.5; the partial step gives the 50 others 3/4 each.
         let c = histogram(&[(60, 0, 50), (64, 0, 50)]);
-        let d = solve(&c, &params(0.5, 1, 1));
+        let d = solve_one(&c, &params(0.5, 1, 1));
         assert_eq!(
             (d.mode, d.bucket_threshold, d.ring_threshold),
             (MODE_OVER, 62, 1)
@@ -332,7 +477,7 @@ mod tests {
             policy: POLICY_FIXED,
             ..params(1.5, 1, 1)
         };
-        let d = solve(&c, &p);
+        let d = solve_one(&c, &p);
         assert_eq!(d.mode, MODE_FIXED);
         assert_eq!(granted_rate(79, 0, &d), 1.5);
         assert_eq!(granted(&c, 1, &d), 150.0);
@@ -341,7 +486,7 @@ mod tests {
     #[test]
     fn infeasible_budget_clamps_to_the_lowest_rate() {
         let c = histogram(&[(64, 0, 1000)]);
-        let d = solve(&c, &params(0.001, 1, 1));
+        let d = solve_one(&c, &params(0.001, 1, 1));
         assert_eq!(d.bucket_threshold, 0);
         assert!(d.granted > d.budget);
     }
@@ -371,7 +516,7 @@ mod tests {
             let pixels: u32 = c[..BUCKET_COUNT as usize].iter().sum();
             let rpp = [0.25f32, 0.5, 1.0, 1.5, 2.0, 4.0][case % 6];
             let p = params(rpp, rings, 1);
-            let d = solve(&c, &p);
+            let d = solve_one(&c, &p);
             let got = granted(&c, rings, &d);
             let budget = rpp as f64 * pixels as f64;
             let feasible = (pixels as f64 / 64.0) <= budget;
@@ -393,5 +538,84 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Counts of plane groups whose 100 pixels each ask for `rates` rays (a bucket's rate).
+    fn group_counts(buckets: &[u32]) -> std::vec::Vec<u32> {
+        let mut c = std::vec![0u32; buckets.len() * COUNTS_LEN as usize];
+        for (g, &b) in buckets.iter().enumerate() {
+            let base = g * COUNTS_LEN as usize;
+            c[base + b as usize] = 100;
+            c[base + (BUCKET_COUNT + b) as usize] = 100;
+        }
+        c
+    }
+
+    fn grouped(plane_groups: u32, planes: u32, signal_floor: f32) -> BalanceParams {
+        let groups = crate::kernels::plane_group(plane_groups, planes - 1) + 1;
+        BalanceParams {
+            groups,
+            plane_groups,
+            planes,
+            signal_floor,
+            ..params(1.0, 1, 1)
+        }
+    }
+
+    /// Rays of every group weighted by its planes, per plane: the shared budget.
+    fn rays_per_plane(rates: &[f32], costs: &[f32]) -> f32 {
+        let planes: f32 = costs.iter().sum();
+        rates.iter().zip(costs).map(|(r, c)| r * c).sum::<f32>() / planes
+    }
+
+    #[test]
+    fn a_quiet_signal_gives_rays_to_one_that_asks_at_equal_total() {
+        // AO (plane 0) converged at 1/8 ray, reflections (plane 1) refilling at 4 rays: shares
+        // 1/33 and 32/33 of the two planes' rays.
+        let c = group_counts(&[56, 67]);
+        assert_eq!((bucket_to_rate(56), bucket_to_rate(67)), (0.125, 4.0));
+        let rates = group_rates(&c, &grouped(0x10, 2, 0.0));
+        approx::assert_relative_eq!(rates[0], 2.0 / 33.0, max_relative = 1e-5);
+        approx::assert_relative_eq!(rates[1], 64.0 / 33.0, max_relative = 1e-5);
+        approx::assert_relative_eq!(rays_per_plane(&rates[..2], &[1.0, 1.0]), 1.0);
+        // The floor keeps the quiet one at a quarter of its equal share.
+        let p = grouped(0x10, 2, 0.25);
+        let rates = group_rates(&c, &p);
+        approx::assert_relative_eq!(rates[0], 0.25, max_relative = 1e-5);
+        approx::assert_relative_eq!(rates[1], 1.75, max_relative = 1e-5);
+        // Each group's decision spends its own rate.
+        let d = solve(&c, 1, rates[1], &p);
+        approx::assert_relative_eq!(d.budget, 175.0, max_relative = 1e-5);
+    }
+
+    #[test]
+    fn a_group_of_several_planes_pays_for_each() {
+        // AO, two shadow planes, reflections, all asking for one ray: equal rates, as each
+        // shadow ray costs two.
+        let c = group_counts(&[64, 64, 64]);
+        let rates = group_rates(&c, &grouped(0x2110, 4, 0.0));
+        for r in &rates[..3] {
+            approx::assert_relative_eq!(*r, 1.0, max_relative = 1e-5);
+        }
+        approx::assert_relative_eq!(rays_per_plane(&rates[..3], &[1.0, 2.0, 1.0]), 1.0);
+    }
+
+    #[test]
+    fn equal_rates_without_requests_or_a_split() {
+        let nothing = std::vec![0u32; 2 * COUNTS_LEN as usize];
+        assert_eq!(group_rates(&nothing, &grouped(0x10, 2, 0.0))[..2], [1.0; 2]);
+        let c = group_counts(&[56, 67]);
+        assert_eq!(group_rates(&c, &grouped(0x10, 2, 1.0))[..2], [1.0; 2]);
+        let fixed = BalanceParams {
+            policy: POLICY_FIXED,
+            ..grouped(0x10, 2, 0.0)
+        };
+        assert_eq!(group_rates(&c, &fixed)[..2], [1.0; 2]);
+        // A group without requesting pixels gets no floor: the other spends the whole budget.
+        let mut one = group_counts(&[64, 64]);
+        one[COUNTS_LEN as usize + 64] = 0;
+        one[COUNTS_LEN as usize + BUCKET_COUNT as usize + 64] = 0;
+        let rates = group_rates(&one, &grouped(0x10, 2, 0.5));
+        assert_eq!((rates[0], rates[1]), (2.0, 0.0));
     }
 }

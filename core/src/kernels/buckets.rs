@@ -23,7 +23,8 @@ pub const NO_RAYS: u32 = u32::MAX;
 pub const RING_TILE: [u32; 2] = [32, 16];
 /// Most rings counted (a 4K target has 60).
 pub const MAX_RINGS: u32 = 64;
-/// Length in `u32` of the counts buffer: `BUCKET_COUNT` totals, then `BUCKET_COUNT` per ring.
+/// Length in `u32` of one plane group's counts: `BUCKET_COUNT` totals, then `BUCKET_COUNT` per
+/// ring. The counts buffer holds one such histogram per group.
 pub const COUNTS_LEN: u32 = BUCKET_COUNT * (1 + MAX_RINGS);
 /// Workgroup edge of [`count`]; also the ring-tile height.
 pub const GROUP: u32 = 16;
@@ -113,7 +114,8 @@ pub fn clear(
     }
 }
 
-/// Phase 2: each pixel adds itself to its bucket in workgroup memory.
+/// Phase 2: each pixel adds itself to its bucket in workgroup memory. The dispatch's z is the
+/// plane group, whose requests are the z-th layer of `requests`.
 #[inline]
 pub fn count(
     ids: WorkgroupIds,
@@ -126,13 +128,14 @@ pub fn count(
     if id.x >= p.width || id.y >= p.height {
         return;
     }
-    let b = super::reproject::bucket_of(requests[pixel_index(id.x, id.y, p.width)]);
+    let layer = (id.z * p.width * p.height) as usize;
+    let b = super::reproject::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
     if b < BUCKET_COUNT {
         atomic::add_workgroup(&mut local[b as usize], 1);
     }
 }
 
-/// Phase 3: invocation `b` adds the workgroup's count of bucket `b` to the global total and to
+/// Phase 3: invocation `b` adds the workgroup's count of bucket `b` to its group's total and to
 /// its ring's row: one global atomic per bucket per workgroup, not one per pixel.
 #[inline]
 pub fn flush(
@@ -151,9 +154,10 @@ pub fn flush(
         return;
     }
     let ring = ring_id(group.x * GROUP, group.y * GROUP, p.width, p.height);
-    atomic::add(&mut counts[local_index as usize], n);
+    let base = group.z * COUNTS_LEN;
+    atomic::add(&mut counts[(base + local_index) as usize], n);
     atomic::add(
-        &mut counts[((1 + ring) * BUCKET_COUNT + local_index) as usize],
+        &mut counts[(base + (1 + ring) * BUCKET_COUNT + local_index) as usize],
         n,
     );
 }

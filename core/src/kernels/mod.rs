@@ -36,6 +36,22 @@ pub fn pixel_index(x: u32, y: u32, width: u32) -> usize {
     (y * width + x) as usize
 }
 
+/// Most signal planes a packed plane-group map holds (4 bits each).
+pub const MAX_GROUPED_PLANES: u32 = 8;
+
+/// Group of signal plane `plane` in a packed plane→group map (4 bits per plane, plane 0 in the
+/// lowest bits; `Settings::plane_groups`). Planes of one group (one signal: AO, the shadows of
+/// every light, reflections) share one ray request and one work list; 0 puts every plane in
+/// group 0, one request per pixel for all.
+#[inline]
+pub fn plane_group(groups: u32, plane: u32) -> u32 {
+    if plane < MAX_GROUPED_PLANES {
+        (groups >> (4 * plane)) & 0xf
+    } else {
+        0
+    }
+}
+
 /// The ids a workgroup kernel's phase gets (see [`crate::declare`]).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct WorkgroupIds {

@@ -129,6 +129,8 @@ pub struct AoParams {
     pub planes: u32,
     /// AO radius: occluders farther than this do not count.
     pub max_distance: f32,
+    /// The work list traced: the plane group's (`apply`).
+    pub list: u32,
 }
 
 /// Push constants of [`raygen_shadow`].
@@ -144,6 +146,8 @@ pub struct ShadowParams {
     pub planes: u32,
     /// The first shadow plane (other planes hold other signals).
     pub first_plane: u32,
+    /// The work list traced: the plane group's (`apply`).
+    pub list: u32,
 }
 
 /// Origin of the secondary rays of `s`: its position pushed off the surface along `g`.
@@ -297,11 +301,17 @@ pub fn shadow_pixel(
 
 /// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]).
 #[inline]
-pub(crate) fn work_item(id: UVec3, work: &[u32], args: &[u32]) -> Option<(usize, u32)> {
-    if id.x >= args[0] {
+pub(crate) fn work_item(
+    id: UVec3,
+    list: u32,
+    pixels: u32,
+    work: &[u32],
+    args: &[u32],
+) -> Option<(usize, u32)> {
+    if id.x >= args[(list * apply::ARGS_LEN) as usize] {
         return None;
     }
-    Some(apply::work_item(work[id.x as usize]))
+    Some(apply::work_item(work[(list * pixels + id.x) as usize]))
 }
 
 /// One invocation per work-list entry: AO samples of every plane of that pixel.
@@ -318,7 +328,7 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
         tris,
         out,
     } = io;
-    let Some((pix, n)) = work_item(id, work, args) else {
+    let Some((pix, n)) = work_item(id, p.list, p.width * p.height, work, args) else {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
@@ -364,7 +374,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         lights,
         out,
     } = io;
-    let Some((pix, n)) = work_item(id, work, args) else {
+    let Some((pix, n)) = work_item(id, p.list, p.width * p.height, work, args) else {
         return;
     };
     let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);

@@ -38,6 +38,8 @@ pub const FLAG_SKY: u32 = 2;
 
 /// `parallax_plane` when no plane reprojects along the reflection parallax.
 pub const NO_PLANE: u32 = u32::MAX;
+/// `importance_group` when no group's requests are scaled.
+pub const NO_GROUP: u32 = u32::MAX;
 
 /// Push constants of [`reproject`].
 #[repr(C)]
@@ -98,12 +100,15 @@ pub struct ReprojectParams {
     /// `temporal.max_history` only on a still frame with the still rule on (history kept valid
     /// longer, `still_history`); the first frame after one cuts it back.
     pub max_history: f32,
-    /// Scale each pixel's request by the `importance` of its tile (`reflect::TILE` pixels
-    /// square, `reflect::tile_grid`), e.g. the reflection tile classification's (0 = off).
-    pub use_importance: u32,
+    /// Scale the requests of this plane group by the `importance` of the pixel's tile
+    /// (`reflect::TILE` pixels square, `reflect::tile_grid`), e.g. the reflection tile
+    /// classification's; [`NO_GROUP`] for none.
+    pub importance_group: u32,
     /// Plane reprojected from the `parallax` positions instead of the surface motion (the
     /// reflections); [`NO_PLANE`] for none.
     pub parallax_plane: u32,
+    /// Which group each plane belongs to (`super::plane_group`): one request per group and pixel.
+    pub plane_groups: u32,
 }
 
 impl Default for ReprojectParams {
@@ -131,8 +136,9 @@ impl Default for ReprojectParams {
             still_history: 0.0,
             still_variance: 0.0,
             max_history: 64.0,
-            use_importance: 0,
+            importance_group: NO_GROUP,
             parallax_plane: NO_PLANE,
+            plane_groups: 0,
         }
     }
 }
@@ -293,6 +299,9 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
     } else {
         (texel, bilinear, any)
     };
+    let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
+    let pixels = (p.width * p.height) as usize;
+    // Per group, reset when the group's last plane is written.
     let mut lost = !any;
     let mut min_count = f32::MAX;
     let mut max_variance = 0.0f32;
@@ -363,32 +372,37 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         min_count = math::min(min_count, reprojected.count);
         max_variance = math::max(max_variance, reprojected.variance());
         out[i] = reprojected.pack();
+        let group = super::plane_group(p.plane_groups, z);
         z += 1;
+        if z == p.planes || super::plane_group(p.plane_groups, z) != group {
+            let bucket = if wanted {
+                let scale = if group == p.importance_group {
+                    importance[super::reflect::tile_index(id.x, id.y, p.width)]
+                } else {
+                    1.0
+                };
+                rate_to_bucket(requested_rate(min_count, max_variance, p) * scale)
+            } else {
+                super::buckets::NO_RAYS
+            };
+            let flags = if !c.is_valid() {
+                FLAG_SKY
+            } else if lost {
+                FLAG_DISOCCLUDED
+            } else {
+                0
+            };
+            requests[group as usize * pixels + pix] = request_word(bucket, flags);
+            lost = !any;
+            min_count = f32::MAX;
+            max_variance = 0.0;
+        }
     }
-    let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
-    let bucket = if wanted {
-        let scale = if p.use_importance != 0 {
-            importance[super::reflect::tile_index(id.x, id.y, p.width)]
-        } else {
-            1.0
-        };
-        rate_to_bucket(requested_rate(min_count, max_variance, p) * scale)
-    } else {
-        super::buckets::NO_RAYS
-    };
-    let flags = if !c.is_valid() {
-        FLAG_SKY
-    } else if lost {
-        FLAG_DISOCCLUDED
-    } else {
-        0
-    };
-    requests[pix] = request_word(bucket, flags);
 }
 
-/// The word reprojection writes per pixel: the requested bucket in the low 16 bits
-/// ([`buckets::NO_RAYS`](super::buckets::NO_RAYS) becomes `0xffff`, still no bucket) and the
-/// pixel's `FLAG_*` in the high 16 bits, so one buffer carries both.
+/// The word reprojection writes per pixel and plane group: the requested bucket in the low 16
+/// bits ([`buckets::NO_RAYS`](super::buckets::NO_RAYS) becomes `0xffff`, still no bucket) and
+/// the group's `FLAG_*` in the high 16 bits, so one buffer carries both.
 #[inline]
 pub fn request_word(bucket: u32, flags: u32) -> u32 {
     let bucket = if bucket < 0xffff { bucket } else { 0xffff };

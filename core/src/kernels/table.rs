@@ -49,8 +49,9 @@ crate::kernel_table! {
         histogram: atomic u32,
     }
 
-    /// The bucket histogram of the ray requests ([`buckets::clear`], [`buckets::count`],
-    /// [`buckets::flush`]); `counts` has `buckets::COUNTS_LEN` words, added to (fill it first).
+    /// The bucket histogram of each plane group's ray requests ([`buckets::clear`],
+    /// [`buckets::count`], [`buckets::flush`]; z = group); `counts` has `buckets::COUNTS_LEN`
+    /// words per group, added to (fill it first).
     count_buckets => COUNT_BUCKETS, CountBucketsBindings, CountBucketsIo: workgroup [u32; buckets::BUCKET_COUNT as usize],
     phases [buckets::clear, buckets::count, buckets::flush],
     threads(16, 16, 1), params buckets::BucketParams {

@@ -153,6 +153,12 @@ impl RateSettings {
             "rates.still_sigma",
             self.still_sigma,
             ">= 0",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.signal_floor),
+            "rates.signal_floor",
+            self.signal_floor,
+            "0..=1",
         )
     }
 }

@@ -16,8 +16,10 @@ pub struct RaygenParams {
     pub lights: u32,
     /// Frame index stamped into the ray records.
     pub frame: u32,
+    /// The work list traced: the plane group's (`apply`).
+    pub list: u32,
     /// Reserved.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
     /// Eye and hit lighting.
     pub shading: Shading,
 }
@@ -47,7 +49,9 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         lights,
         light_count: p.lights,
     };
-    let Some((pix, n)) = crate::kernels::raygen::work_item(id, work, args) else {
+    let Some((pix, n)) =
+        crate::kernels::raygen::work_item(id, p.list, p.width * p.height, work, args)
+    else {
         return;
     };
     let i = (p.plane * p.width * p.height) as usize + pix;
