@@ -264,20 +264,10 @@ fn parallax_reprojection_follows_the_reflection() {
     assert!(parallax.denoised * 1.5 < surface.denoised);
 }
 
-/// The shared frame against each signal alone, without the change detector: the planes share
-/// one ray count per pixel, so where the detector drops one plane's history the supersampling it
-/// asks for comes out of the others' rays, and alone a signal gains more from it (frame 40 with
-/// it on: AO 0.00449 shared vs 0.00284 alone, shadows 0.162 vs 0.086). That is the coupled rates'
-/// cost, not the sharing this test is about.
+/// A renderer of `signal` on the room with the default settings: the change detector on, and in
+/// the shared frame each signal with its own ray requests (`rates.per_signal`).
 fn shared_frame_renderer(exec: &mut CpuExecutor, signal: Signal) -> Renderer {
-    let settings = Settings {
-        gradient: GradientSettings {
-            detect_radius: 0,
-            ..Default::default()
-        },
-        ..Settings::default()
-    };
-    Renderer::new(exec, SIZE.0, SIZE.1, signal, 1, settings).unwrap()
+    Renderer::new(exec, SIZE.0, SIZE.1, signal, 1, Settings::default()).unwrap()
 }
 
 /// Denoised output of frame `last` of `signal` on the room.
@@ -347,7 +337,10 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     for (name, (together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
         println!("{name}: relMSE {together:.5} in one frame with the others, {single:.5} alone");
     }
+    // With its own requests each signal gets what it asks for (frame 40: AO 0.00290 vs 0.00284
+    // alone, shadows 0.078 vs 0.086, reflections 0.0108 vs 0.0123); one shared request per pixel
+    // was up to 1.9x worse than alone (shadows 0.162).
     for (name, &(together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
-        assert!(together < single * 1.5, "{name}: {together} vs {single}");
+        assert!(together < single * 1.15, "{name}: {together} vs {single}");
     }
 }
