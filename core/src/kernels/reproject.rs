@@ -13,7 +13,9 @@
 //! `supersample_target` ask for enough rays to refill it (up to 16), pixels with full history ask
 //! for a fraction of a ray picked from their variance (4 thresholds, seed "Advanced
 //! undersampling"), sky and VRS-masked pixels ask for none. The request is a bucket index
-//! (`buckets::rate_to_bucket`).
+//! (`buckets::rate_to_bucket`), one per plane group (`plane_groups`: each signal of a
+//! multi-signal frame asks from its own planes' history, so a refilling shadow does not make the
+//! converged AO of the same pixel trace too).
 //!
 //! With temporal gradients on (`gradient_stratum > 0`, see `kernels::gradient`), each plane's
 //! reconstructed `λ` at the pixel's cell shortens the reprojected history to `count · (1 − λ)`
