@@ -1,6 +1,6 @@
 //! Built-in scenes, designed to break denoisers, and a registry to list and pick them by name:
-//! the procedural `room` (embedded, no files) and the scenes on meshes `vrrt fetch` downloads
-//! (`bunny`, `dragon`: [`crate::mesh_scenes`]).
+//! the procedural `room` and `thicket` ([`crate::thicket`]; embedded, no files) and the scenes on
+//! meshes `vrrt fetch` downloads (`bunny`, `dragon`: [`crate::mesh_scenes`]).
 //!
 //! Y is up, units are metres, 30 fps.
 
@@ -41,6 +41,11 @@ pub const BUILTINS: &[BuiltinInfo] = &[
         mesh: None,
     },
     BuiltinInfo {
+        name: "thicket",
+        description: crate::thicket::THICKET_DESCRIPTION,
+        mesh: None,
+    },
+    BuiltinInfo {
         name: "bunny",
         description: mesh_scenes::BUNNY_DESCRIPTION,
         mesh: Some(CachedMesh::Bunny),
@@ -62,6 +67,7 @@ pub fn builtin(name: &str) -> Result<Scene, SceneError> {
     match name {
         "room" => Ok(room(true)),
         "room_static" => Ok(room(false)),
+        "thicket" => Ok(crate::thicket::thicket()),
         _ => Err(SceneError::UnknownScene {
             name: name.to_string(),
             known: BUILTINS

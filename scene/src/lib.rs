@@ -19,6 +19,7 @@ pub mod reference_cache;
 pub mod render;
 pub mod scene;
 pub mod shapes;
+pub mod thicket;
 
 pub use error::SceneError;
 pub use events::{Event, EventKind};
