@@ -20,8 +20,8 @@ use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
 /// Options of `vrrt run`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct RunArgs {
-    /// Built-in scene (room, room_static, thicket; bunny and dragon after `vrrt fetch`), or a mesh file
-    /// (.obj, .ply, .ply.gz, .glb, .gltf).
+    /// Built-in scene (room, room_static, thicket; bunny and dragon after `vrrt fetch`), or a
+    /// mesh file (.obj, .ply, .ply.gz, .glb, .gltf).
     #[arg(long, default_value = "room")]
     pub scene: String,
     /// Frames to render (from frame 0).
