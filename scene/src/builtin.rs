@@ -153,24 +153,7 @@ fn room(animated: bool) -> Scene {
 
     // Static room: floor, three walls (open front and top: sky shows above the walls).
     let fixed = Motion::Static(Affine3A::IDENTITY);
-    s.add_object(
-        "floor",
-        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::X * 12.0, Vec3::Z * -11.0),
-        fixed.clone(),
-        0.3,
-    );
-    s.add_object(
-        "back wall",
-        quad(Vec3::new(-6.0, 0.0, -5.0), Vec3::X * 12.0, Vec3::Y * 3.5),
-        fixed.clone(),
-        1.0,
-    );
-    s.add_object(
-        "left wall",
-        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::Z * -11.0, Vec3::Y * 3.5),
-        fixed.clone(),
-        1.0,
-    );
+    add_floor_and_walls(&mut s);
     s.add_object(
         "right wall",
         quad(Vec3::new(6.0, 0.0, -5.0), Vec3::Z * 11.0, Vec3::Y * 3.5),
@@ -263,6 +246,29 @@ fn room(animated: bool) -> Scene {
         CameraPath::fixed(Vec3::new(0.0, 2.2, 7.5), Vec3::new(0.0, 1.0, -3.0), 1.0)
     };
     s
+}
+
+/// The room's floor (12 × 11 m), back wall and left wall (3.5 m high), static.
+pub(crate) fn add_floor_and_walls(s: &mut Scene) {
+    let fixed = Motion::Static(Affine3A::IDENTITY);
+    s.add_object(
+        "floor",
+        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::X * 12.0, Vec3::Z * -11.0),
+        fixed.clone(),
+        0.3,
+    );
+    s.add_object(
+        "back wall",
+        quad(Vec3::new(-6.0, 0.0, -5.0), Vec3::X * 12.0, Vec3::Y * 3.5),
+        fixed.clone(),
+        1.0,
+    );
+    s.add_object(
+        "left wall",
+        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::Z * -11.0, Vec3::Y * 3.5),
+        fixed,
+        1.0,
+    );
 }
 
 /// A static scene showing `mesh` (scaled to about 2 m, resting on a floor, in front of a wall)

@@ -10,7 +10,7 @@
 use crate::animation::{CameraKey, CameraPath, Light, Motion};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-use crate::shapes::{cuboid, quad};
+use crate::shapes::cuboid;
 use vrrt_core::glam::{Affine3A, Vec3};
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::sampling::{pcg_hash, rand};
@@ -31,26 +31,8 @@ pub fn thicket() -> Scene {
     let mut s = Scene::new("thicket", THICKET_DESCRIPTION);
     s.fps = 30.0;
     s.frame_count = 96;
-    let fixed = Motion::Static(Affine3A::IDENTITY);
-    s.add_object(
-        "floor",
-        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::X * 12.0, Vec3::Z * -11.0),
-        fixed.clone(),
-        0.3,
-    );
-    s.add_object(
-        "back wall",
-        quad(Vec3::new(-6.0, 0.0, -5.0), Vec3::X * 12.0, Vec3::Y * 3.5),
-        fixed.clone(),
-        1.0,
-    );
-    s.add_object(
-        "left wall",
-        quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::Z * -11.0, Vec3::Y * 3.5),
-        fixed.clone(),
-        1.0,
-    );
-    s.add_object("thicket", blades(), fixed, 0.6);
+    crate::builtin::add_floor_and_walls(&mut s);
+    s.add_object("thicket", blades(), Motion::Static(Affine3A::IDENTITY), 0.6);
     s.add_light(Light {
         base: AreaLight::new(Vec3::new(-0.5, 3.8, -2.5), Vec3::Z * 1.0, Vec3::X * 1.0),
         motion: Motion::Static(Affine3A::IDENTITY),
