@@ -83,7 +83,8 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
 mod tests {
     use super::*;
     use vrrt_core::settings::{
-        FilterSettings, GradientSettings, RateSettings, StoragePrecision, TemporalSettings,
+        FilterSettings, GradientSettings, RateSettings, SamplePattern, StoragePrecision,
+        TemporalSettings,
     };
 
     #[test]
@@ -121,6 +122,7 @@ mod tests {
                 storage: StoragePrecision::Unorm8,
                 rng_wrap: 12345,
                 stuck_correction: false,
+                sampling: SamplePattern::ScreenBlue,
             },
             rates: RateSettings {
                 rays_per_pixel: 0.3,
@@ -207,6 +209,18 @@ storage = \"f16\"
         };
         assert_eq!(s, expected);
         assert_eq!(parse(""), Ok(d));
+    }
+
+    #[test]
+    fn sample_patterns_by_name() {
+        for (name, pattern) in [
+            ("per-pixel", SamplePattern::PerPixel),
+            ("screen-blue", SamplePattern::ScreenBlue),
+        ] {
+            let s = parse(&format!("[temporal]\nsampling = \"{name}\"\n")).unwrap();
+            assert_eq!(s.temporal.sampling, pattern);
+        }
+        assert!(parse("[temporal]\nsampling = \"blue\"\n").is_err());
     }
 
     #[test]

@@ -298,7 +298,8 @@ impl Reflections {
             plane: self.plane,
             lights: scene.light_count,
             frame: target.frame,
-            _pad: [0; 3],
+            sampling: target.sampling,
+            _pad: [0; 2],
             shading: self.shading(scene),
         };
         let pass = kernels::RaygenReflectBindings {

@@ -110,7 +110,8 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         plane: rng.random_range(0..planes),
         lights: rng.random_range(0..=lights.len() as u32),
         frame: rng.random(),
-        _pad: [0; 3],
+        sampling: rng.random_range(0..2),
+        _pad: [0; 2],
         shading: shading(rng, &frame),
     };
     let [work, args] = list.buffers();

@@ -187,6 +187,9 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         planes,
         max_distance: rng.random_range(0.2..4.0),
+        frame: rng.random(),
+        sampling: rng.random_range(0..2),
+        _pad: [0; 2],
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
@@ -235,6 +238,9 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         planes: planes - first_plane,
         first_plane,
+        frame: rng.random(),
+        sampling: rng.random_range(0..2),
+        _pad: [0; 2],
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);

@@ -168,6 +168,8 @@ pub struct Denoiser {
     cur: usize,
     out: usize,
     frame: FrameInfo,
+    /// Last frame's index: the gradient pass re-creates that frame's rays.
+    prev_frame: u32,
 }
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
@@ -246,6 +248,7 @@ impl Denoiser {
                 use_importance: false,
                 view: View::default(),
             },
+            prev_frame: 0,
         })
     }
 
@@ -486,6 +489,7 @@ impl Denoiser {
         frame: FrameInfo,
     ) -> Result<(), E::Error> {
         self.cur = 1 - self.cur;
+        self.prev_frame = self.frame.index;
         self.frame = frame;
         self.gradient_ran = false;
         exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))

@@ -61,8 +61,10 @@ pub struct RaygenTarget {
     pub history: BufferId,
     /// Samples written.
     pub out: BufferId,
-    /// Frame stamp of the reflection ray records.
+    /// Frame index: the reflection ray records' stamp and the screen-blue pattern's shift.
     pub frame: u32,
+    /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
+    pub sampling: u32,
 }
 
 impl RaygenTarget {
@@ -77,6 +79,7 @@ impl RaygenTarget {
             history: denoiser.history(),
             out: denoiser.samples(),
             frame: denoiser.frame().index,
+            sampling: denoiser.settings().temporal.sampling.code(),
         }
     }
 
@@ -118,6 +121,9 @@ pub fn trace_planes<E: Executor>(
             height,
             planes: 1,
             max_distance,
+            frame: target.frame,
+            sampling: target.sampling,
+            _pad: [0; 2],
         };
         exec.dispatch(&ao.pass(&p, target.groups()))?;
     }
@@ -127,6 +133,9 @@ pub fn trace_planes<E: Executor>(
             height,
             planes,
             first_plane,
+            frame: target.frame,
+            sampling: target.sampling,
+            _pad: [0; 2],
         };
         let shadow = kernels::RaygenShadowBindings {
             work: ao.work,
