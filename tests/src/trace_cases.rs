@@ -188,7 +188,8 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes,
         max_distance: rng.random_range(0.2..4.0),
         frame: rng.random(),
-        sampling: rng.random_range(0..2),
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
         _pad: [0; 2],
     };
     let [work, args] = list.buffers();
@@ -239,7 +240,8 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes: planes - first_plane,
         first_plane,
         frame: rng.random(),
-        sampling: rng.random_range(0..2),
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
         _pad: [0; 2],
     };
     let [work, args] = list.buffers();
