@@ -122,7 +122,7 @@ mod tests {
                 storage: StoragePrecision::Unorm8,
                 rng_wrap: 12345,
                 stuck_correction: false,
-                sampling: SamplePattern::ScreenBlue,
+                sampling: SamplePattern::PerPixel,
             },
             rates: RateSettings {
                 rays_per_pixel: 0.3,

@@ -70,7 +70,7 @@ pub struct TemporalSettings {
     /// demonstrate the pixel that never converges without it.
     pub stuck_correction: bool,
     /// Where the rays' first two random numbers come from (`per-pixel` or `screen-blue`; default
-    /// `per-pixel`): each pixel's own sequence at the rng index its history carries, or
+    /// `screen-blue`): each pixel's own sequence at the rng index its history carries, or
     /// screen-space blue noise of the pixel and frame that motion does not scramble.
     pub sampling: SamplePattern,
 }
@@ -220,7 +220,7 @@ impl Default for TemporalSettings {
             storage: StoragePrecision::F16,
             rng_wrap: 0,
             stuck_correction: true,
-            sampling: SamplePattern::PerPixel,
+            sampling: SamplePattern::ScreenBlue,
         }
     }
 }
