@@ -15,6 +15,9 @@ use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
+use vrrt_scene::metrics::ErrorSpectrum;
+
+mod spectrum;
 
 /// Options of `vrrt bench`. Unset options take the quick or full defaults.
 #[derive(Clone, Debug, clap::Args)]
@@ -86,7 +89,7 @@ pub struct BenchArgs {
 pub const DEFAULT_SCENES: [&str; 3] = ["room", "bunny", "dragon"];
 
 /// The files the matrix writes into `--out` (and removes there before writing).
-pub const BENCH_OUTPUTS: [&str; 3] = ["bench.csv", "bench.md", "relmse_vs_*.png"];
+pub const BENCH_OUTPUTS: [&str; 4] = ["bench.csv", "bench.md", "spectrum.csv", "relmse_vs_*.png"];
 
 /// One cell of the matrix.
 #[derive(Clone, Debug)]
@@ -133,13 +136,19 @@ pub struct Cell {
     pub ms_spread: f64,
     /// Mean ms per frame of each pass (first repeat).
     pub passes: Vec<(&'static str, f64)>,
+    /// Mean relMSE of the raw samples.
+    pub raw_relmse: f64,
+    /// Error power spectrum of the reported image, mean over the measured frames.
+    pub error_spectrum: ErrorSpectrum,
+    /// Error power spectrum of the raw samples.
+    pub raw_spectrum: ErrorSpectrum,
 }
 
 /// Configurations of the quick matrix for signals other than AO: the SVGF baseline, VRRT and its
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
 
-const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate";
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -279,6 +288,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             ms_per_frame: ms[ms.len() / 2],
                             ms_spread: ms[ms.len() - 1] - ms[0],
                             passes: r.pass_means(&r.records),
+                            raw_relmse: r.mean_of(|f| f.raw_relmse),
+                            error_spectrum: spectrum::mean(&r.records, |f| &f.error_spectrum),
+                            raw_spectrum: spectrum::mean(&r.records, |f| &f.raw_spectrum),
                         };
                         progress::println(&format!(
                             "{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
@@ -306,6 +318,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let md = bench_md(&cells) + &adaptive_md(&cells) + &oracle_md(&cells);
     std::fs::write(args.out.join("bench.csv"), csv).context("writing bench.csv")?;
     std::fs::write(args.out.join("bench.md"), &md).context("writing bench.md")?;
+    std::fs::write(args.out.join("spectrum.csv"), spectrum::csv(&cells))
+        .context("writing spectrum.csv")?;
     if let Err(e) = plots(&args.out, &cells) {
         eprintln!("warning: plots not written: {e:#}");
     }
@@ -348,7 +362,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{}",
             c.scene,
             c.signal.name(),
             c.config.name(),
@@ -371,7 +385,8 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             fmt(moving_vs_oracle(cells, c), 4),
             fmt(c.static_relmse, 7),
             fmt(c.detection.map_or(f64::NAN, |d| d.miss_rate()), 4),
-            fmt(c.detection.map_or(f64::NAN, |d| d.false_positive_rate()), 5)
+            fmt(c.detection.map_or(f64::NAN, |d| d.false_positive_rate()), 5),
+            spectrum::columns(c)
         );
         session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');

@@ -84,7 +84,8 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
 mod tests {
     use super::*;
     use vrrt_core::settings::{
-        FilterSettings, GradientSettings, RateSettings, StoragePrecision, TemporalSettings,
+        FilterSettings, GradientSettings, RateSettings, SamplePattern, StoragePrecision,
+        TemporalSettings,
     };
 
     #[test]
@@ -123,6 +124,7 @@ mod tests {
                 storage: StoragePrecision::Unorm8,
                 rng_wrap: 12345,
                 stuck_correction: false,
+                sampling: SamplePattern::PerPixel,
             },
             rates: RateSettings {
                 rays_per_pixel: 0.3,
@@ -211,6 +213,18 @@ storage = \"f16\"
         };
         assert_eq!(s, expected);
         assert_eq!(parse(""), Ok(d));
+    }
+
+    #[test]
+    fn sample_patterns_by_name() {
+        for (name, pattern) in [
+            ("per-pixel", SamplePattern::PerPixel),
+            ("screen-blue", SamplePattern::ScreenBlue),
+        ] {
+            let s = parse(&format!("[temporal]\nsampling = \"{name}\"\n")).unwrap();
+            assert_eq!(s.temporal.sampling, pattern);
+        }
+        assert!(parse("[temporal]\nsampling = \"blue\"\n").is_err());
     }
 
     #[test]

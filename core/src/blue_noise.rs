@@ -6,8 +6,65 @@
 //! the golden ratio to every threshold (mod 1), so a pixel's thresholds over time form a
 //! low-discrepancy sequence: a pixel asking for rate 1/4 is traced once every ~4 frames, evenly,
 //! and neighbours take turns.
+//!
+//! [`screen_point`] is the blue noise of the ray directions ([`crate::sampling::SamplePattern`]):
+//! procedural, so the ray kernels and the gradient re-trace need no mask buffer.
 
 use crate::math;
+use crate::sampling::{pcg_hash, R2_STEP};
+
+/// Levels of the pixel hierarchy [`screen_point`] orders: the pattern repeats every `2^12` pixels.
+const LEVELS: u32 = 12;
+
+/// A 2D point in `[0, 1)²` (32-bit fixed point) for pixel `(x, y)` of plane `plane` in frame
+/// `frame`, blue across the screen and low-discrepancy over frames.
+///
+/// Ahmed & Wonka 2020, "Screen-space blue-noise diffusion of Monte Carlo sampling error via
+/// hierarchical ordering of pixels": pixels are numbered in Morton order with the four children
+/// of every quad-tree node permuted by a hash of the node, and pixel `n` takes point `n` of the
+/// 2D Sobol sequence. Every aligned `2^k × 2^k` block then holds `4^k` consecutive Sobol points,
+/// a (0, 2k, 2)-net, so neighbours' samples stratify the square at every scale: the error of a
+/// neighbourhood cancels, leaving high frequencies. The frame adds `frame · R2` (mod 1) to every
+/// point, which keeps the screen pattern and makes a still pixel's points over frames the R2
+/// sequence. Depends on where the pixel is now and the frame, never on the history it carries.
+#[inline]
+pub fn screen_point(x: u32, y: u32, plane: u32, frame: u32) -> (u32, u32) {
+    let salt = pcg_hash(plane ^ 0x5bd1_e995);
+    let (a, b) = pixel_point(x, y, salt);
+    (
+        a.wrapping_add(frame.wrapping_mul(R2_STEP[0]))
+            .wrapping_add(salt),
+        b.wrapping_add(frame.wrapping_mul(R2_STEP[1]))
+            .wrapping_add(pcg_hash(salt)),
+    )
+}
+
+/// The unshifted point of [`screen_point`]: Sobol point number `n` of the pixel's scrambled
+/// Morton number `n`, built bit by bit (32-bit fixed point).
+#[inline]
+fn pixel_point(x: u32, y: u32, salt: u32) -> (u32, u32) {
+    let (mut a, mut b) = (0u32, 0u32);
+    // Sobol direction number of the second dimension for the current bit (x + 1 polynomial).
+    let mut v = 1u32 << 31;
+    let mut l = 0;
+    while l < LEVELS {
+        let parent = (((y >> (l + 1)) & 0xfff) << 12) | ((x >> (l + 1)) & 0xfff);
+        let flip = pcg_hash(parent ^ (l << 24) ^ salt) >> 30;
+        let digit = (((x >> l) & 1) | (((y >> l) & 1) << 1)) ^ flip;
+        // Bits 2l and 2l + 1 of the pixel's number: van der Corput and Sobol bits.
+        let mut bit = 0;
+        while bit < 2 {
+            if (digit >> bit) & 1 != 0 {
+                a ^= 1u32 << (31 - (2 * l + bit));
+                b ^= v;
+            }
+            v ^= v >> 1;
+            bit += 1;
+        }
+        l += 1;
+    }
+    (a, b)
+}
 
 /// Edge of the tiled mask.
 pub const SIZE: u32 = 64;
@@ -113,6 +170,66 @@ pub fn generate_mask() -> [f32; LEN] {
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
+
+    /// Cell of `(a, b)` in a `cells × cells` grid of the unit square.
+    fn cell(a: u32, b: u32, cells: u32) -> usize {
+        let k = cells.trailing_zeros();
+        ((a >> (32 - k)) * cells + (b >> (32 - k))) as usize
+    }
+
+    #[test]
+    fn screen_blocks_stratify_the_square() {
+        // Every aligned 2^k × 2^k block holds one point per cell of a 2^k × 2^k grid.
+        for k in 1..=3u32 {
+            let side = 1u32 << k;
+            for (bx, by) in [(0, 0), (3, 1), (17, 40)] {
+                let mut seen = std::vec![0u32; (side * side) as usize];
+                for y in by * side..(by + 1) * side {
+                    for x in bx * side..(bx + 1) * side {
+                        let (a, b) = pixel_point(x, y, 77);
+                        seen[cell(a, b, side)] += 1;
+                    }
+                }
+                assert!(
+                    seen.iter().all(|&c| c == 1),
+                    "k {k} block {bx},{by}: {seen:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn screen_neighbours_are_farther_apart_than_white_noise() {
+        // Mean toroidal distance between a pixel's point and its right neighbour's: white noise
+        // gives ~0.38; the stratified blocks push neighbours apart.
+        let dist = |p: (u32, u32), q: (u32, u32)| {
+            let d = |u: u32, v: u32| {
+                let t = u.wrapping_sub(v) as f64 / 4_294_967_296.0;
+                t.min(1.0 - t)
+            };
+            (d(p.0, q.0).powi(2) + d(p.1, q.1).powi(2)).sqrt()
+        };
+        let mut sum = 0.0;
+        for y in 0..64 {
+            for x in 0..64 {
+                sum += dist(screen_point(x, y, 1, 9), screen_point(x + 1, y, 1, 9));
+            }
+        }
+        let mean = sum / 4096.0;
+        assert!(mean > 0.42, "mean neighbour distance {mean}");
+    }
+
+    #[test]
+    fn still_pixel_stratifies_over_frames() {
+        // 256 frames of one pixel: every cell of a 4×4 grid holds 16 ± 3 (the R2 sequence).
+        let mut cells = [0u32; 16];
+        for f in 0..256 {
+            let (a, b) = screen_point(13, 7, 2, f);
+            cells[cell(a, b, 4)] += 1;
+        }
+        assert!(cells.iter().all(|&c| (13..=19).contains(&c)), "{cells:?}");
+        assert_ne!(screen_point(13, 7, 2, 5), screen_point(13, 7, 3, 5));
+    }
 
     #[test]
     fn mask_is_a_permutation_of_uniform_thresholds() {

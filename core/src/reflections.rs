@@ -299,7 +299,8 @@ impl Reflections {
             lights: scene.light_count,
             frame: target.frame,
             list: target.list(self.plane),
-            _pad: [0; 2],
+            sampling: target.sampling,
+            _pad: 0,
             shading: self.shading(scene),
         };
         let pass = kernels::RaygenReflectBindings {

@@ -80,7 +80,7 @@ pub fn parallelogram_point(corner: Vec3, edge_u: Vec3, edge_v: Vec3, u1: f32, u2
 
 /// 32-bit fixed-point steps of the R2 sequence (Roberts 2018: `1/g`, `1/g²` for the plastic
 /// number `g`), the 2D low-discrepancy sequence with the best known packing.
-const R2_STEP: [u32; 2] = [3_242_174_889, 2_447_445_414];
+pub(crate) const R2_STEP: [u32; 2] = [3_242_174_889, 2_447_445_414];
 
 /// Point `index` of pixel `seed`'s low-discrepancy sequence in `[0, 1)²`: the R2 sequence,
 /// Cranley–Patterson rotated by a hash of the seed so neighbouring pixels decorrelate. Wrapping
@@ -88,10 +88,127 @@ const R2_STEP: [u32; 2] = [3_242_174_889, 2_447_445_414];
 /// (its rays over frames) stratify the square like the seed's Halton points.
 #[inline]
 pub fn low_discrepancy(seed: u32, index: u32) -> (f32, f32) {
-    let scale = 1.0 / 16_777_216.0;
     let a = pcg_hash(seed).wrapping_add(index.wrapping_mul(R2_STEP[0]));
     let b = pcg_hash(seed ^ 0x85eb_ca6b).wrapping_add(index.wrapping_mul(R2_STEP[1]));
+    unit_pair(a, b)
+}
+
+/// Fixed-point `[0, 1)²` point to floats: the top 24 bits times `2^-24` (exact, never 1).
+#[inline]
+pub(crate) fn unit_pair(a: u32, b: u32) -> (f32, f32) {
+    let scale = 1.0 / 16_777_216.0;
     ((a >> 8) as f32 * scale, (b >> 8) as f32 * scale)
+}
+
+/// Where a pixel's rays draw their first two random numbers
+/// ([`TemporalSettings::sampling`](crate::settings::TemporalSettings::sampling)). In settings
+/// files: `"per-pixel"` or `"screen-blue"`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum SamplePattern {
+    /// Each pixel's own hashed sequence at the rng index its history carries (AO and shadows:
+    /// [`rand`]; reflections: [`low_discrepancy`]): white noise across the screen.
+    PerPixel,
+    /// [`crate::blue_noise::screen_point`]: a screen-space blue-noise point per pixel, shifted
+    /// each frame along R2, so neighbours' samples spread over the square whatever history they
+    /// carry, and a still pixel's samples over frames stratify. The default: lower relMSE on
+    /// the moving scenes (README, "Blue noise through reprojection").
+    #[default]
+    ScreenBlue,
+}
+
+impl SamplePattern {
+    /// The code passed to kernels (`Stream::pattern`).
+    pub fn code(self) -> u32 {
+        match self {
+            SamplePattern::PerPixel => 0,
+            SamplePattern::ScreenBlue => 1,
+        }
+    }
+}
+
+/// 32-bit fixed-point steps between the rays one pixel traces in one frame under
+/// [`SamplePattern::ScreenBlue`]: `1/φ₃`, `1/φ₃²` for the root `φ₃` of `x⁴ = x + 1`, a Kronecker
+/// generator unrelated to the frame's R2 steps, so ray `k` of frame `f` never lands on ray 0 of
+/// frame `f + k`.
+const RAY_STEP: [u32; 2] = [3_518_319_155, 2_882_110_345];
+
+/// The random numbers of one pixel's rays in one plane and frame: a pure function of the pixel,
+/// plane, frame and the index of the frame's 0th ray, so the gradient pass re-creates them.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Stream {
+    /// [`pixel_seed`] of the pixel and plane: every random number besides the first two.
+    pub seed: u32,
+    /// Rng index of the frame's 0th ray.
+    pub first: u32,
+    /// [`SamplePattern::code`].
+    pub pattern: u32,
+    /// Screen-blue point of ray 0, first coordinate in 32-bit fixed point.
+    pub base_u: u32,
+    /// Second coordinate of `base_u`'s point.
+    pub base_v: u32,
+}
+
+impl Stream {
+    /// The stream of pixel `(x, y)` in `plane` whose frame `frame` starts at rng index `first`.
+    #[inline]
+    pub fn new(pattern: u32, x: u32, y: u32, plane: u32, frame: u32, first: u32) -> Self {
+        let (base_u, base_v) = if pattern == 1 {
+            crate::blue_noise::screen_point(x, y, plane, frame)
+        } else {
+            (0, 0)
+        };
+        Stream {
+            seed: pixel_seed(x, y, plane),
+            first,
+            pattern,
+            base_u,
+            base_v,
+        }
+    }
+
+    /// Today's per-pixel stream of `seed` (tracer rays, tests).
+    #[inline]
+    pub fn per_pixel(seed: u32) -> Self {
+        Stream {
+            seed,
+            first: 0,
+            pattern: 0,
+            base_u: 0,
+            base_v: 0,
+        }
+    }
+
+    /// The screen-blue point of ray `index`: ray 0's point stepped by [`RAY_STEP`] per ray.
+    #[inline]
+    fn blue(&self, index: u32) -> (f32, f32) {
+        let k = index.wrapping_sub(self.first);
+        unit_pair(
+            self.base_u.wrapping_add(k.wrapping_mul(RAY_STEP[0])),
+            self.base_v.wrapping_add(k.wrapping_mul(RAY_STEP[1])),
+        )
+    }
+
+    /// First two random numbers of ray `index` (AO, shadows): per pixel `rand` dimensions 0, 1.
+    #[inline]
+    pub fn point(&self, index: u32) -> (f32, f32) {
+        if self.pattern == 1 {
+            self.blue(index)
+        } else {
+            (rand(self.seed, index, 0), rand(self.seed, index, 1))
+        }
+    }
+
+    /// As [`Stream::point`], with the per-pixel pattern's [`low_discrepancy`] (reflections).
+    #[inline]
+    pub fn point_ld(&self, index: u32) -> (f32, f32) {
+        if self.pattern == 1 {
+            self.blue(index)
+        } else {
+            low_discrepancy(self.seed, index)
+        }
+    }
 }
 
 /// Smallest GGX alpha the samplers accept: below it the lobe's pdf overflows `f32`.
@@ -285,6 +402,28 @@ mod tests {
         }
         assert!(cells.iter().all(|&c| (13..=19).contains(&c)), "{cells:?}");
         assert_ne!(low_discrepancy(seed, 0), low_discrepancy(seed ^ 1, 0));
+    }
+
+    #[test]
+    fn streams_are_pure_and_never_repeat_a_ray() {
+        for pattern in [0, 1] {
+            let s = Stream::new(pattern, 4, 9, 1, 30, 100);
+            assert_eq!(s, Stream::new(pattern, 4, 9, 1, 30, 100));
+            let (a, b) = s.point(103);
+            assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
+            assert_ne!(s.point(100), s.point(101));
+        }
+        // Screen-blue: ray k of frame f is not ray 0 of frame f + k, whatever the index.
+        let s = Stream::new(1, 4, 9, 1, 30, 100);
+        for k in 1..16 {
+            let later = Stream::new(1, 4, 9, 1, 30 + k, 100 + k);
+            assert_ne!(s.point(100 + k), later.point(100 + k), "ray {k}");
+        }
+        // The per-pixel pattern is today's numbers.
+        let seed = pixel_seed(4, 9, 1);
+        let s = Stream::new(0, 4, 9, 1, 30, 100);
+        assert_eq!(s.point(7), (rand(seed, 7, 0), rand(seed, 7, 1)));
+        assert_eq!(s.point_ld(7), low_discrepancy(seed, 7));
     }
 
     /// Monte Carlo integral of `f` over the sphere with `count` uniform directions.

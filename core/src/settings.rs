@@ -9,6 +9,7 @@
 //! refused, so a partial settings file (`vrrt run --settings FILE`) tunes only what it names.
 
 pub use crate::quantize::StoragePrecision;
+pub use crate::sampling::SamplePattern;
 use core::fmt;
 
 mod validate;
@@ -75,6 +76,10 @@ pub struct TemporalSettings {
     /// The seed's stuck correction when storing low-precision history (default on). Off only to
     /// demonstrate the pixel that never converges without it.
     pub stuck_correction: bool,
+    /// Where the rays' first two random numbers come from (`per-pixel` or `screen-blue`; default
+    /// `screen-blue`): each pixel's own sequence at the rng index its history carries, or
+    /// screen-space blue noise of the pixel and frame that motion does not scramble.
+    pub sampling: SamplePattern,
 }
 
 /// How many rays each pixel traces: the budget, VRRT's requests and the load balancer
@@ -231,6 +236,7 @@ impl Default for TemporalSettings {
             storage: StoragePrecision::F16,
             rng_wrap: 0,
             stuck_correction: true,
+            sampling: SamplePattern::ScreenBlue,
         }
     }
 }

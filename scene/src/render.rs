@@ -518,6 +518,8 @@ pub fn reference<E: Executor>(
             out,
             frame: 0,
             plane_groups: 0,
+            // References keep the per-pixel sequences: the pattern under test never judges itself.
+            sampling: 0,
         };
         let scene = gpu.frame_scene(f);
         trace_planes(exec, signal, &layout, &scene, reflections.as_ref(), &target)?;

@@ -4,7 +4,7 @@
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{ao_pixel, shadow_pixel, AreaLight};
-use vrrt_core::sampling::pixel_seed;
+use vrrt_core::sampling::{pixel_seed, Stream};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_scene::builtin::{builtin, room_ids};
 use vrrt_scene::{FrameGeometry, Scene};
@@ -152,8 +152,24 @@ fn ao_and_shadow_conventions() {
     for (i, s) in surfaces.iter().enumerate() {
         let (x, y) = (i as u32 % W, i as u32 / W);
         let seed = pixel_seed(x, y, 0);
-        let a = ao_pixel(s, seed, 5, 8, 1.0, &g.nodes, &g.triangles);
-        let b = ao_pixel(s, seed, 5, 8, 1.0, &g.nodes, &g.triangles);
+        let a = ao_pixel(
+            s,
+            Stream::per_pixel(seed),
+            5,
+            8,
+            1.0,
+            &g.nodes,
+            &g.triangles,
+        );
+        let b = ao_pixel(
+            s,
+            Stream::per_pixel(seed),
+            5,
+            8,
+            1.0,
+            &g.nodes,
+            &g.triangles,
+        );
         assert_eq!(a, b, "rays are pure functions of (seed, index, surface)");
         if s.instance == NO_INSTANCE {
             assert_eq!(a.rays, 0);
@@ -166,7 +182,15 @@ fn ao_and_shadow_conventions() {
         );
         ao_sum += a.m1;
         n += 1;
-        let sh = shadow_pixel(s, &light, seed, 0, 4, &g.nodes, &g.triangles);
+        let sh = shadow_pixel(
+            s,
+            &light,
+            Stream::per_pixel(seed),
+            0,
+            4,
+            &g.nodes,
+            &g.triangles,
+        );
         assert!((0.0..=1.0).contains(&sh.m1));
     }
     let mean = ao_sum / n as f32;
@@ -190,16 +214,43 @@ fn ao_and_shadow_conventions() {
     let down = AreaLight::new(Vec3::new(-0.5, -3.0, -0.5), Vec3::X, Vec3::Z);
     for seed in 0..20 {
         assert_eq!(
-            ao_pixel(&s, seed, 0, 16, 10.0, &fg.nodes, &fg.triangles).m1,
+            ao_pixel(
+                &s,
+                Stream::per_pixel(seed),
+                0,
+                16,
+                10.0,
+                &fg.nodes,
+                &fg.triangles
+            )
+            .m1,
             1.0
         );
         assert_eq!(
-            shadow_pixel(&s, &up, seed, 0, 16, &fg.nodes, &fg.triangles).m1,
+            shadow_pixel(
+                &s,
+                &up,
+                Stream::per_pixel(seed),
+                0,
+                16,
+                &fg.nodes,
+                &fg.triangles
+            )
+            .m1,
             1.0
         );
         // A light below the surface is never visible (ω·g ≤ 0).
         assert_eq!(
-            shadow_pixel(&s, &down, seed, 0, 16, &fg.nodes, &fg.triangles).m1,
+            shadow_pixel(
+                &s,
+                &down,
+                Stream::per_pixel(seed),
+                0,
+                16,
+                &fg.nodes,
+                &fg.triangles
+            )
+            .m1,
             0.0
         );
     }

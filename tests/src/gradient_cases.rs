@@ -30,6 +30,9 @@ struct Pair {
     cur: FrameGeometry,
     stratum: u32,
     grid: (u32, u32),
+    /// Last frame's index and sample pattern, which the re-trace reproduces.
+    prev_frame: u32,
+    sampling: u32,
 }
 
 fn pair(rng: &mut Pcg32, w: u32, h: u32) -> Pair {
@@ -41,6 +44,9 @@ fn pair(rng: &mut Pcg32, w: u32, h: u32) -> Pair {
         cur: scene.frame(i),
         stratum,
         grid: (w.div_ceil(stratum), h.div_ceil(stratum)),
+        prev_frame: rng.random(),
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
     }
 }
 
@@ -165,6 +171,9 @@ fn retrace_params(p: &Pair, w: u32, h: u32, max_distance: f32) -> gradient::Retr
         index_mask: gradient::index_mask(w * h),
         max_distance,
         rng_wrap: 1 << 16,
+        frame: p.prev_frame,
+        sampling: p.sampling,
+        _pad: [0; 2],
     }
 }
 

@@ -111,7 +111,9 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         lights: rng.random_range(0..=lights.len() as u32),
         frame: rng.random(),
         list: list.list,
-        _pad: [0; 2],
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
+        _pad: 0,
         shading: shading(rng, &frame),
     };
     let [work, args] = list.buffers();

@@ -203,6 +203,10 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes,
         max_distance: rng.random_range(0.2..4.0),
         list: list.list,
+        frame: rng.random(),
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
+        _pad: 0,
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
@@ -253,6 +257,10 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes: planes - first_plane,
         first_plane,
         list: list.list,
+        frame: rng.random(),
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
+        sampling: w & 1,
+        _pad: 0,
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);

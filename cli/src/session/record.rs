@@ -103,6 +103,10 @@ pub struct FrameRecord {
     pub static_relmse: f64,
     /// The change detector's mask against the oracle's, when both were there.
     pub detection: Option<Detection>,
+    /// Power spectrum of the reported image's error (mean over parts; default when unmeasured).
+    pub error_spectrum: metrics::ErrorSpectrum,
+    /// Power spectrum of the raw samples' error.
+    pub raw_spectrum: metrics::ErrorSpectrum,
     /// relMSE of each part, in the order of [`SequenceResult::parts`].
     pub part_relmse: Vec<f64>,
     /// Wall-clock milliseconds of the frame (render and read back).

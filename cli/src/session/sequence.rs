@@ -162,6 +162,8 @@ pub fn run_sequence(
             detection: None,
             detector_rays: out.gradient_rays / frame_planes as u64,
             part_relmse: Vec::new(),
+            error_spectrum: Default::default(),
+            raw_spectrum: Default::default(),
         };
         let fresh = fresh_mask(&out.flags, out.reset);
         if let (Some(o), false) = (&oracle, out.changes.is_empty()) {
@@ -192,6 +194,10 @@ pub fn run_sequence(
                     .raw_metrics
                     .push(raw.view(), r.image.view(), None)
                     .context("metrics")?;
+                let spectra = [
+                    metrics::error_spectrum(test.view(), r.image.view()).context("metrics")?,
+                    metrics::error_spectrum(raw.view(), r.image.view()).context("metrics")?,
+                ];
                 let fresh_error = metrics::masked_error(test.view(), r.image.view(), &fresh)
                     .context("metrics")?;
                 let still: Vec<bool> = mask.iter().map(|m| !m).collect();
@@ -208,6 +214,7 @@ pub fn run_sequence(
                     raw_relmse: rm.metrics.rel_mse,
                     fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
                     static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
+                    spectra,
                 });
                 moving = Some(mask);
             }
@@ -234,6 +241,10 @@ pub fn run_sequence(
             record.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
             record.static_relmse = avg(|e| e.static_relmse);
             record.part_relmse = measured.iter().map(|e| e.relmse).collect();
+            record.error_spectrum =
+                metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[0]));
+            record.raw_spectrum =
+                metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[1]));
         }
         on_frame(&FrameView {
             record: &record,
@@ -264,6 +275,8 @@ struct PartError {
     fresh: Option<(f64, usize)>,
     /// relMSE outside the moving mask.
     static_relmse: f64,
+    /// Error spectra of the reported image and of the raw samples.
+    spectra: [metrics::ErrorSpectrum; 2],
 }
 
 /// The oracle's changes for this frame ([`oracle_changes`] per part), one cell per pixel and

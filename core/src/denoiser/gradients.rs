@@ -66,6 +66,9 @@ impl Denoiser {
             index_mask,
             max_distance: 0.0,
             rng_wrap: self.rng_wrap(),
+            frame: self.prev_frame,
+            sampling: s.temporal.sampling.code(),
+            _pad: [0; 2],
         };
         // Last frame's accumulated history holds the rng index each pixel's raygen started from
         // plus the rays it traced (`samples`, which also keeps last frame's 0th ray values).

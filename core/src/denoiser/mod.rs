@@ -169,6 +169,8 @@ pub struct Denoiser {
     cur: usize,
     out: usize,
     frame: FrameInfo,
+    /// Last frame's index: the gradient pass re-creates that frame's rays.
+    prev_frame: u32,
 }
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
@@ -247,6 +249,7 @@ impl Denoiser {
                 importance_plane: None,
                 view: View::default(),
             },
+            prev_frame: 0,
         })
     }
 
@@ -493,6 +496,7 @@ impl Denoiser {
         frame: FrameInfo,
     ) -> Result<(), E::Error> {
         self.cur = 1 - self.cur;
+        self.prev_frame = self.frame.index;
         self.frame = frame;
         self.gradient_ran = false;
         exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))

@@ -61,10 +61,12 @@ pub struct RaygenTarget {
     pub history: BufferId,
     /// Samples written.
     pub out: BufferId,
-    /// Frame stamp of the reflection ray records.
+    /// Frame index: the reflection ray records' stamp and the screen-blue pattern's shift.
     pub frame: u32,
     /// Which plane group (work list) traces each plane (`Settings::plane_groups`).
     pub plane_groups: u32,
+    /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
+    pub sampling: u32,
 }
 
 impl RaygenTarget {
@@ -80,6 +82,7 @@ impl RaygenTarget {
             out: denoiser.samples(),
             frame: denoiser.frame().index,
             plane_groups: denoiser.settings().plane_groups,
+            sampling: denoiser.settings().temporal.sampling.code(),
         }
     }
 
@@ -127,6 +130,9 @@ pub fn trace_planes<E: Executor>(
             planes: 1,
             max_distance,
             list: target.list(plane),
+            frame: target.frame,
+            sampling: target.sampling,
+            _pad: 0,
         };
         exec.dispatch(&ao.pass(&p, target.groups(p.list)))?;
     }
@@ -137,6 +143,9 @@ pub fn trace_planes<E: Executor>(
             planes,
             first_plane,
             list: target.list(first_plane),
+            frame: target.frame,
+            sampling: target.sampling,
+            _pad: 0,
         };
         let shadow = kernels::RaygenShadowBindings {
             work: ao.work,

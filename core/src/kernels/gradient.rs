@@ -15,9 +15,9 @@
 //!    winner is a pure function of the inputs and every backend picks the same one (never "last
 //!    writer wins"). The hash in the high bits keeps the winner unbiased across the cell.
 //! 2. [`retrace_ao`] / [`retrace_shadow`] (one invocation per cell): decodes the winner and
-//!    re-traces *last frame's 0th ray of that pixel*: same seed (`pixel_seed` of the previous
-//!    pixel), same rng index (the one raygen started from: last frame's accumulated `rng_index`
-//!    less the rays it traced),
+//!    re-traces *last frame's 0th ray of that pixel*: same stream (`Stream::new` of the previous
+//!    pixel and last frame's index and pattern), same rng index (the one raygen started from:
+//!    last frame's accumulated `rng_index` less the rays it traced),
 //!    same origin/direction derivation ([`ao_ray`] / [`shadow_ray`]) from the moved surface, but
 //!    against the current scene (geometry, lights). It is compared with last frame's value of that
 //!    ray, which raygen kept in [`crate::payload::Sample::first`]. Output per cell and plane: `|curr − prev|` and
@@ -41,7 +41,7 @@ use crate::camera::Camera;
 use crate::camera::View;
 use crate::math;
 use crate::payload::{PackedPayload, PackedSample};
-use crate::sampling::{pcg_hash, pixel_seed};
+use crate::sampling::{pcg_hash, Stream};
 use crate::surface::{self, Surface};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -120,6 +120,12 @@ pub struct RetraceParams {
     /// Where the rng index wraps (nonzero): last frame's start index is recovered from the
     /// accumulated history as `stored − rays` modulo this.
     pub rng_wrap: u32,
+    /// Last frame's index (the frame whose rays are re-created).
+    pub frame: u32,
+    /// [`crate::sampling::SamplePattern::code`] last frame's rays drew with.
+    pub sampling: u32,
+    /// Reserved.
+    pub _pad: [u32; 2],
 }
 
 /// Push constants of [`atrous`].
@@ -351,7 +357,7 @@ struct LastFrame<'a> {
 }
 
 /// The loop both re-traces share. For every plane whose pixel traced last frame, `trace(surface,
-/// plane, seed, index)` re-creates that plane's 0th ray against this frame's scene (`None`: the
+/// plane, stream, index)` re-creates that plane's 0th ray against this frame's scene (`None`: the
 /// plane has no ray to re-create) and the gradient against last frame's value is stored.
 #[inline]
 fn retrace(
@@ -359,7 +365,7 @@ fn retrace(
     p: &RetraceParams,
     last: LastFrame<'_>,
     out: &mut [GradientSample],
-    trace: impl Fn(&Surface, u32, u32, u32) -> Option<f32>,
+    trace: impl Fn(&Surface, u32, Stream, u32) -> Option<f32>,
 ) {
     if id.x >= p.grid_width || id.y >= p.grid_height {
         return;
@@ -379,11 +385,11 @@ fn retrace(
             let prev = prev_samples[i].unpack();
             if prev.rays > 0 {
                 let (x, y) = (pix as u32 % p.width, pix as u32 / p.width);
-                let seed = pixel_seed(x, y, z);
                 // Accumulation advanced the index by the rays traced: step back to the 0th.
                 let wrap = p.rng_wrap;
                 let start = (prev_payload[i].rng_index() % wrap + wrap - prev.rays % wrap) % wrap;
-                if let Some(curr) = trace(&s, z, seed, start) {
+                let stream = Stream::new(p.sampling, x, y, z, p.frame, start);
+                if let Some(curr) = trace(&s, z, stream, start) {
                     out[o] = gradient_of(curr, prev.first);
                 }
             }
@@ -420,8 +426,8 @@ pub fn retrace_ao(id: UVec3, p: &RetraceParams, io: GradientAoIo<'_>) {
         prev_payload,
         prev_samples,
     };
-    retrace(id, p, last, out, |s, _, seed, index| {
-        Some(ao_ray(s, seed, index, p.max_distance, nodes, tris))
+    retrace(id, p, last, out, |s, _, stream, index| {
+        Some(ao_ray(s, stream, index, p.max_distance, nodes, tris))
     });
 }
 
@@ -451,9 +457,16 @@ pub fn retrace_shadow(id: UVec3, p: &RetraceParams, io: GradientShadowIo<'_>) {
         prev_payload,
         prev_samples,
     };
-    retrace(id, p, last, out, |s, z, seed, index| {
+    retrace(id, p, last, out, |s, z, stream, index| {
         if (z as usize) < lights.len() {
-            Some(shadow_ray(s, &lights[z as usize], seed, index, nodes, tris))
+            Some(shadow_ray(
+                s,
+                &lights[z as usize],
+                stream,
+                index,
+                nodes,
+                tris,
+            ))
         } else {
             None
         }

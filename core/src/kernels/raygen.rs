@@ -1,9 +1,12 @@
 //! Ray generation for the denoised signals: ambient occlusion and area-light shadows.
 //!
-//! Each pixel traces `rays` rays whose random numbers come from its own sequence: seed
-//! [`pixel_seed`]`(x, y, z)` (`z` = signal plane), index `rng_index[pixel, z] + i` for the `i`-th
-//! ray. A ray is a pure function of `(seed, index, Surface)` — [`ao_ray`] / [`shadow_ray`] — so
-//! the temporal-gradient pass can re-trace last frame's ray exactly.
+//! Each pixel traces `rays` rays whose random numbers come from its [`Stream`]: seed
+//! [`pixel_seed`](crate::sampling::pixel_seed)`(x, y, z)` (`z` = signal plane), index
+//! `rng_index[pixel, z] + i` for the `i`-th ray, and the first two numbers `(u1, u2)` from the
+//! pattern the settings pick (`Stream::point`: the pixel's own sequence, or screen-space blue
+//! noise of the pixel and frame). A ray is a pure function of `(stream, index, Surface)` —
+//! [`ao_ray`] / [`shadow_ray`] — so the temporal-gradient pass can re-trace last frame's ray
+//! exactly.
 //!
 //! The kernels run over the VRRT apply pass's compacted work list (dispatched indirectly from its
 //! argument buffer): each entry is a pixel, which traces exactly the rays its entry carries per signal
@@ -17,7 +20,7 @@
 //! geometric normal and `ε = RAY_OFFSET · max(1, |px|, |py|, |pz|)` with
 //! [`RAY_OFFSET`] `= 1e-4`: a relative offset, because float spacing grows with the coordinates.
 //!
-//! **AO convention.** Random numbers `u1 = rand(seed, index, 0)`, `u2 = rand(seed, index, 1)`.
+//! **AO convention.** Random numbers `(u1, u2) = stream.point(index)`.
 //! Normal `n` = the shading normal if `n · g > 0`, else `g`. Direction
 //! `ω = cosine_hemisphere(n, u1, u2)` (Malley: `r = √u1`, `φ = 2π·u2`, basis of
 //! [`orthonormal_basis`](crate::sampling::orthonormal_basis)). Value `1` (unoccluded) iff `ω · g > 0` and no triangle is hit with
@@ -26,7 +29,7 @@
 //! the cosine-weighted unoccluded fraction of the hemisphere within `max_distance`.
 //!
 //! **Shadow convention.** One rectangular (parallelogram) area light per signal plane:
-//! `lights[z]`. Random numbers `u1 = rand(seed, index, 0)`, `u2 = rand(seed, index, 1)`; light
+//! `lights[z]`. Random numbers `(u1, u2) = stream.point(index)`; light
 //! point `q = corner + u1·edge_u + u2·edge_v` (uniform in area). `d = q − o` from the offset
 //! origin `o`, `dist = |d|`, `ω = d / dist`. Value `1` (visible) iff `ω · g > 0` and no triangle
 //! is hit with `0 < t < dist · (1 − SHADOW_T_SHRINK)` ([`SHADOW_T_SHRINK`] `= 1e-4`, so geometry
@@ -40,7 +43,7 @@ use super::RaygenAoIo;
 use super::RaygenShadowIo;
 use crate::math;
 use crate::payload::Sample;
-use crate::sampling::{cosine_hemisphere, parallelogram_point, pixel_seed, rand};
+use crate::sampling::{cosine_hemisphere, parallelogram_point, Stream};
 use crate::surface::{self, Surface, NO_INSTANCE};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
 use bytemuck::{Pod, Zeroable};
@@ -131,6 +134,12 @@ pub struct AoParams {
     pub max_distance: f32,
     /// The work list traced: the plane group's (`apply`).
     pub list: u32,
+    /// Frame index (the screen-blue pattern's temporal shift).
+    pub frame: u32,
+    /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
+    pub sampling: u32,
+    /// Reserved.
+    pub _pad: u32,
 }
 
 /// Push constants of [`raygen_shadow`].
@@ -148,6 +157,12 @@ pub struct ShadowParams {
     pub first_plane: u32,
     /// The work list traced: the plane group's (`apply`).
     pub list: u32,
+    /// Frame index (the screen-blue pattern's temporal shift).
+    pub frame: u32,
+    /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
+    pub sampling: u32,
+    /// Reserved.
+    pub _pad: u32,
 }
 
 /// Origin of the secondary rays of `s`: its position pushed off the surface along `g`.
@@ -160,10 +175,10 @@ pub fn ray_origin(s: &Surface) -> Vec3 {
     s.position() + s.geometric_normal() * (RAY_OFFSET * scale)
 }
 
-/// Value of AO ray `index` of a pixel with sequence `seed` (AO convention in the module docs).
+/// Value of AO ray `index` of a pixel's `stream` (AO convention in the module docs).
 pub fn ao_ray(
     s: &Surface,
-    seed: u32,
+    stream: Stream,
     index: u32,
     max_distance: f32,
     nodes: &[BvhNode],
@@ -172,7 +187,8 @@ pub fn ao_ray(
     let g = s.geometric_normal();
     let ns = s.normal();
     let n = if ns.dot(g) > 0.0 { ns } else { g };
-    let dir = cosine_hemisphere(n, rand(seed, index, 0), rand(seed, index, 1));
+    let (u1, u2) = stream.point(index);
+    let dir = cosine_hemisphere(n, u1, u2);
     if !(dir.dot(g) > 0.0) {
         return 0.0;
     }
@@ -191,20 +207,15 @@ pub fn ao_ray(
 pub fn shadow_ray(
     s: &Surface,
     light: &AreaLight,
-    seed: u32,
+    stream: Stream,
     index: u32,
     nodes: &[BvhNode],
     tris: &[Triangle],
 ) -> f32 {
     let g = s.geometric_normal();
     let origin = ray_origin(s);
-    let q = parallelogram_point(
-        light.corner(),
-        light.edge_u(),
-        light.edge_v(),
-        rand(seed, index, 0),
-        rand(seed, index, 1),
-    );
+    let (u1, u2) = stream.point(index);
+    let q = parallelogram_point(light.corner(), light.edge_u(), light.edge_v(), u1, u2);
     let d = q - origin;
     let dist = math::sqrt(d.dot(d));
     if !(dist > 0.0) {
@@ -241,7 +252,7 @@ fn finish(sum: f32, sum_sq: f32, first: f32, rays: u32) -> Sample {
 /// AO of one pixel: `rays` rays with indices `first_index ..`, as a [`Sample`].
 pub fn ao_pixel(
     s: &Surface,
-    seed: u32,
+    stream: Stream,
     first_index: u32,
     rays: u32,
     max_distance: f32,
@@ -256,7 +267,7 @@ pub fn ao_pixel(
     while i < rays {
         let v = ao_ray(
             s,
-            seed,
+            stream,
             first_index.wrapping_add(i),
             max_distance,
             nodes,
@@ -276,7 +287,7 @@ pub fn ao_pixel(
 pub fn shadow_pixel(
     s: &Surface,
     light: &AreaLight,
-    seed: u32,
+    stream: Stream,
     first_index: u32,
     rays: u32,
     nodes: &[BvhNode],
@@ -288,7 +299,7 @@ pub fn shadow_pixel(
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut i = 0u32;
     while i < rays {
-        let v = shadow_ray(s, light, seed, first_index.wrapping_add(i), nodes, tris);
+        let v = shadow_ray(s, light, stream, first_index.wrapping_add(i), nodes, tris);
         if i == 0 {
             first = v;
         }
@@ -344,17 +355,9 @@ pub fn raygen_ao(id: UVec3, p: &AoParams, io: RaygenAoIo<'_>) {
     let mut z = 0;
     while z < p.planes {
         let i = (z * p.width * p.height) as usize + pix;
-        let seed = pixel_seed(x, y, z);
-        out[i] = ao_pixel(
-            &s,
-            seed,
-            history[i].rng_index(),
-            n,
-            p.max_distance,
-            nodes,
-            tris,
-        )
-        .pack();
+        let first = history[i].rng_index();
+        let stream = Stream::new(p.sampling, x, y, z, p.frame, first);
+        out[i] = ao_pixel(&s, stream, first, n, p.max_distance, nodes, tris).pack();
         z += 1;
     }
 }
@@ -395,7 +398,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
             shadow_pixel(
                 &s,
                 &lights[z as usize],
-                pixel_seed(x, y, plane),
+                Stream::new(p.sampling, x, y, plane, p.frame, history[i].rng_index()),
                 history[i].rng_index(),
                 n,
                 nodes,

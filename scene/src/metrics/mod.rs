@@ -18,6 +18,9 @@
 //! - **FLIP** ([`flip`], feature `flip`) is NVIDIA's LDR-FLIP on the clamped, sRGB-encoded 8-bit
 //!   images at 67 pixels per degree, through the `nv-flip` crate; the mean of the error map.
 //!
+//! - **Error spectrum** ([`error_spectrum`]): the power of `test − reference` by spatial
+//!   frequency, split at [`LOW_BAND`] cycles per pixel, and radially averaged.
+//!
 //! **Non-finite values** never poison a metric silently: a pixel whose test value has any NaN or
 //! ±inf channel is counted in [`ErrorMetrics::non_finite`] (reference pixels in
 //! `reference_non_finite`) and *excluded* from the pixelwise metrics, which are computed over the
@@ -30,6 +33,7 @@ mod noise;
 mod perceptual;
 mod pixelwise;
 mod sequence;
+mod spectrum;
 mod structural;
 #[cfg(test)]
 mod tests;
@@ -39,6 +43,7 @@ pub use noise::{standard_error, StandardError};
 pub use perceptual::{flip, flip_map};
 pub use pixelwise::{compare, masked_error, psnr_from_mse, ErrorMetrics, MaskedError};
 pub use sequence::{FrameMetrics, SequenceMetrics, SequenceSummary};
+pub use spectrum::{error_spectrum, ErrorSpectrum, LOW_BAND, RADIAL_BINS};
 pub use structural::{luminance, ssim};
 
 use crate::image::ImageRef;

@@ -348,3 +348,61 @@ fn flip_identity_and_ordering() {
         Err(MetricsError::UnsupportedChannels(2))
     ));
 }
+
+/// A 1-channel image of `f(x, y)`.
+fn field(w: usize, h: usize, mut f: impl FnMut(usize, usize) -> f32) -> Image {
+    img(w, h, 1, (0..w * h).map(|i| f(i % w, i / w)).collect())
+}
+
+#[test]
+fn spectrum_bands_sum_to_the_mse() {
+    let mut rng = 0x1234_5678u32;
+    let mut noise = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 17;
+        rng ^= rng << 5;
+        rng as f32 / u32::MAX as f32
+    };
+    let (w, h) = (96, 54);
+    let test = field(w, h, |_, _| noise());
+    let reference = field(w, h, |x, _| 0.3 + 0.001 * x as f32);
+    let s = error_spectrum(test.view(), reference.view()).unwrap();
+    let mse = compare(test.view(), reference.view()).unwrap().mse;
+    assert!(
+        close(s.dc + s.low + s.high, mse, 1e-6 * mse),
+        "{s:?} vs {mse}"
+    );
+    // White noise: the low band holds its share of the frequency plane, π·LOW_BAND².
+    let white = std::f64::consts::PI * LOW_BAND * LOW_BAND;
+    assert!(close(s.low_fraction(), white, 0.02), "{}", s.low_fraction());
+    assert_eq!(s.radial.len(), RADIAL_BINS);
+}
+
+#[test]
+fn spectrum_places_smooth_and_checkerboard_errors() {
+    let (w, h) = (64, 40);
+    let zero = Image::zeros(w, h, 1);
+    // One slow cosine: all low band; the checkerboard: all at Nyquist; a constant: all DC.
+    let smooth = field(w, h, |x, _| (x as f32 * std::f32::consts::TAU / 64.0).cos());
+    let s = error_spectrum(smooth.view(), zero.view()).unwrap();
+    assert!(s.low_fraction() > 0.999 && s.dc < 1e-12, "{s:?}");
+    let checker = field(w, h, |x, y| if (x + y) % 2 == 0 { 0.5 } else { -0.5 });
+    let s = error_spectrum(checker.view(), zero.view()).unwrap();
+    assert!(
+        s.low_fraction() < 1e-12 && close(s.high, 0.25, 1e-9),
+        "{s:?}"
+    );
+    let (last, rest) = s.radial.split_last().unwrap();
+    assert!(
+        *last > 0.0 && rest.iter().all(|&p| p < 1e-12),
+        "{:?}",
+        s.radial
+    );
+    let flat = field(w, h, |_, _| 0.25);
+    let s = error_spectrum(flat.view(), zero.view()).unwrap();
+    assert!(close(s.dc, 0.0625, 1e-9) && s.low + s.high < 1e-12, "{s:?}");
+    assert!(ErrorSpectrum::default().low_fraction().is_nan());
+    let m = ErrorSpectrum::mean([&s, &ErrorSpectrum::default()]);
+    assert!(close(m.dc, 0.03125, 1e-9) && m.radial.len() == RADIAL_BINS);
+    assert!(error_spectrum(flat.view(), Image::zeros(w, h + 1, 1).view()).is_err());
+}

@@ -13,9 +13,10 @@
 //! pixels have no signal.
 //!
 //! **Rays.** `ωo` points from the surface to the eye; `n` is the shading normal (the geometric
-//! one where they disagree, as for AO). Try `k = 0` takes its two numbers from the pixel's R2
-//! sequence ([`low_discrepancy`], seed: "low discrepancy Halton sequence"), retries `k = 1..4`
-//! from hash dimensions `2k, 2k+1`; each draws a visible normal ([`ggx_vndf`], the seed's
+//! one where they disagree, as for AO). Try `k = 0` takes its two numbers from the pixel's
+//! [`Stream`] ([`Stream::point_ld`]: the pixel's R2 sequence, [`low_discrepancy`](crate::sampling::low_discrepancy), seed: "low
+//! discrepancy Halton sequence", or the screen-blue pattern), retries `k = 1..4` from hash
+//! dimensions `2k, 2k+1`; each draws a visible normal ([`ggx_vndf`], the seed's
 //! "future work", Heitz 2018) and reflects `ωo` about it. Directions under the geometric or
 //! shading surface are regenerated (seed: "some rays go under the surface, we re-generate them");
 //! after four failures the pixel's ray returns 0 with pdf 0.
@@ -25,7 +26,7 @@
 //! a Lambertian surface of albedo `albedo` lit by `ambient` plus one light-sample per light
 //! (hash dimensions `8 + 2l, 9 + 2l`) with a shadow ray: `albedo/π · Le · cos θ · |cos θ_l| · A / d²`.
 //!
-//! A ray is a pure function of `(seed, index, Surface, eye)`, so converged references are traced
+//! A ray is a pure function of `(stream, index, Surface, eye)`, so converged references are traced
 //! by the same [`raygen_reflect`] and the denoiser's estimate must converge to them.
 
 use super::pixel_index;
@@ -38,8 +39,7 @@ use crate::camera::Camera;
 use crate::math;
 use crate::payload::Sample;
 use crate::sampling::{
-    ggx_reflection_pdf, ggx_vndf, low_discrepancy, parallelogram_point, pixel_seed, rand, reflect,
-    MIN_ALPHA,
+    ggx_reflection_pdf, ggx_vndf, parallelogram_point, pixel_seed, rand, reflect, Stream, MIN_ALPHA,
 };
 use crate::surface::{self, plane_distance, Surface};
 use crate::trace::{self, normalize, BvhNode, Ray, Triangle};
@@ -273,13 +273,14 @@ pub fn sample_direction(
     g: Vec3,
     wo: Vec3,
     alpha: f32,
-    seed: u32,
+    stream: Stream,
     index: u32,
 ) -> Option<(Vec3, f32)> {
+    let seed = stream.seed;
     let mut k = 0;
     while k < MAX_TRIES {
         let (u1, u2) = if k == 0 {
-            low_discrepancy(seed, index)
+            stream.point_ld(index)
         } else {
             (rand(seed, index, 2 * k), rand(seed, index, 2 * k + 1))
         };
@@ -300,21 +301,22 @@ pub fn sample_direction(
 pub fn reflection_ray(
     s: &Surface,
     sh: &Shading,
-    seed: u32,
+    stream: Stream,
     index: u32,
     scene: HitScene<'_>,
 ) -> RayHit {
     let Some((n, wo, alpha)) = lobe(s, sh) else {
         return RayHit::default();
     };
-    let Some((dir, pdf)) = sample_direction(n, s.geometric_normal(), wo, alpha, seed, index) else {
+    let Some((dir, pdf)) = sample_direction(n, s.geometric_normal(), wo, alpha, stream, index)
+    else {
         return RayHit::default();
     };
     let ray = Ray {
         origin: ray_origin(s),
         dir,
     };
-    let (value, t) = radiance(&ray, sh, seed, index, scene);
+    let (value, t) = radiance(&ray, sh, stream.seed, index, scene);
     let hit = ray.origin + dir * t;
     RayHit {
         hx: hit.x,
@@ -396,7 +398,7 @@ mod tests {
         let seed = pixel_seed(1, 2, 0);
         let mut found = 0;
         for i in 0..2000 {
-            if let Some((d, pdf)) = sample_direction(n, n, wo, alpha, seed, i) {
+            if let Some((d, pdf)) = sample_direction(n, n, wo, alpha, Stream::per_pixel(seed), i) {
                 assert!(d.y > 0.0 && pdf > 0.0);
                 found += 1;
             }
@@ -404,7 +406,13 @@ mod tests {
         // Grazing view, alpha 0.3: retries find a direction above the floor almost always.
         assert!(found > 1990, "{found}");
         assert!(lobe(&floor_surface(0.9), &sh).is_none());
-        let lone = reflection_ray(&floor_surface(0.9), &sh, seed, 0, empty_scene(&[], 0));
+        let lone = reflection_ray(
+            &floor_surface(0.9),
+            &sh,
+            Stream::per_pixel(seed),
+            0,
+            empty_scene(&[], 0),
+        );
         assert_eq!(lone.pdf, 0.0);
     }
 
@@ -423,10 +431,22 @@ mod tests {
             Vec3::Z * 55.0,
         );
         let seed = pixel_seed(0, 0, 0);
-        let sky = reflection_ray(&s, &sh, seed, 3, empty_scene(&[light], 0));
+        let sky = reflection_ray(
+            &s,
+            &sh,
+            Stream::per_pixel(seed),
+            3,
+            empty_scene(&[light], 0),
+        );
         assert_eq!((sky.radiance, sky.distance), (sh.sky, MISS_DISTANCE));
         // The mirror direction from (0,2,2) off the origin points up and away (−z): the light.
-        let lit = reflection_ray(&s, &sh, seed, 3, empty_scene(&[light], 1));
+        let lit = reflection_ray(
+            &s,
+            &sh,
+            Stream::per_pixel(seed),
+            3,
+            empty_scene(&[light], 1),
+        );
         assert_eq!(lit.radiance, sh.light_radiance);
         assert!((lit.point().y - 10.0).abs() < 1e-3);
     }

@@ -14,12 +14,14 @@ pub struct RaygenParams {
     pub plane: u32,
     /// Lights in `lights` to use.
     pub lights: u32,
-    /// Frame index stamped into the ray records.
+    /// Frame index stamped into the ray records (and the screen-blue pattern's temporal shift).
     pub frame: u32,
     /// The work list traced: the plane group's (`apply`).
     pub list: u32,
+    /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
+    pub sampling: u32,
     /// Reserved.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
     /// Eye and hit lighting.
     pub shading: Shading,
 }
@@ -65,13 +67,13 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         normal_roughness,
         geometry,
     );
-    let seed = pixel_seed(x, y, p.plane);
     let first_index = history[i].rng_index();
+    let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, first_index);
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut record = RayHit::default();
     let mut k = 0u32;
     while k < n && s.is_valid() {
-        let r = reflection_ray(&s, &p.shading, seed, first_index.wrapping_add(k), scene);
+        let r = reflection_ray(&s, &p.shading, stream, first_index.wrapping_add(k), scene);
         let v = if r.pdf > 0.0 { r.radiance } else { 0.0 };
         if k == 0 {
             first = v;

@@ -88,7 +88,7 @@ pub fn reflect_tiles(id: UVec3, p: &TileParams, io: ReflectTilesIo<'_>) {
             let r = reflection_ray(
                 &s,
                 &p.shading,
-                pixel_seed(x, y, TRACER_PLANE),
+                Stream::per_pixel(pixel_seed(x, y, TRACER_PLANE)),
                 p.frame,
                 scene,
             );
