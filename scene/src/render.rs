@@ -189,7 +189,8 @@ pub struct FrameOutput {
     pub granted: f64,
     /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
     pub flags: Vec<u32>,
-    /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none).
+    /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none), of the first
+    /// signal (plane group 0).
     pub requests: Vec<u32>,
     /// Overlays: history length (plane 0) after accumulation.
     pub history_accumulated: Vec<f32>,
