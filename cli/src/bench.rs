@@ -144,6 +144,22 @@ pub struct Cell {
     pub raw_spectrum: ErrorSpectrum,
 }
 
+impl Cell {
+    /// What names the cell, its first columns everywhere: scene, signal, configuration, budget
+    /// and backend, joined by `sep`.
+    pub fn key(&self, sep: &str) -> String {
+        let budget = self.budget.to_string();
+        [
+            self.scene.as_str(),
+            self.signal.name(),
+            self.config.name(),
+            &budget,
+            self.backend.as_str(),
+        ]
+        .join(sep)
+    }
+}
+
 /// Configurations of the quick matrix for signals other than AO: the SVGF baseline, VRRT and its
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
@@ -362,12 +378,8 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{}",
-            c.scene,
-            c.signal.name(),
-            c.config.name(),
-            c.budget,
-            c.backend,
+            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{}",
+            c.key(","),
             c.size.0,
             c.size.1,
             c.frames,
@@ -404,12 +416,8 @@ pub fn bench_md(cells: &[Cell]) -> String {
         let px = (c.size.0 * c.size.1) as f64;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.1} (±{:.1}) |",
-            c.scene,
-            c.signal.name(),
-            c.config.name(),
-            c.budget,
-            c.backend,
+            "| {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.1} (±{:.1}) |",
+            c.key(" | "),
             c.size.0,
             c.size.1,
             fmt(c.relmse, 5),
@@ -448,12 +456,8 @@ pub fn adaptive_md(cells: &[Cell]) -> String {
         let pct = |a: f64, b: f64| 100.0 * (a / b - 1.0);
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {:+.2}% | {:+.2}% | {:+.1}% | {:+.1}% |",
-            c.scene,
-            c.signal.name(),
-            c.config.name(),
-            c.budget,
-            c.backend,
+            "| {} | {:+.2}% | {:+.2}% | {:+.1}% | {:+.1}% |",
+            c.key(" | "),
             pct(c.relmse, full.relmse),
             pct(c.moving_relmse, full.moving_relmse),
             pct(c.ms_per_frame, full.ms_per_frame),

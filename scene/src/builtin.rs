@@ -205,13 +205,7 @@ fn room(animated: bool) -> Scene {
         motion: freeze(sweep),
     });
 
-    let key = |time: f32, position: Vec3, target: Vec3, cut: bool| CameraKey {
-        time,
-        position,
-        target,
-        fov_y: 1.0,
-        cut,
-    };
+    let key = room_camera_key;
     let cut_time = ROOM_CUT_FRAME as f32 / s.fps;
     s.camera = if animated {
         CameraPath {
@@ -246,6 +240,17 @@ fn room(animated: bool) -> Scene {
         CameraPath::fixed(Vec3::new(0.0, 2.2, 7.5), Vec3::new(0.0, 1.0, -3.0), 1.0)
     };
     s
+}
+
+/// A camera key of the room's lens (1 radian vertical field of view).
+pub(crate) fn room_camera_key(time: f32, position: Vec3, target: Vec3, cut: bool) -> CameraKey {
+    CameraKey {
+        time,
+        position,
+        target,
+        fov_y: 1.0,
+        cut,
+    }
 }
 
 /// The room's floor (12 × 11 m), back wall and left wall (3.5 m high), static.

@@ -7,7 +7,7 @@
 //! blades before it hits or leaves. Nothing moves but the camera, so the step in cost is the
 //! scene's only change.
 
-use crate::animation::{CameraKey, CameraPath, Light, Motion};
+use crate::animation::{CameraPath, Light, Motion};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 use crate::shapes::cuboid;
@@ -37,13 +37,7 @@ pub fn thicket() -> Scene {
         base: AreaLight::new(Vec3::new(-0.5, 3.8, -2.5), Vec3::Z * 1.0, Vec3::X * 1.0),
         motion: Motion::Static(Affine3A::IDENTITY),
     });
-    let key = |time: f32, position: Vec3, target: Vec3, cut: bool| CameraKey {
-        time,
-        position,
-        target,
-        fov_y: 1.0,
-        cut,
-    };
+    let key = crate::builtin::room_camera_key;
     let cut = THICKET_CUT_FRAME as f32 / s.fps;
     let (corner, corner_target) = (Vec3::new(-2.5, 1.6, 1.0), Vec3::new(-3.5, 1.4, -5.0));
     let (above, into) = (Vec3::new(3.0, 1.0, 1.2), Vec3::new(3.0, 0.0, -1.5));

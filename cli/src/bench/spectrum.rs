@@ -41,12 +41,8 @@ pub fn csv(cells: &[Cell]) -> String {
         for (image, sp) in [("denoised", &c.error_spectrum), ("raw", &c.raw_spectrum)] {
             let _ = write!(
                 s,
-                "{},{},{},{},{},{image},{},{},{},{}",
-                c.scene,
-                c.signal.name(),
-                c.config.name(),
-                c.budget,
-                c.backend,
+                "{},{image},{},{},{},{}",
+                c.key(","),
                 fmt(sp.dc, 7),
                 fmt(sp.low, 7),
                 fmt(sp.high, 7),
