@@ -53,7 +53,8 @@ pub fn trace_ms(timings: &[PassTiming]) -> f64 {
 pub struct TraceCost {
     /// The budget the frame ran with, rays per pixel.
     pub rays_per_pixel: f32,
-    /// Rays traced (per plane: every plane traces the same count).
+    /// Rays traced, per plane (each signal's rays weighted by its share of the planes, as
+    /// `rays_per_pixel` counts them).
     pub rays: u64,
     /// Milliseconds the ray-tracing passes took ([`trace_ms`]).
     pub ms: f64,
