@@ -145,8 +145,8 @@ pub struct RateSettings {
     /// ([`Settings::plane_groups`]) instead of one request per pixel that traces every signal
     /// (default on).
     pub per_signal: bool,
-    /// Least share of the budget a signal keeps when the balancer shares it by the signals'
-    /// measured errors (`kernels::balance::group_rates`), as a fraction of its equal share; 1
+    /// Least share of the budget a signal keeps when the balancer shares it by the rays each
+    /// signal requests (`kernels::balance::group_rates`), as a fraction of its equal share; 1
     /// gives every signal `rays_per_pixel` (0..=1; default 0.25).
     pub signal_floor: f32,
 }

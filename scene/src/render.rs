@@ -13,7 +13,7 @@ use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
-use vrrt_core::kernels::{self, classify, plane_group, reproject};
+use vrrt_core::kernels::{self, classify, group_planes, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
@@ -356,10 +356,7 @@ impl Renderer {
         let decisions: Vec<Balance> = read(exec, d.decision(), groups as usize)?;
         // A group's ray costs one ray of each of its planes.
         let weight: Vec<f64> = (0..groups)
-            .map(|g| {
-                let of_group = (0..planes).filter(|&z| plane_group(settings.plane_groups, z) == g);
-                of_group.count() as f64 / planes as f64
-            })
+            .map(|g| group_planes(settings.plane_groups, planes, g) as f64 / planes as f64)
             .collect();
         let pixels = (w * h) as usize;
         let rays: Vec<f32> = (0..pixels)

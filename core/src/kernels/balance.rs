@@ -186,23 +186,16 @@ pub fn group_rates(counts: &[u32], p: &BalanceParams) -> [f32; MAX_GROUPS as usi
     {
         return equal;
     }
-    let mut cost = [0.0f32; MAX_GROUPS as usize];
-    let mut z = 0;
-    while z < p.planes {
-        let g = super::plane_group(p.plane_groups, z);
-        if g < MAX_GROUPS {
-            cost[g as usize] += 1.0;
-        }
-        z += 1;
-    }
     // Weights: rays requested, times the planes each ray costs. Groups without a requesting
     // pixel get no floor (they would spend nothing of it).
+    let mut cost = [0.0f32; MAX_GROUPS as usize];
     let mut weight = [0.0f32; MAX_GROUPS as usize];
     let mut floor = [0.0f32; MAX_GROUPS as usize];
     let (mut planes, mut total) = (0.0f32, 0.0f32);
     let mut g = 0;
     while g < p.groups {
         let i = g as usize;
+        cost[i] = super::group_planes(p.plane_groups, p.planes, g) as f32;
         weight[i] = rays_at(counts, (g * COUNTS_LEN) as usize, 0, false) * cost[i];
         planes += cost[i];
         total += weight[i];

@@ -52,6 +52,19 @@ pub fn plane_group(groups: u32, plane: u32) -> u32 {
     }
 }
 
+/// Planes of group `group` among the first `planes` of a packed plane→group map: what one ray
+/// of the group costs (one ray per plane).
+#[inline]
+pub fn group_planes(groups: u32, planes: u32, group: u32) -> u32 {
+    let mut n = 0;
+    let mut z = 0;
+    while z < planes {
+        n += (plane_group(groups, z) == group) as u32;
+        z += 1;
+    }
+    n
+}
+
 /// The ids a workgroup kernel's phase gets (see [`crate::declare`]).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct WorkgroupIds {
