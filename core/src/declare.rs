@@ -12,8 +12,11 @@
 //!   `vrrt-shaders` expands once at its crate root,
 //! - `kernels::ALL`, the list of every kernel.
 //!
-//! Two kinds of kernel are declared:
+//! Three kinds of kernel are declared:
 //! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
+//! - `lanes path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
+//!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
+//!   `f::<CPU_LANES>`;
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
 //!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
 //!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
@@ -34,6 +37,17 @@ macro_rules! kernel_table {
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
+            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+    };
+    (@kernels [$($done:tt)*]
+        $(#[$doc:meta])*
+        $entry:ident => $desc:ident, $binds:ident, $io:ident: lanes $($kfn:ident)::+,
+        threads($x:tt, $y:tt, $z:tt), params $params:ty
+        { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
+        $($rest:tt)*
+    ) => {
+        $crate::kernel_table!(@bind [$($done)*]
+            [[$(#[$doc])*] $entry $desc $binds $io [lanes ($($kfn)::+)] ($x, $y, $z) [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
@@ -192,6 +206,47 @@ macro_rules! kernel_table {
         }
         run
     }};
+    (@cpu [lanes ($($kfn:ident)::+)] $io:ident [$params:ty]
+        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+        #[inline(always)]
+        unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            let params: $params = b.params();
+            // SAFETY: the executor laid the buffers out as declared (the caller's contract).
+            $(let $bn = unsafe { b.$method::<$bt>($n) };)*
+            // Plain loops, no closure: the kernel must inline into `lanes_avx2` to get AVX2.
+            let (n, size) = ($crate::lanes::CPU_LANES as u32, b.workgroup_size());
+            debug_assert!(size.x % n == 0, "a lanes kernel's workgroup width is a multiple of CPU_LANES");
+            let base = group * size;
+            for z in 0..size.z {
+                for y in 0..size.y {
+                    let mut x = 0;
+                    while x < size.x {
+                        let id = base + $crate::glam::UVec3::new(x, y, z);
+                        $($kfn)::+::<{ $crate::lanes::CPU_LANES }>(
+                            id, &params, $io { $($bn: &$($m)? *$bn),* });
+                        x += n;
+                    }
+                }
+            }
+        }
+        // The same code compiled for AVX2 (8 lanes in one register), chosen at run time.
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        #[target_feature(enable = "avx2")]
+        unsafe fn lanes_avx2(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            // SAFETY: as `lanes`.
+            unsafe { lanes(group, b) }
+        }
+        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            #[cfg(all(feature = "std", target_arch = "x86_64"))]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2; the rest is the caller's contract.
+                return unsafe { lanes_avx2(group, b) };
+            }
+            // SAFETY: the caller's contract.
+            unsafe { lanes(group, b) }
+        }
+        run
+    }};
     (@cpu [phases [$wg:ty] $(($phase:path))+] $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
@@ -229,6 +284,17 @@ macro_rules! kernel_table {
             $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
         ) {
             $kfn(id, params, $crate::kernels::$io { $($bn),* });
+        }
+    };
+    (@entry [lanes ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
+        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        #[spirv(compute(threads($x, $y, $z)))]
+        pub fn $entry(
+            #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
+            #[spirv(push_constant)] params: &$params,
+            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
+        ) {
+            $($kfn)::+::<1>(id, params, $crate::kernels::$io { $($bn),* });
         }
     };
     (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)

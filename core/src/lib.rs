@@ -35,6 +35,7 @@ pub mod denoiser;
 #[cfg(not(target_arch = "spirv"))]
 pub mod frame;
 pub mod kernels;
+pub mod lanes;
 pub mod math;
 pub mod packing;
 pub mod payload;

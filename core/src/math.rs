@@ -95,41 +95,62 @@ pub fn is_finite(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
 }
 
-/// Largest integer not above `x`, for `|x| < 2^31` (exact; larger inputs are returned unchanged).
+/// Largest integer not above `x` (exact: the native instruction where there is one; NaN and
+/// ±Inf come back as they are).
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    if abs(x) >= 2_147_483_648.0 || !is_finite(x) {
-        return x;
+    #[cfg(target_arch = "spirv")]
+    {
+        Float::floor(x)
     }
-    let t = x as i32 as f32;
-    if t > x {
-        t - 1.0
-    } else {
-        t
+    #[cfg(all(not(target_arch = "spirv"), feature = "std"))]
+    {
+        x.floor()
+    }
+    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), feature = "libm"))]
+    {
+        libm::floorf(x)
+    }
+    #[cfg(all(
+        not(target_arch = "spirv"),
+        not(feature = "std"),
+        not(feature = "libm")
+    ))]
+    {
+        compile_error!("vrrt-core on a no_std host needs the `libm` feature")
     }
 }
 
 /// `2^x`, relative error below 1e-7 over the normal range; 0 below -126 (and for NaN),
 /// `f32::MAX` from 128 up.
+///
+/// Selects rather than early returns: every input takes the same steps, so a loop over
+/// [`crate::lanes`] becomes vector code.
+#[inline]
 pub fn exp2(x: f32) -> f32 {
-    if !(x > -126.0) {
-        // Also catches NaN: a weight of 0 is the safe answer for the filters.
-        return 0.0;
-    }
-    if x >= 128.0 {
-        return f32::MAX;
-    }
-    let n = floor(x);
+    let inside = x > -126.0 && x < 128.0;
+    let xr = if inside { x } else { 0.0 };
+    let n = floor(xr);
     // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347: degree-7 Taylor is exact to ~5e-9.
-    let y = (x - n - 0.5) * core::f32::consts::LN_2;
+    let y = (xr - n - 0.5) * core::f32::consts::LN_2;
     let p = 1.0
         + y * (1.0
             + y * (0.5
                 + y * (1.0 / 6.0
                     + y * (1.0 / 24.0
                         + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
-    let scale = f32::from_bits((((n as i32) + 127) as u32) << 23);
-    p * core::f32::consts::SQRT_2 * scale
+    // 2^n without a float-to-int conversion (no vector form before AVX-512): n + 127 + 1.5·2^23
+    // is an integer below 2^24, exact, with n + 127 in its low mantissa bits; shifted into the
+    // exponent field, everything above them falls off.
+    let scale = f32::from_bits((n + (127.0 + 12_582_912.0)).to_bits() << 23);
+    let r = p * core::f32::consts::SQRT_2 * scale;
+    // Also catches NaN: a weight of 0 is the safe answer for the filters.
+    let outside = if x >= 128.0 { f32::MAX } else { 0.0 };
+    if inside {
+        r
+    } else {
+        outside
+    }
 }
 
 /// `e^x` through [`exp2`].
@@ -209,7 +230,7 @@ pub fn pow(x: f32, y: f32) -> f32 {
 }
 
 /// Smallest positive normal f32.
-const MIN_NORMAL: f32 = 1.175_494_4e-38;
+pub(crate) const MIN_NORMAL: f32 = 1.175_494_4e-38;
 
 /// `x` rounded to the nearest integer, ties away from zero, for `|x| < 2^31`.
 #[inline]

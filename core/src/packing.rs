@@ -36,13 +36,14 @@ pub fn oct_encode(n: Vec3) -> Vec2 {
 #[inline]
 pub fn oct_decode(e: Vec2) -> Vec3 {
     let z = 1.0 - math::abs(e.x) - math::abs(e.y);
-    let (x, y) = if z >= 0.0 {
-        (e.x, e.y)
-    } else {
-        let sx = if e.x >= 0.0 { 1.0 } else { -1.0 };
-        let sy = if e.y >= 0.0 { 1.0 } else { -1.0 };
-        ((1.0 - math::abs(e.y)) * sx, (1.0 - math::abs(e.x)) * sy)
-    };
+    // The folded lower half, computed always and selected (vector code over lanes).
+    let sx = if e.x >= 0.0 { 1.0 } else { -1.0 };
+    let sy = if e.y >= 0.0 { 1.0 } else { -1.0 };
+    let fx = (1.0 - math::abs(e.y)) * sx;
+    let fy = (1.0 - math::abs(e.x)) * sy;
+    let upper = z >= 0.0;
+    let x = if upper { e.x } else { fx };
+    let y = if upper { e.y } else { fy };
     crate::trace::normalize(Vec3::new(x, y, z))
 }
 

@@ -109,17 +109,21 @@ pub fn f32_to_f16(x: f32) -> u32 {
 
 /// Value of a binary16 code (exact). Infinity and NaN codes decode as infinity/NaN bit patterns;
 /// [`quantize`] never produces them.
+#[inline]
 pub fn f16_to_f32(h: u32) -> f32 {
     let sign = (h & 0x8000) << 16;
     let e = (h >> 10) & 0x1f;
     let m = h & 0x3ff;
+    // Zero or subnormal: m · 2^-24, exact in f32 (m < 2^10, so the signed conversion is exact).
+    let small = f32::from_bits((m as i32 as f32 * (1.0 / 16_777_216.0)).to_bits() | sign);
+    let e32 = if e == 31 { 255 } else { e + 112 };
+    let normal = f32::from_bits(sign | (e32 << 23) | (m << 13));
+    // A select, not a branch: decodes in a loop over lanes become vector code.
     if e == 0 {
-        // Zero or subnormal: m · 2^-24, exact in f32.
-        let v = m as f32 * (1.0 / 16_777_216.0);
-        return f32::from_bits(v.to_bits() | sign);
+        small
+    } else {
+        normal
     }
-    let e = if e == 31 { 255 } else { e + 112 };
-    f32::from_bits(sign | (e << 23) | (m << 13))
 }
 
 /// Unorm8 code of `x` in `[0, 1]` (clamped; NaN gives 0), rounded to nearest, ties to even.

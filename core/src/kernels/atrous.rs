@@ -11,14 +11,14 @@
 
 use super::classify::tile_index;
 use super::AtrousIo;
-use super::{pixel_index, plane_index};
 use crate::camera::PixelRays;
+use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
 use crate::payload::{Filtered, PackedFiltered};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
-use glam::{IVec2, UVec3};
+use glam::UVec3;
 
 /// Push constants of [`atrous`].
 #[repr(C)]
@@ -87,39 +87,10 @@ const TAP_DISTANCE: [[f32; 3]; 3] = [
 const SQRT_5: f32 = 2.236_068;
 const GAUSS3: [f32; 2] = [1.0 / 2.0, 1.0 / 4.0];
 
-#[inline]
-fn clamp_coord(v: i32, n: u32) -> u32 {
-    if v < 0 {
-        0
-    } else if v >= n as i32 {
-        n - 1
-    } else {
-        v as u32
-    }
-}
-
-/// Variance at `(x, y)` blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for the
-/// luminance weight.
-fn blurred_variance(input: &[PackedFiltered], x: u32, y: u32, plane: u32, p: &AtrousParams) -> f32 {
-    let mut sum = 0.0;
-    let mut dy = -1;
-    while dy <= 1 {
-        let mut dx = -1;
-        while dx <= 1 {
-            let qx = clamp_coord(x as i32 + dx, p.width);
-            let qy = clamp_coord(y as i32 + dy, p.height);
-            let w = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
-            let q = input[plane_index(UVec3::new(qx, qy, plane), p.width, p.height)];
-            sum += w * q.unpack().variance;
-            dx += 1;
-        }
-        dy += 1;
-    }
-    sum
-}
-
-/// One invocation per pixel and signal plane.
-pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
+/// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]): the
+/// GPU runs `N = 1`, one invocation per pixel.
+#[inline(always)]
+pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     let AtrousIo {
         input,
         depth,
@@ -128,65 +99,141 @@ pub fn atrous(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         tiles,
         out,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let i = plane_index(id, p.width, p.height);
-    let packed = input[i];
-    let center = packed.unpack();
-    let pix = pixel_index(id.x, id.y, p.width);
-    let cd = depth[pix];
-    if !surface::has_surface(cd) || p.iteration >= tiles[tile_index(id.x, id.y, p.width)] {
-        out[i] = packed;
+    let x0 = id.x as i32;
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let xs = Lanes::<u32, N>::from_index(|l| math_min_u32(id.x + l, w - 1));
+    let plane_row = (id.z * h + id.y) * w;
+    let row = id.y * w;
+    let packed = Lanes::<PackedFiltered, N>::load_row(input, plane_row, x0, w);
+    let cd = Lanes::<f32, N>::load_row(depth, row, x0, w);
+    let needed = Lanes::<u32, N>::gather(tiles, xs.map(|x| tile_index(x, id.y, w) as u32));
+    let pass = cd.zip(needed, |d, t| !surface::has_surface(d) || p.iteration >= t);
+    if pass.all() {
+        packed.store(out, (plane_row + id.x) as usize, live);
         return;
     }
-    let n = packing::unpack_normal(normal_roughness[pix]);
-    let rays = PixelRays::new(&view[0].camera, p.width, p.height);
-    let plane = TangentPlane::new(&rays, n, id.x, id.y, cd);
-    let sigma = math::sqrt(math::max(blurred_variance(input, id.x, id.y, id.z, p), 0.0));
-    let lum_scale = p.sigma_luminance * sigma + 1e-6;
+    let value = packed.map(|f| f.unpack().value);
+    let variance = packed.map(|f| f.unpack().variance);
+    let n = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w).map(packing::unpack_normal);
+    let rays = PixelRays::new(&view[0].camera, w, h);
+    let plane = Lanes::<TangentPlane, N>::from_index(|l| {
+        TangentPlane::new(
+            &rays,
+            n.0[l as usize],
+            xs.0[l as usize],
+            id.y,
+            cd.0[l as usize],
+        )
+    });
+    let blurred = blurred_variance::<N>(input, id, p);
+    let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
-    let mut sum = center.value;
-    let mut sum_var = center.variance;
-    let mut sum_w = 1.0f32;
+    let mut sum = value;
+    let mut sum_var = variance;
+    let mut sum_w = Lanes::<f32, N>::splat(1.0);
     let step = p.step as i32;
     let mut ty = -2;
     while ty <= 2 {
-        let mut tx = -2;
-        while tx <= 2 {
-            let q = IVec2::new(id.x as i32 + tx * step, id.y as i32 + ty * step);
-            let inside = q.x >= 0 && q.y >= 0 && q.x < p.width as i32 && q.y < p.height as i32;
-            if (tx != 0 || ty != 0) && inside {
-                let (qx, qy) = (q.x as u32, q.y as u32);
-                let q = pixel_index(qx, qy, p.width);
-                let qd = depth[q];
-                if surface::has_surface(qd) {
-                    let tap =
-                        input[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)].unpack();
+        let qy = id.y as i32 + ty * step;
+        if qy >= 0 && qy < h as i32 {
+            let (qrow, qplane_row) = (qy as u32 * w, (id.z * h + qy as u32) * w);
+            let mut tx = -2;
+            while tx <= 2 {
+                if tx != 0 || ty != 0 {
+                    let qx0 = x0 + tx * step;
+                    let qx = Lanes::<i32, N>::from_index(|l| qx0 + l as i32);
+                    let qd = Lanes::<f32, N>::load_row(depth, qrow, qx0, w);
+                    let valid =
+                        qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
+                    let tap = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
+                    let tap_value = tap.map(|f| f.unpack().value);
+                    let tap_variance = tap.map(|f| f.unpack().variance);
                     let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
                     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
-                    let m = packing::unpack_normal(normal_roughness[q]);
-                    let w_n = surface::normal_weight(n, m, p.normal_power);
+                    let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w)
+                        .map(packing::unpack_normal);
+                    let w_n = n
+                        .zip(m, |n, m| math::max(n.dot(m), 0.0))
+                        .pow(p.normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
                     // exponents (the exp was most of the filter's time on the CPU).
-                    let scale = math::max(p.plane_scale * cd * offset_len, 1e-12);
-                    let e = plane.distance(qx, qy, qd) / scale
-                        + math::abs(center.value - tap.value) / lum_scale;
-                    let w = TAP_WEIGHT[ay][ax] * w_n * math::exp(-e);
-                    sum += w * tap.value;
-                    sum_var += w * w * tap.variance;
-                    sum_w += w;
+                    let e = Lanes::<f32, N>::from_index(|l| {
+                        let l = l as usize;
+                        let scale = math::max(p.plane_scale * cd.0[l] * offset_len, 1e-12);
+                        // Columns outside the image are never used (`valid`); clamped, they stay
+                        // the finite values of some pixel.
+                        let x = lanes::clamp_column(qx.0[l], w);
+                        plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
+                            + math::abs(value.0[l] - tap_value.0[l]) / lum_scale.0[l]
+                    });
+                    let tw = TAP_WEIGHT[ay][ax];
+                    let wt = w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e));
+                    let mut l = 0;
+                    while l < N {
+                        if valid.0[l] {
+                            let w = wt.0[l];
+                            sum.0[l] += w * tap_value.0[l];
+                            sum_var.0[l] += w * w * tap_variance.0[l];
+                            sum_w.0[l] += w;
+                        }
+                        l += 1;
+                    }
                 }
+                tx += 1;
             }
-            tx += 1;
         }
         ty += 1;
     }
-    out[i] = Filtered {
-        value: sum / sum_w,
-        variance: sum_var / (sum_w * sum_w),
+    let filtered = Lanes::<PackedFiltered, N>::from_index(|l| {
+        let (l, s) = (l as usize, sum_w.0[l as usize]);
+        Filtered {
+            value: sum.0[l] / s,
+            variance: sum_var.0[l] / (s * s),
+        }
+        .pack()
+    });
+    filtered
+        .select(pass.map(|p| !p), packed)
+        .store(out, (plane_row + id.x) as usize, live);
+}
+
+/// `a` if below `b`, else `b`.
+#[inline]
+fn math_min_u32(a: u32, b: u32) -> u32 {
+    if a < b {
+        a
+    } else {
+        b
     }
-    .pack();
+}
+
+/// Variance at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for
+/// the luminance weight.
+#[inline(always)]
+fn blurred_variance<const N: usize>(
+    input: &[PackedFiltered],
+    id: UVec3,
+    p: &AtrousParams,
+) -> Lanes<f32, N> {
+    let mut sum = Lanes::<f32, N>::splat(0.0);
+    let mut dy: i32 = -1;
+    while dy <= 1 {
+        let qy = lanes::clamp_column(id.y as i32 + dy, p.height);
+        let row = (id.z * p.height + qy) * p.width;
+        let mut dx: i32 = -1;
+        while dx <= 1 {
+            let wt = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
+            let q = Lanes::<PackedFiltered, N>::load_row(input, row, id.x as i32 + dx, p.width);
+            sum = sum.zip(q, |s, q| s + wt * q.unpack().variance);
+            dx += 1;
+        }
+        dy += 1;
+    }
+    sum
 }
 
 #[cfg(test)]

@@ -18,7 +18,9 @@
 
 use super::plane_index;
 use super::DetectIo;
+use crate::lanes::Lanes;
 use crate::math;
+use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -43,54 +45,75 @@ pub struct DetectParams {
     pub _pad1: [f32; 2],
 }
 
-/// One invocation per pixel and signal plane: `changes = λ` in `[0, 1]` (module rule).
-pub fn detect(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
+/// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
+/// `changes = λ` in `[0, 1]` (module rule).
+#[inline(always)]
+pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     let DetectIo {
         history,
         samples,
         changes,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
     let r = p.radius as i32;
-    let (mut sum_s, mut sum_m, mut var) = (0.0f32, 0.0f32, 0.0f32);
+    let x0 = id.x as i32;
+    let mut sum_s = Lanes::<f32, N>::splat(0.0);
+    let mut sum_m = sum_s;
+    let mut var = sum_s;
     let mut dy = -r;
     while dy <= r {
-        let mut dx = -r;
-        while dx <= r {
-            let (qx, qy) = (id.x as i32 + dx, id.y as i32 + dy);
-            if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
-                let q = plane_index(UVec3::new(qx as u32, qy as u32, id.z), p.width, p.height);
-                let s = samples[q].unpack();
-                let h = history[q].unpack();
-                if s.rays > 0 && h.count > 0.0 && math::is_finite(s.m1) {
-                    sum_s += s.m1;
-                    sum_m += h.m1;
-                    let sigma2 = math::max(h.variance(), p.min_variance);
-                    var += sigma2 * (1.0 / s.rays as f32 + 1.0 / h.count);
+        let qy = id.y as i32 + dy;
+        if qy >= 0 && qy < h as i32 {
+            let row = (id.z * h + qy as u32) * w;
+            let mut dx = -r;
+            while dx <= r {
+                let qx0 = x0 + dx;
+                let s =
+                    Lanes::<PackedSample, N>::load_row(samples, row, qx0, w).map(|s| s.unpack());
+                let m =
+                    Lanes::<PackedPayload, N>::load_row(history, row, qx0, w).map(|m| m.unpack());
+                let mut l = 0;
+                while l < N {
+                    let (s, m, qx) = (s.0[l], m.0[l], qx0 + l as i32);
+                    let inside = qx >= 0 && qx < w as i32;
+                    if inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1) {
+                        sum_s.0[l] += s.m1;
+                        sum_m.0[l] += m.m1;
+                        let sigma2 = math::max(m.variance(), p.min_variance);
+                        var.0[l] += sigma2 * (1.0 / s.rays as f32 + 1.0 / m.count);
+                    }
+                    l += 1;
                 }
+                dx += 1;
             }
-            dx += 1;
         }
         dy += 1;
     }
-    let i = plane_index(id, p.width, p.height);
-    let diff = math::abs(sum_s - sum_m);
-    let top = math::max(sum_s, sum_m);
-    changes[i] = if top > 0.0 && var > 0.0 {
+    let lambda = Lanes::<f32, N>::from_index(|l| {
+        let l = l as usize;
+        let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
+        let diff = math::abs(sum_s - sum_m);
+        let top = math::max(sum_s, sum_m);
         let z = diff / math::sqrt(var);
         let significance = math::saturate(z - (p.z_full - 1.0));
-        math::saturate(diff / top) * significance
-    } else {
-        0.0
-    };
+        let lambda = math::saturate(diff / top) * significance;
+        if top > 0.0 && var > 0.0 {
+            lambda
+        } else {
+            0.0
+        }
+    });
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    lambda.store(changes, plane_index(id, w, h), live);
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::payload::{PackedPayload, PackedSample, Payload, Sample};
+    use crate::payload::{Payload, Sample};
 
     const W: u32 = 9;
 
@@ -135,7 +158,7 @@ mod tests {
                 samples: &samples,
                 changes: &mut changes,
             };
-            detect(UVec3::new(i % W, i / W, 0), &p, io);
+            detect::<1>(UVec3::new(i % W, i / W, 0), &p, io);
         }
         changes[(W * W / 2) as usize]
     }

@@ -23,7 +23,7 @@ crate::kernel_table! {
 
     /// [`detect::detect`]: the change detector, between raygen and accumulation (it reads the
     /// neighbours' history, which accumulation then overwrites in place).
-    detect => DETECT, DetectBindings, DetectIo: fn detect::detect,
+    detect => DETECT, DetectBindings, DetectIo: lanes detect::detect,
     threads(8, 8, 1), params detect::DetectParams {
         history: read PackedPayload,
         samples: read PackedSample,
@@ -31,7 +31,7 @@ crate::kernel_table! {
     }
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
-    atrous => ATROUS, AtrousBindings, AtrousIo: fn atrous::atrous,
+    atrous => ATROUS, AtrousBindings, AtrousIo: lanes atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
         depth: read Depth,
@@ -126,7 +126,7 @@ crate::kernel_table! {
 
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
     /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
-    variance => VARIANCE, VarianceBindings, VarianceIo: fn variance::variance,
+    variance => VARIANCE, VarianceBindings, VarianceIo: lanes variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read PackedPayload,
         depth: read Depth,

@@ -20,10 +20,11 @@
 //! classification reads one word per tile instead of the whole image again.
 
 use super::classify;
+use super::plane_index;
 use super::VarianceIo;
-use super::{pixel_index, plane_index};
 use crate::atomic;
 use crate::camera::{PixelRays, View};
+use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
 use crate::payload::{Filtered, PackedPayload};
@@ -68,9 +69,11 @@ impl Default for VarianceParams {
     }
 }
 
-/// One invocation per pixel and signal plane: writes the estimate to `out` and folds it into the
-/// pixel's tile word in `tiles` (zeroed by the host before; [`classify::tile_key`]).
-pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
+/// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]): writes
+/// the estimate to `out` and folds it into the pixel's tile word in `tiles` (zeroed by the host
+/// before; [`classify::tile_key`]).
+#[inline(always)]
+pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
     let VarianceIo {
         payload,
         depth,
@@ -79,81 +82,121 @@ pub fn variance(id: UVec3, p: &VarianceParams, io: VarianceIo<'_>) {
         out,
         tiles,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let i = plane_index(id, p.width, p.height);
-    let pix = pixel_index(id.x, id.y, p.width);
-    let f = estimate(id, p, payload, depth, normal_roughness, &view[0]).pack();
-    out[i] = f;
-    if surface::has_surface(depth[pix]) {
-        let tile = classify::tile_index(id.x, id.y, p.width);
-        atomic::max(&mut tiles[tile], classify::tile_key(f.unpack().variance));
+    let f = estimate::<N>(id, p, payload, depth, normal_roughness, &view[0]).map(|f| f.pack());
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    f.store(out, plane_index(id, w, h), live);
+    let cd = Lanes::<f32, N>::load_row(depth, id.y * w, id.x as i32, w);
+    let mut l = 0;
+    while l < N {
+        if live.0[l] && surface::has_surface(cd.0[l]) {
+            let tile = classify::tile_index(id.x + l as u32, id.y, w);
+            atomic::max(
+                &mut tiles[tile],
+                classify::tile_key(f.0[l].unpack().variance),
+            );
+        }
+        l += 1;
     }
 }
 
-/// The `(value, variance)` of pixel and plane `id` (module rule).
-fn estimate(
+/// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
+#[inline(always)]
+fn estimate<const N: usize>(
     id: UVec3,
     p: &VarianceParams,
     payload: &[PackedPayload],
     depth: &[f32],
     normal_roughness: &[u32],
     view: &View,
-) -> Filtered {
-    let i = plane_index(id, p.width, p.height);
-    let h = payload[i].unpack();
-    let per_estimate = 1.0 / math::max(h.count, 1.0);
-    let temporal = Filtered {
+) -> Lanes<Filtered, N> {
+    let (w, h) = (p.width, p.height);
+    let x0 = id.x as i32;
+    let hist = Lanes::<PackedPayload, N>::load_row(payload, (id.z * h + id.y) * w, x0, w)
+        .map(|q| q.unpack());
+    let temporal = hist.map(|h| Filtered {
         value: h.m1,
-        variance: h.variance() * per_estimate,
-    };
-    let pix = pixel_index(id.x, id.y, p.width);
-    let cd = depth[pix];
-    if h.count >= p.spatial_until || !surface::has_surface(cd) {
+        variance: h.variance() * (1.0 / math::max(h.count, 1.0)),
+    });
+    let cd = Lanes::<f32, N>::load_row(depth, id.y * w, x0, w);
+    let young = hist.zip(cd, |h, cd| {
+        !(h.count >= p.spatial_until) && surface::has_surface(cd)
+    });
+    if !young.any() {
         return temporal;
     }
-    let n = packing::unpack_normal(normal_roughness[pix]);
-    let rays = PixelRays::new(&view.camera, p.width, p.height);
-    let plane = TangentPlane::new(&rays, n, id.x, id.y, cd);
+    let n =
+        Lanes::<u32, N>::load_row(normal_roughness, id.y * w, x0, w).map(packing::unpack_normal);
+    let rays = PixelRays::new(&view.camera, w, h);
+    let plane = Lanes::<TangentPlane, N>::from_index(|l| {
+        let x = lanes::clamp_column(x0 + l as i32, w);
+        TangentPlane::new(&rays, n.0[l as usize], x, id.y, cd.0[l as usize])
+    });
     let r = p.radius as i32;
-    let (mut s1, mut s2, mut sw) = (0.0f32, 0.0f32, 0.0f32);
+    let mut s1 = Lanes::<f32, N>::splat(0.0);
+    let mut s2 = s1;
+    let mut sw = s1;
     let mut dy = -r;
     while dy <= r {
-        let mut dx = -r;
-        while dx <= r {
-            let qx = id.x as i32 + dx;
-            let qy = id.y as i32 + dy;
-            if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
-                let (qx, qy) = (qx as u32, qy as u32);
-                let q = payload[plane_index(UVec3::new(qx, qy, id.z), p.width, p.height)].unpack();
-                let t = pixel_index(qx, qy, p.width);
-                let qd = depth[t];
-                if q.count > 0.0 && surface::has_surface(qd) {
-                    let offset = math::sqrt((dx * dx + dy * dy) as f32);
-                    let m = packing::unpack_normal(normal_roughness[t]);
-                    let scale = math::max(p.plane_scale * cd * offset, 1e-12);
-                    let w = surface::normal_weight(n, m, p.normal_power)
-                        * math::exp(-plane.distance(qx, qy, qd) / scale);
-                    // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
-                    let w = w * q.count;
-                    s1 += w * q.m1;
-                    s2 += w * q.m2;
-                    sw += w;
+        let qy = id.y as i32 + dy;
+        if qy >= 0 && qy < h as i32 {
+            let (row, plane_row) = (qy as u32 * w, (id.z * h + qy as u32) * w);
+            let mut dx = -r;
+            while dx <= r {
+                let qx0 = x0 + dx;
+                let q = Lanes::<PackedPayload, N>::load_row(payload, plane_row, qx0, w)
+                    .map(|q| q.unpack());
+                let qd = Lanes::<f32, N>::load_row(depth, row, qx0, w);
+                let m = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
+                    .map(packing::unpack_normal);
+                let offset = math::sqrt((dx * dx + dy * dy) as f32);
+                let w_n = n
+                    .zip(m, |n, m| math::max(n.dot(m), 0.0))
+                    .pow(p.normal_power);
+                let wt = Lanes::<f32, N>::from_index(|l| {
+                    let l = l as usize;
+                    let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);
+                    // Columns outside the image are never used below; clamped, they stay the
+                    // finite values of some pixel.
+                    let x = lanes::clamp_column(qx0 + l as i32, w);
+                    w_n.0[l] * math::exp(-plane.0[l].distance(x, qy as u32, qd.0[l]) / scale)
+                });
+                let mut l = 0;
+                while l < N {
+                    let (q, qx) = (q.0[l], qx0 + l as i32);
+                    let inside = qx >= 0 && qx < w as i32;
+                    if inside && q.count > 0.0 && surface::has_surface(qd.0[l]) {
+                        // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
+                        let w = wt.0[l] * q.count;
+                        s1.0[l] += w * q.m1;
+                        s2.0[l] += w * q.m2;
+                        sw.0[l] += w;
+                    }
+                    l += 1;
                 }
+                dx += 1;
             }
-            dx += 1;
         }
         dy += 1;
     }
-    if sw <= 0.0 {
-        return temporal;
-    }
-    let (m1s, m2s) = (s1 / sw, s2 / sw);
-    let spatial_var = math::max(m2s - m1s * m1s, 0.0);
-    let t = math::saturate(h.count / p.spatial_until);
-    Filtered {
-        value: math::lerp(m1s, h.m1, t),
-        variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
-    }
+    Lanes::<Filtered, N>::from_index(|l| {
+        let l = l as usize;
+        let (h, s1, s2, sw) = (hist.0[l], s1.0[l], s2.0[l], sw.0[l]);
+        let per_estimate = 1.0 / math::max(h.count, 1.0);
+        let (m1s, m2s) = (s1 / sw, s2 / sw);
+        let spatial_var = math::max(m2s - m1s * m1s, 0.0);
+        let t = math::saturate(h.count / p.spatial_until);
+        let spatial = Filtered {
+            value: math::lerp(m1s, h.m1, t),
+            variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
+        };
+        if young.0[l] && !(sw <= 0.0) {
+            spatial
+        } else {
+            temporal.0[l]
+        }
+    })
 }

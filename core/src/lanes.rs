@@ -1,0 +1,262 @@
+//! `N` neighbouring invocations of a kernel in one call.
+//!
+//! Why: on the CPU one pixel at a time, a filter tap is a chain of dependent scalar operations
+//! (a binary16 decode, an octahedral decode, seven squarings, an exponential) and the vector
+//! units sit idle. A kernel written over [`Lanes`] runs `N` consecutive pixels of a row
+//! together: its GPU entry calls it with `N = 1` (one invocation, the scalar instructions), the
+//! CPU runner with [`CPU_LANES`], and every lane loop here is a plain loop over an array that
+//! LLVM turns into vector instructions.
+//!
+//! Each lane performs exactly the operations of the scalar code, in the same order; branches
+//! become selects between values both computed from the same inputs. Results are therefore the
+//! same bits for every `N`, and bit-exact across backends as before.
+
+use crate::math;
+
+/// Lanes per call on the CPU: one AVX register of f32, two SSE ones.
+pub const CPU_LANES: usize = 8;
+
+/// One value per lane.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Lanes<T, const N: usize>(pub [T; N]);
+
+impl<T: Copy + Default, const N: usize> Lanes<T, N> {
+    /// The same value in every lane.
+    #[inline]
+    pub fn splat(v: T) -> Self {
+        Lanes([v; N])
+    }
+
+    /// `f` of lane `l`'s index, for every lane.
+    #[inline]
+    pub fn from_index(f: impl Fn(u32) -> T) -> Self {
+        let mut out = [T::default(); N];
+        let mut l = 0;
+        while l < N {
+            out[l] = f(l as u32);
+            l += 1;
+        }
+        Lanes(out)
+    }
+
+    /// `f` of every lane.
+    #[inline]
+    pub fn map<U: Copy + Default>(self, f: impl Fn(T) -> U) -> Lanes<U, N> {
+        let mut out = [U::default(); N];
+        let mut l = 0;
+        while l < N {
+            out[l] = f(self.0[l]);
+            l += 1;
+        }
+        Lanes(out)
+    }
+
+    /// `f` of every pair of lanes.
+    #[inline]
+    pub fn zip<U: Copy + Default, V: Copy + Default>(
+        self,
+        other: Lanes<U, N>,
+        f: impl Fn(T, U) -> V,
+    ) -> Lanes<V, N> {
+        let mut out = [V::default(); N];
+        let mut l = 0;
+        while l < N {
+            out[l] = f(self.0[l], other.0[l]);
+            l += 1;
+        }
+        Lanes(out)
+    }
+
+    /// `self` where `mask` is set, `other` elsewhere.
+    #[inline]
+    pub fn select(self, mask: Lanes<bool, N>, other: Self) -> Self {
+        let mut out = other.0;
+        let mut l = 0;
+        while l < N {
+            if mask.0[l] {
+                out[l] = self.0[l];
+            }
+            l += 1;
+        }
+        Lanes(out)
+    }
+
+    /// Elements `start + l` of `s` (`start + N <= s.len()`).
+    #[inline]
+    pub fn load(s: &[T], start: usize) -> Self {
+        #[cfg(not(target_arch = "spirv"))]
+        {
+            let mut out = [T::default(); N];
+            out.copy_from_slice(&s[start..start + N]);
+            Lanes(out)
+        }
+        #[cfg(target_arch = "spirv")]
+        {
+            let mut out = [T::default(); N];
+            let mut l = 0;
+            while l < N {
+                out[l] = s[start + l];
+                l += 1;
+            }
+            Lanes(out)
+        }
+    }
+
+    /// Elements `index[l]` of `s`.
+    #[inline]
+    pub fn gather(s: &[T], index: Lanes<u32, N>) -> Self {
+        let mut out = [T::default(); N];
+        let mut l = 0;
+        while l < N {
+            out[l] = s[index.0[l] as usize];
+            l += 1;
+        }
+        Lanes(out)
+    }
+
+    /// Row `row_start` of an image `width` wide, at columns `x0 + l` clamped to the row: one
+    /// contiguous load when every column is inside.
+    #[inline]
+    pub fn load_row(s: &[T], row_start: u32, x0: i32, width: u32) -> Self {
+        if x0 >= 0 && x0 + N as i32 <= width as i32 {
+            Self::load(s, (row_start + x0 as u32) as usize)
+        } else {
+            Self::gather(
+                s,
+                Lanes::from_index(|l| row_start + clamp_column(x0 + l as i32, width)),
+            )
+        }
+    }
+
+    /// Stores the lanes where `mask` is set to `s[start + l]`.
+    #[inline]
+    pub fn store(self, s: &mut [T], start: usize, mask: Lanes<bool, N>) {
+        let mut l = 0;
+        while l < N {
+            if mask.0[l] {
+                s[start + l] = self.0[l];
+            }
+            l += 1;
+        }
+    }
+}
+
+/// Column `x` clamped to `[0, width)`.
+#[inline]
+pub fn clamp_column(x: i32, width: u32) -> u32 {
+    if x < 0 {
+        0
+    } else if x >= width as i32 {
+        width - 1
+    } else {
+        x as u32
+    }
+}
+
+impl<const N: usize> Lanes<bool, N> {
+    /// True if any lane is set.
+    #[inline]
+    pub fn any(self) -> bool {
+        let mut r = false;
+        let mut l = 0;
+        while l < N {
+            r |= self.0[l];
+            l += 1;
+        }
+        r
+    }
+
+    /// True if every lane is set.
+    #[inline]
+    pub fn all(self) -> bool {
+        let mut r = true;
+        let mut l = 0;
+        while l < N {
+            r &= self.0[l];
+            l += 1;
+        }
+        r
+    }
+}
+
+impl<const N: usize> Lanes<f32, N> {
+    /// [`math::pow`] of every lane, with a uniform exponent: the same bits, with the
+    /// square-and-multiply steps run across the lanes (a loop over exponent bits cannot be
+    /// turned into vector code one lane at a time).
+    // Plain comparisons, as in `math::pow`: the same instructions on every target.
+    #[allow(clippy::manual_range_contains)]
+    #[inline]
+    pub fn pow(self, y: f32) -> Self {
+        let whole = y >= 1.0 && y <= 1024.0 && math::floor(y) == y;
+        if !whole {
+            return self.map(|x| math::pow(x, y));
+        }
+        let mut e = y as u32;
+        let mut base = self;
+        while e & 1 == 0 {
+            base = base.zip(base, |a, b| a * b);
+            e >>= 1;
+        }
+        let mut acc = base;
+        e >>= 1;
+        while e != 0 {
+            base = base.zip(base, |a, b| a * b);
+            if e & 1 == 1 {
+                acc = acc.zip(base, |a, b| a * b);
+            }
+            e >>= 1;
+        }
+        let acc = acc.map(|a| if a < math::MIN_NORMAL { 0.0 } else { a });
+        // math::pow's other cases: 0 gives 0 (as the squares do); negatives, NaN and values above
+        // 1 (a dot product of unit vectors can round there) take its exp2/log2 route.
+        let general = self.map(|x| !(x >= 0.0 && x <= 1.0));
+        if general.any() {
+            let other = self.map(|x| math::pow(x, y));
+            other.select(general, acc)
+        } else {
+            acc
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pow_over_lanes_is_math_pow_bit_for_bit() {
+        let xs = [
+            0.0,
+            -0.0,
+            1e-40,
+            0.3,
+            0.999_999_9,
+            1.0,
+            1.000_000_1,
+            1.5,
+            -0.5,
+            f32::NAN,
+            0.87,
+            f32::INFINITY,
+        ];
+        for y in [128.0, 1.0, 2.0, 7.0, 1024.0, 0.0, 0.5, 3.5, 2000.0] {
+            for chunk in xs.chunks(4) {
+                let lanes = Lanes::<f32, 4>::from_index(|l| chunk[l as usize]).pow(y);
+                for (x, got) in chunk.iter().zip(lanes.0) {
+                    assert_eq!(got.to_bits(), math::pow(*x, y).to_bits(), "{x}^{y}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rows_load_contiguously_inside_and_clamp_at_the_edges() {
+        let row: [u32; 10] = core::array::from_fn(|i| i as u32 + 100);
+        assert_eq!(Lanes::<u32, 4>::load_row(&row, 0, 3, 10).0, [103, 104, 105, 106]);
+        assert_eq!(Lanes::<u32, 4>::load_row(&row, 0, -2, 10).0, [100, 100, 100, 101]);
+        assert_eq!(Lanes::<u32, 4>::load_row(&row, 0, 8, 10).0, [108, 109, 109, 109]);
+        let mut out = [0u32; 4];
+        Lanes([1, 2, 3, 4]).store(&mut out, 0, Lanes([true, false, true, false]));
+        assert_eq!(out, [1, 0, 3, 0]);
+    }
+}
