@@ -22,13 +22,13 @@ pub struct Lanes<T, const N: usize>(pub [T; N]);
 
 impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     /// The same value in every lane.
-    #[inline]
+    #[inline(always)]
     pub fn splat(v: T) -> Self {
         Lanes([v; N])
     }
 
     /// `f` of lane `l`'s index, for every lane.
-    #[inline]
+    #[inline(always)]
     pub fn from_index(f: impl Fn(u32) -> T) -> Self {
         let mut out = [T::default(); N];
         let mut l = 0;
@@ -40,7 +40,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// `f` of every lane.
-    #[inline]
+    #[inline(always)]
     pub fn map<U: Copy + Default>(self, f: impl Fn(T) -> U) -> Lanes<U, N> {
         let mut out = [U::default(); N];
         let mut l = 0;
@@ -52,7 +52,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// `f` of every pair of lanes.
-    #[inline]
+    #[inline(always)]
     pub fn zip<U: Copy + Default, V: Copy + Default>(
         self,
         other: Lanes<U, N>,
@@ -68,7 +68,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// `self` where `mask` is set, `other` elsewhere.
-    #[inline]
+    #[inline(always)]
     pub fn select(self, mask: Lanes<bool, N>, other: Self) -> Self {
         let mut out = other.0;
         let mut l = 0;
@@ -82,7 +82,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// Elements `start + l` of `s` (`start + N <= s.len()`).
-    #[inline]
+    #[inline(always)]
     pub fn load(s: &[T], start: usize) -> Self {
         #[cfg(not(target_arch = "spirv"))]
         {
@@ -103,7 +103,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// Elements `index[l]` of `s`.
-    #[inline]
+    #[inline(always)]
     pub fn gather(s: &[T], index: Lanes<u32, N>) -> Self {
         let mut out = [T::default(); N];
         let mut l = 0;
@@ -116,7 +116,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
 
     /// Row `row_start` of an image `width` wide, at columns `x0 + l` clamped to the row: one
     /// contiguous load when every column is inside.
-    #[inline]
+    #[inline(always)]
     pub fn load_row(s: &[T], row_start: u32, x0: i32, width: u32) -> Self {
         if x0 >= 0 && x0 + N as i32 <= width as i32 {
             Self::load(s, (row_start + x0 as u32) as usize)
@@ -129,7 +129,7 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     }
 
     /// Stores the lanes where `mask` is set to `s[start + l]`.
-    #[inline]
+    #[inline(always)]
     pub fn store(self, s: &mut [T], start: usize, mask: Lanes<bool, N>) {
         let mut l = 0;
         while l < N {
@@ -155,7 +155,7 @@ pub fn clamp_column(x: i32, width: u32) -> u32 {
 
 impl<const N: usize> Lanes<bool, N> {
     /// True if any lane is set.
-    #[inline]
+    #[inline(always)]
     pub fn any(self) -> bool {
         let mut r = false;
         let mut l = 0;
@@ -167,7 +167,7 @@ impl<const N: usize> Lanes<bool, N> {
     }
 
     /// True if every lane is set.
-    #[inline]
+    #[inline(always)]
     pub fn all(self) -> bool {
         let mut r = true;
         let mut l = 0;
@@ -185,7 +185,7 @@ impl<const N: usize> Lanes<f32, N> {
     /// turned into vector code one lane at a time).
     // Plain comparisons, as in `math::pow`: the same instructions on every target.
     #[allow(clippy::manual_range_contains)]
-    #[inline]
+    #[inline(always)]
     pub fn pow(self, y: f32) -> Self {
         let whole = y >= 1.0 && y <= 1024.0 && math::floor(y) == y;
         if !whole {

@@ -95,29 +95,26 @@ pub fn is_finite(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
 }
 
-/// Largest integer not above `x` (exact: the native instruction where there is one; NaN and
-/// ±Inf come back as they are).
+/// Largest integer not above `x`, for `|x| < 2^31` (exact; larger inputs, ±Inf and NaN are
+/// returned unchanged).
+///
+/// Out-of-range inputs are replaced before the conversion instead of branching around it, so a
+/// loop over [`crate::lanes`] becomes vector code; on the host the conversion is the plain
+/// truncating instruction (Rust's `as` adds saturation fix-ups that have no vector form).
 #[inline]
 pub fn floor(x: f32) -> f32 {
+    let inside = abs(x) < 2_147_483_648.0;
+    let xc = if inside { x } else { 0.0 };
     #[cfg(target_arch = "spirv")]
-    {
-        Float::floor(x)
-    }
-    #[cfg(all(not(target_arch = "spirv"), feature = "std"))]
-    {
-        x.floor()
-    }
-    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), feature = "libm"))]
-    {
-        libm::floorf(x)
-    }
-    #[cfg(all(
-        not(target_arch = "spirv"),
-        not(feature = "std"),
-        not(feature = "libm")
-    ))]
-    {
-        compile_error!("vrrt-core on a no_std host needs the `libm` feature")
+    let t = xc as i32 as f32;
+    // SAFETY: |xc| < 2^31, so it truncates to an i32.
+    #[cfg(not(target_arch = "spirv"))]
+    let t = unsafe { xc.to_int_unchecked::<i32>() } as f32;
+    let f = if t > xc { t - 1.0 } else { t };
+    if inside {
+        f
+    } else {
+        x
     }
 }
 
