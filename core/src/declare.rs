@@ -16,7 +16,8 @@
 //! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
 //! - `lanes path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
-//!   `f::<CPU_LANES>`;
+//!   one `f::<workgroup width>` per row of the workgroup (compiled for AVX2 too, chosen at run
+//!   time);
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
 //!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
 //!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
@@ -114,7 +115,7 @@ macro_rules! kernel_table {
                     access: $crate::plan::Access::$acc,
                 }),*],
                 params_size: core::mem::size_of::<$params>() as u32,
-                cpu: $crate::kernel_table!(@cpu [$($kind)*] $io [$params]
+                cpu: $crate::kernel_table!(@cpu [$($kind)*] ($x, $y, $z) $io [$params]
                     [$(($n $bn $method [$($m)?] $bt))*]),
             };
 
@@ -194,7 +195,7 @@ macro_rules! kernel_table {
     };
 
     // ---- the native runner of one workgroup ----
-    (@cpu [fn ($kfn:path)] $io:ident [$params:ty]
+    (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
@@ -206,26 +207,20 @@ macro_rules! kernel_table {
         }
         run
     }};
-    (@cpu [lanes ($($kfn:ident)::+)] $io:ident [$params:ty]
+    (@cpu [lanes ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         #[inline(always)]
         unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            // Plain loops, no closure: the kernel must inline into `lanes_avx2` to get AVX2.
-            let (n, size) = ($crate::lanes::CPU_LANES as u32, b.workgroup_size());
-            debug_assert!(size.x % n == 0, "a lanes kernel's workgroup width is a multiple of CPU_LANES");
-            let base = group * size;
-            for z in 0..size.z {
-                for y in 0..size.y {
-                    let mut x = 0;
-                    while x < size.x {
-                        let id = base + $crate::glam::UVec3::new(x, y, z);
-                        $($kfn)::+::<{ $crate::lanes::CPU_LANES }>(
-                            id, &params, $io { $($bn: &$($m)? *$bn),* });
-                        x += n;
-                    }
+            // One call per row of the workgroup; plain loops, no closure: the kernel must inline
+            // into `lanes_avx2` to get AVX2.
+            let base = group * $crate::glam::UVec3::new($x, $y, $z);
+            for z in 0..$z {
+                for y in 0..$y {
+                    let id = base + $crate::glam::UVec3::new(0, y, z);
+                    $($kfn)::+::<$x>(id, &params, $io { $($bn: &$($m)? *$bn),* });
                 }
             }
         }
@@ -247,7 +242,7 @@ macro_rules! kernel_table {
         }
         run
     }};
-    (@cpu [phases [$wg:ty] $(($phase:path))+] $io:ident [$params:ty]
+    (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();

@@ -95,26 +95,39 @@ pub fn is_finite(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
 }
 
-/// Largest integer not above `x`, for `|x| < 2^31` (exact; larger inputs, ±Inf and NaN are
-/// returned unchanged).
+/// Largest integer not above `x`, exact, as IEEE `floor` (−0 stays −0; ±Inf and NaN come back
+/// as they are).
 ///
-/// Out-of-range inputs are replaced before the conversion instead of branching around it, so a
-/// loop over [`crate::lanes`] becomes vector code; on the host the conversion is the plain
-/// truncating instruction (Rust's `as` adds saturation fix-ups that have no vector form).
+/// The native instruction on the GPU (no control flow; naga's SPIR-V reader has rejected the
+/// branches of a hand-written floor inside larger kernels). On the host, without SSE4.1's
+/// rounding instruction, by truncation: out-of-range inputs are replaced before the conversion
+/// instead of branching around it (so a loop over [`crate::lanes`] becomes vector code), and the
+/// conversion is the plain truncating instruction (Rust's `as` adds saturation fix-ups that have
+/// no vector form).
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    let inside = abs(x) < 2_147_483_648.0;
-    let xc = if inside { x } else { 0.0 };
     #[cfg(target_arch = "spirv")]
-    let t = xc as i32 as f32;
-    // SAFETY: |xc| < 2^31, so it truncates to an i32.
+    {
+        Float::floor(x)
+    }
     #[cfg(not(target_arch = "spirv"))]
-    let t = unsafe { xc.to_int_unchecked::<i32>() } as f32;
-    let f = if t > xc { t - 1.0 } else { t };
-    if inside {
-        f
-    } else {
-        x
+    {
+        let inside = abs(x) < 2_147_483_648.0;
+        let xc = if inside { x } else { 0.0 };
+        // SAFETY: |xc| < 2^31, so it truncates to an i32.
+        let t = unsafe { xc.to_int_unchecked::<i32>() } as f32;
+        let f = if t > xc { t - 1.0 } else { t };
+        // A zero result takes the input's sign: floor(−0) = −0, as the instruction gives.
+        let f = if f == 0.0 {
+            f32::from_bits(x.to_bits() & 0x8000_0000)
+        } else {
+            f
+        };
+        if inside {
+            f
+        } else {
+            x
+        }
     }
 }
 
@@ -377,9 +390,22 @@ mod tests {
                 }
             }
         }
-        for &x in &[-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9] {
-            assert_eq!(floor(x), x.floor(), "{x}");
+        let special = [
+            -0.0,
+            f32::INFINITY,
+            -f32::INFINITY,
+            3e9,
+            -3e9,
+            -0.999_999_9,
+            0.999_999_9,
+        ];
+        for &x in [-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9]
+            .iter()
+            .chain(&special)
+        {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
         }
+        assert!(floor(f32::NAN).is_nan());
     }
 
     #[test]

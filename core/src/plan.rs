@@ -537,11 +537,6 @@ impl<'a> CpuBindings<'a> {
         }
     }
 
-    /// Invocations per workgroup along x, y and z.
-    pub fn workgroup_size(&self) -> UVec3 {
-        self.workgroup_size
-    }
-
     /// Number of invocations per workgroup.
     pub fn workgroup_len(&self) -> u32 {
         self.workgroup_size.x * self.workgroup_size.y * self.workgroup_size.z

@@ -14,7 +14,6 @@ use super::pixel_index;
 use super::ApplyIo;
 use crate::atomic;
 use crate::blue_noise::blue_noise;
-use crate::lanes::Lanes;
 use crate::math;
 use crate::payload::PackedSample;
 use bytemuck::{Pod, Zeroable};
@@ -91,16 +90,12 @@ pub fn resolve_rays(
 /// Offset of the blue-noise mask per plane group (coprime with the mask's edge, far apart).
 pub const GROUP_NOISE_SHIFT: [u32; 2] = [23, 41];
 
-/// One call per `N` consecutive pixels of a row and one plane group (z) ([`crate::lanes`]).
-/// Appends each tracing pixel and its rays to the group's list, `work[group · pixels..]`
-/// ([`work_entry`]), and counts them in `args[4 · group]`; `args[4 · group + 1]` ends as the
-/// number of [`LIST_GROUP`]-wide groups (the balancer reset the arguments to `[0, 0, 1, 1]`
-/// before this pass). A pixel that traces nothing gets empty samples in the group's planes.
-///
-/// The lanes that trace reserve their slots with one atomic add: on the CPU, where both cores
-/// add to the same counter, one add per pixel was most of the pass's time.
-#[inline(always)]
-pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
+/// One invocation per pixel and plane group (z). Appends each tracing pixel and its rays to the
+/// group's list, `work[group · pixels..]` ([`work_entry`]), and counts them in
+/// `args[4 · group]`; `args[4 · group + 1]` ends as the number of [`LIST_GROUP`]-wide groups (the
+/// balancer reset the arguments to `[0, 0, 1, 1]` before this pass). A pixel that traces nothing
+/// gets empty samples in the group's planes.
+pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let ApplyIo {
         requests,
         decision,
@@ -115,47 +110,23 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let pixels = p.width * p.height;
     let pix = pixel_index(id.x, id.y, p.width);
     let group = id.z;
+    let bucket = super::reproject::bucket_of(requests[(group * pixels) as usize + pix]);
     let d = &decision[group as usize];
-    let live = Lanes::<bool, N>::from_index(|l| id.x + l < p.width);
-    let words = Lanes::<u32, N>::load_row(requests, group * pixels + id.y * p.width, id.x as i32, p.width);
-    let mut rays = [0u32; N];
-    let mut tracing = 0;
-    let mut l = 0;
-    while l < N {
-        if live.0[l] {
-            let bucket = super::reproject::bucket_of(words.0[l]);
-            rays[l] = resolve_rays(id.x + l as u32, id.y, group, bucket, p, d, noise);
-            tracing += (rays[l] > 0) as u32;
+    let n = resolve_rays(id.x, id.y, group, bucket, p, d, noise);
+    if n == 0 {
+        let mut z = 0;
+        while z < p.planes {
+            if super::plane_group(p.plane_groups, z) == group {
+                samples[(z * pixels) as usize + pix] = PackedSample::default();
+            }
+            z += 1;
         }
-        l += 1;
+        return;
     }
     let a = (group * ARGS_LEN) as usize;
-    let mut slot = if tracing > 0 {
-        atomic::add(&mut args[a], tracing)
-    } else {
-        0
-    };
-    if tracing > 0 {
-        let last = slot + tracing - 1;
-        if slot.is_multiple_of(LIST_GROUP) || slot / LIST_GROUP != last / LIST_GROUP {
-            atomic::max(&mut args[a + 1], last / LIST_GROUP + 1);
-        }
-    }
-    let mut l = 0;
-    while l < N {
-        let q = pix + l;
-        if live.0[l] && rays[l] > 0 {
-            work[(group * pixels + slot) as usize] = work_entry(q as u32, rays[l]);
-            slot += 1;
-        } else if live.0[l] {
-            let mut z = 0;
-            while z < p.planes {
-                if super::plane_group(p.plane_groups, z) == group {
-                    samples[(z * pixels) as usize + q] = PackedSample::default();
-                }
-                z += 1;
-            }
-        }
-        l += 1;
+    let slot = atomic::add(&mut args[a], 1);
+    work[(group * pixels + slot) as usize] = work_entry(pix as u32, n);
+    if slot.is_multiple_of(LIST_GROUP) {
+        atomic::max(&mut args[a + 1], slot / LIST_GROUP + 1);
     }
 }

@@ -32,7 +32,7 @@ crate::kernel_table! {
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
     atrous => ATROUS, AtrousBindings, AtrousIo: lanes atrous::atrous,
-    threads(8, 8, 1), params atrous::AtrousParams {
+    threads(32, 2, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
         depth: read Depth,
         normal_roughness: read NormalRoughness,
@@ -127,7 +127,7 @@ crate::kernel_table! {
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
     /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
     variance => VARIANCE, VarianceBindings, VarianceIo: lanes variance::variance,
-    threads(8, 8, 1), params variance::VarianceParams {
+    threads(16, 4, 1), params variance::VarianceParams {
         payload: read PackedPayload,
         depth: read Depth,
         normal_roughness: read NormalRoughness,
@@ -145,7 +145,7 @@ crate::kernel_table! {
     }
 
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
-    apply => APPLY, ApplyBindings, ApplyIo: lanes apply::apply,
+    apply => APPLY, ApplyBindings, ApplyIo: fn apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
         requests: read Request,
         decision: read Balance,

@@ -164,19 +164,18 @@ fn estimate<const N: usize>(
                     let x = lanes::clamp_column(qx0 + l as i32, w);
                     w_n.0[l] * math::exp(-plane.0[l].distance(x, qy as u32, qd.0[l]) / scale)
                 });
-                let mut l = 0;
-                while l < N {
-                    let (q, qx) = (q.0[l], qx0 + l as i32);
-                    let inside = qx >= 0 && qx < w as i32;
-                    if inside && q.count > 0.0 && surface::has_surface(qd.0[l]) {
-                        // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
-                        let w = wt.0[l] * q.count;
-                        s1.0[l] += w * q.m1;
-                        s2.0[l] += w * q.m2;
-                        sw.0[l] += w;
-                    }
-                    l += 1;
-                }
+                let valid = Lanes::<bool, N>::from_index(|l| {
+                    let (q, qx) = (q.0[l as usize], qx0 + l as i32);
+                    qx >= 0
+                        && qx < w as i32
+                        && q.count > 0.0
+                        && surface::has_surface(qd.0[l as usize])
+                });
+                // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
+                let wq = wt.zip(q, |w, q| w * q.count);
+                s1 = s1.add_where(valid, wq.zip(q, |w, q| w * q.m1));
+                s2 = s2.add_where(valid, wq.zip(q, |w, q| w * q.m2));
+                sw = sw.add_where(valid, wq);
                 dx += 1;
             }
         }
