@@ -145,7 +145,7 @@ crate::kernel_table! {
     }
 
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
-    apply => APPLY, ApplyBindings, ApplyIo: fn apply::apply,
+    apply => APPLY, ApplyBindings, ApplyIo: serial fn apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
         requests: read Request,
         decision: read Balance,
