@@ -279,14 +279,16 @@ macro_rules! kernel_table {
     (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*]) => {};
     (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*] ($phase:path)
         $($rest:tt)*) => {
-        for (i, id) in $b.invocations($group).enumerate() {
+        let mut local_index = 0;
+        $b.for_each_invocation($group, |id| {
             let ids = $crate::kernels::WorkgroupIds {
                 global: id,
                 group: $group,
-                local_index: i as u32,
+                local_index,
             };
             $phase(ids, &$p, $($io)*, &mut $local);
-        }
+            local_index += 1;
+        });
         $crate::kernel_table!(@cpu_phases $b $group $p $local [$($io)*] $($rest)*);
     };
 

@@ -517,15 +517,6 @@ impl<'a> CpuBindings<'a> {
         bytemuck::pod_read_unaligned(&self.params[..core::mem::size_of::<T>()])
     }
 
-    /// Global invocation ids of workgroup `group`, x fastest.
-    pub fn invocations(&self, group: UVec3) -> impl Iterator<Item = UVec3> {
-        let size = self.workgroup_size;
-        let base = group * size;
-        (0..size.z).flat_map(move |z| {
-            (0..size.y).flat_map(move |y| (0..size.x).map(move |x| base + UVec3::new(x, y, z)))
-        })
-    }
-
     /// Calls `f` with the global id of every invocation of workgroup `group`, x fastest: plain
     /// nested loops, which the compiler fuses with the inlined kernel body (an iterator of ids
     /// cost a tenth of the CPU time of the filter passes).
