@@ -16,10 +16,10 @@
 //! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
 //! - `serial fn path`: as `fn`, and the CPU backend runs its workgroups on one thread
 //!   ([`KernelDesc::cpu_serial`](crate::plan::KernelDesc::cpu_serial));
-//! - `lanes path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
+//! - `lanes(N) path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
-//!   one `f::<workgroup width>` per row of the workgroup (compiled for AVX2 too, chosen at run
-//!   time);
+//!   `f::<N>` per row of `N / width` workgroups side by side (compiled for AVX2 too, chosen at
+//!   run time), so the GPU keeps its workgroup shape whatever width suits the CPU;
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
 //!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
 //!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
@@ -55,13 +55,14 @@ macro_rules! kernel_table {
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
-        $entry:ident => $desc:ident, $binds:ident, $io:ident: lanes $($kfn:ident)::+,
+        $entry:ident => $desc:ident, $binds:ident, $io:ident: lanes($lanes:tt) $($kfn:ident)::+,
         threads($x:tt, $y:tt, $z:tt), params $params:ty
         { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
         $($rest:tt)*
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds $io [lanes ($($kfn)::+)] ($x, $y, $z) [$params]]
+            [[$(#[$doc])*] $entry $desc $binds $io [lanes $lanes ($($kfn)::+)] ($x, $y, $z)
+                [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
@@ -228,20 +229,26 @@ macro_rules! kernel_table {
         }
         run
     }};
-    (@cpu [lanes ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident [$params:ty]
+    (@cpu [lanes $lanes:tt ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         #[inline(always)]
         unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            // One call per row of the workgroup; plain loops, no closure: the kernel must inline
+            // One call covers a row of `lanes / width` workgroups side by side: the first of
+            // them runs it, the others return. Pixels past the image's right edge are the
+            // kernel's to mask, as on the GPU. Plain loops, no closure: the kernel must inline
             // into `lanes_avx2` to get AVX2.
+            const { assert!($lanes % $x == 0, "lanes a multiple of the workgroup width") };
+            if group.x % ($lanes / $x) != 0 {
+                return;
+            }
             let base = group * $crate::glam::UVec3::new($x, $y, $z);
             for z in 0..$z {
                 for y in 0..$y {
                     let id = base + $crate::glam::UVec3::new(0, y, z);
-                    $($kfn)::+::<$x>(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                    $($kfn)::+::<$lanes>(id, &params, $io { $($bn: &$($m)? *$bn),* });
                 }
             }
         }
@@ -307,7 +314,7 @@ macro_rules! kernel_table {
             $kfn(id, params, $crate::kernels::$io { $($bn),* });
         }
     };
-    (@entry [lanes ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
+    (@entry [lanes $lanes:tt ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
         [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(

@@ -4,10 +4,11 @@
 //! (a binary16 decode, an octahedral decode, seven squarings, an exponential) and the vector
 //! units sit idle. A kernel written over [`Lanes`] runs `N` consecutive pixels of a row
 //! together: its GPU entry calls it with `N = 1` (one invocation, the scalar instructions), the
-//! CPU runner with `N` = the workgroup's width (one call per row), and every lane loop here is a
-//! plain loop over an array that LLVM turns into vector instructions (AVX2 where the CPU has it:
-//! see `crate::declare`). Wider rows amortise more per-call work: à-trous runs 16 wide, the
-//! detector 8 (measured fastest for each).
+//! CPU runner with the `N` the kernel declares (one call per row of `N / 8` workgroups), and
+//! every lane loop here is a plain loop over an array that LLVM turns into vector instructions
+//! (AVX2 where the CPU has it: see `crate::declare`). Wider rows amortise more per-pixel setup
+//! until the live values spill: à-trous runs 32 wide, variance 16, the detector 8 (each measured
+//! fastest).
 //!
 //! Each lane performs exactly the operations of the scalar code, in the same order; branches
 //! become selects between values both computed from the same inputs. Results are therefore the

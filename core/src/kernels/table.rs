@@ -23,7 +23,7 @@ crate::kernel_table! {
 
     /// [`detect::detect`]: the change detector, between raygen and accumulation (it reads the
     /// neighbours' history, which accumulation then overwrites in place).
-    detect => DETECT, DetectBindings, DetectIo: lanes detect::detect,
+    detect => DETECT, DetectBindings, DetectIo: lanes(8) detect::detect,
     threads(8, 8, 1), params detect::DetectParams {
         history: read PackedPayload,
         samples: read PackedSample,
@@ -31,8 +31,8 @@ crate::kernel_table! {
     }
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
-    atrous => ATROUS, AtrousBindings, AtrousIo: lanes atrous::atrous,
-    threads(32, 2, 1), params atrous::AtrousParams {
+    atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32) atrous::atrous,
+    threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
         depth: read Depth,
         normal_roughness: read NormalRoughness,
@@ -126,8 +126,8 @@ crate::kernel_table! {
 
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
     /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
-    variance => VARIANCE, VarianceBindings, VarianceIo: lanes variance::variance,
-    threads(16, 4, 1), params variance::VarianceParams {
+    variance => VARIANCE, VarianceBindings, VarianceIo: lanes(16) variance::variance,
+    threads(8, 8, 1), params variance::VarianceParams {
         payload: read PackedPayload,
         depth: read Depth,
         normal_roughness: read NormalRoughness,
