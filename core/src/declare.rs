@@ -231,6 +231,8 @@ macro_rules! kernel_table {
     }};
     (@cpu [lanes $lanes:tt ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+        // `lanes(8)` over 8-wide workgroups takes one workgroup per call (`% 1`).
+        #[allow(clippy::modulo_one)]
         #[inline(always)]
         unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
