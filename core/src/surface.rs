@@ -113,7 +113,10 @@ impl Surface {
     /// view depth and packed normal + roughness. Not yet known, until [`Surface::with_motion`] /
     /// [`Surface::with_hit`]: last frame's position (set to this one), the geometric normal (set
     /// to the shading normal) and the instance (0, or [`NO_INSTANCE`] for sky).
-    #[inline]
+    ///
+    /// Always inlined: reprojection builds one per footprint texel and reads three fields; a
+    /// call returned all seventeen through memory.
+    #[inline(always)]
     pub fn at(
         camera: &Camera,
         x: u32,
