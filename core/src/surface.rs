@@ -7,6 +7,7 @@
 //! instead of 80 and any engine can feed it.
 
 use crate::camera::{Camera, PixelRays, View};
+use crate::lanes::Lanes;
 use crate::math;
 use crate::packing;
 use bytemuck::{Pod, Zeroable};
@@ -316,7 +317,23 @@ impl TangentPlane {
 /// Normal edge-stopping weight `max(0, n·m)^power` (SVGF uses power 128).
 #[inline]
 pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
-    math::pow(math::max(n.dot(m), 0.0), power)
+    math::pow(normal_cosine(n, m), power)
+}
+
+/// [`normal_weight`] of `N` pixels' normal pairs ([`crate::lanes`]), the same bits.
+#[inline(always)]
+pub fn normal_weights<const N: usize>(
+    n: Lanes<Vec3, N>,
+    m: Lanes<Vec3, N>,
+    power: f32,
+) -> Lanes<f32, N> {
+    n.zip(m, normal_cosine).pow(power)
+}
+
+/// What [`normal_weight`] raises to its power: `max(0, n·m)`.
+#[inline]
+fn normal_cosine(n: Vec3, m: Vec3) -> f32 {
+    math::max(n.dot(m), 0.0)
 }
 
 /// Plane-distance edge-stopping weight: how far `q` lies off the tangent plane of `(p, n)`,

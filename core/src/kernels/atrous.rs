@@ -156,9 +156,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
                     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w)
                         .map(packing::unpack_normal);
-                    let w_n = n
-                        .zip(m, |n, m| math::max(n.dot(m), 0.0))
-                        .pow(p.normal_power);
+                    let w_n = surface::normal_weights(n, m, p.normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
                     // exponents (the exp was most of the filter's time on the CPU).
                     let e = Lanes::<f32, N>::from_index(|l| {

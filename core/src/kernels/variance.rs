@@ -153,9 +153,7 @@ fn estimate<const N: usize>(
                 let m = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
                     .map(packing::unpack_normal);
                 let offset = math::sqrt((dx * dx + dy * dy) as f32);
-                let w_n = n
-                    .zip(m, |n, m| math::max(n.dot(m), 0.0))
-                    .pow(p.normal_power);
+                let w_n = surface::normal_weights(n, m, p.normal_power);
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
                     let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);
