@@ -105,7 +105,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     }
     let x0 = id.x as i32;
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
-    let xs = Lanes::<u32, N>::from_index(|l| math_min_u32(id.x + l, w - 1));
+    let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(x0 + l as i32, w));
     let plane_row = (id.z * h + id.y) * w;
     let row = id.y * w;
     let packed = Lanes::<PackedFiltered, N>::load_row(input, plane_row, x0, w);
@@ -197,16 +197,6 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     filtered
         .select(pass.map(|p| !p), packed)
         .store(out, (plane_row + id.x) as usize, live);
-}
-
-/// `a` if below `b`, else `b`.
-#[inline]
-fn math_min_u32(a: u32, b: u32) -> u32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
 }
 
 /// Variance at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for

@@ -117,9 +117,10 @@ fn estimate<const N: usize>(
     let x0 = id.x as i32;
     let hist = Lanes::<PackedPayload, N>::load_row(payload, (id.z * h + id.y) * w, x0, w)
         .map(|q| q.unpack());
-    let temporal = hist.map(|h| Filtered {
+    let per_estimate = hist.map(|h| 1.0 / math::max(h.count, 1.0));
+    let temporal = hist.zip(per_estimate, |h, per_estimate| Filtered {
         value: h.m1,
-        variance: h.variance() * (1.0 / math::max(h.count, 1.0)),
+        variance: h.variance() * per_estimate,
     });
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, x0, w);
     let young = hist.zip(cd, |h, cd| {
@@ -182,7 +183,7 @@ fn estimate<const N: usize>(
     Lanes::<Filtered, N>::from_index(|l| {
         let l = l as usize;
         let (h, s1, s2, sw) = (hist.0[l], s1.0[l], s2.0[l], sw.0[l]);
-        let per_estimate = 1.0 / math::max(h.count, 1.0);
+        let per_estimate = per_estimate.0[l];
         let (m1s, m2s) = (s1 / sw, s2 / sw);
         let spatial_var = math::max(m2s - m1s * m1s, 0.0);
         let t = math::saturate(h.count / p.spatial_until);
