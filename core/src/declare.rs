@@ -235,9 +235,6 @@ macro_rules! kernel_table {
         #[allow(clippy::modulo_one)]
         #[inline(always)]
         unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
-            let params: $params = b.params();
-            // SAFETY: the executor laid the buffers out as declared (the caller's contract).
-            $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             // One call covers a row of `lanes / width` workgroups side by side: the first of
             // them runs it, the others return. Pixels past the image's right edge are the
             // kernel's to mask, as on the GPU. Plain loops, no closure: the kernel must inline
@@ -246,6 +243,9 @@ macro_rules! kernel_table {
             if group.x % ($lanes / $x) != 0 {
                 return;
             }
+            let params: $params = b.params();
+            // SAFETY: the executor laid the buffers out as declared (the caller's contract).
+            $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             let base = group * $crate::glam::UVec3::new($x, $y, $z);
             for z in 0..$z {
                 for y in 0..$y {
