@@ -128,35 +128,29 @@ impl Surface {
         normal_roughness: u32,
     ) -> Surface {
         let (xf, yf) = (x as f32, y as f32);
-        if !has_surface(depth) {
-            return Surface {
-                instance: NO_INSTANCE,
-                roughness: 1.0,
-                prev_x: xf,
-                prev_y: yf,
-                ..Surface::default()
-            };
-        }
+        // Computed for sky too and selected, not branched on: vector code over lanes.
+        let valid = has_surface(depth);
         let p = camera.unproject(xf, yf, depth, width, height);
         let (n, roughness) = packing::unpack_normal_roughness(normal_roughness);
+        let v = |a: f32| if valid { a } else { 0.0 };
         Surface {
-            px: p.x,
-            py: p.y,
-            pz: p.z,
-            depth,
-            nx: n.x,
-            ny: n.y,
-            nz: n.z,
-            instance: 0,
-            gx: n.x,
-            gy: n.y,
-            gz: n.z,
-            roughness,
+            px: v(p.x),
+            py: v(p.y),
+            pz: v(p.z),
+            depth: v(depth),
+            nx: v(n.x),
+            ny: v(n.y),
+            nz: v(n.z),
+            instance: if valid { 0 } else { NO_INSTANCE },
+            gx: v(n.x),
+            gy: v(n.y),
+            gz: v(n.z),
+            roughness: if valid { roughness } else { 1.0 },
             prev_x: xf,
             prev_y: yf,
-            prev_px: p.x,
-            prev_py: p.y,
-            prev_pz: p.z,
+            prev_px: v(p.x),
+            prev_py: v(p.y),
+            prev_pz: v(p.z),
         }
     }
 
@@ -193,20 +187,15 @@ impl Surface {
     ) -> Surface {
         let m = packing::unpack_motion(motion);
         let (prev_x, prev_y) = (self.prev_x + m.x, self.prev_y + m.y);
-        if !self.is_valid() {
-            return Surface {
-                prev_x,
-                prev_y,
-                ..self
-            };
-        }
+        // Selected, not branched on (vector code over lanes): sky keeps its (zero) position.
+        let valid = self.is_valid();
         let q = prev_camera.unproject(prev_x, prev_y, self.depth + m.z, width, height);
         Surface {
             prev_x,
             prev_y,
-            prev_px: q.x,
-            prev_py: q.y,
-            prev_pz: q.z,
+            prev_px: if valid { q.x } else { self.prev_px },
+            prev_py: if valid { q.y } else { self.prev_py },
+            prev_pz: if valid { q.z } else { self.prev_pz },
             ..self
         }
     }
@@ -369,4 +358,101 @@ pub fn geometry_weight(
             s.position(),
             plane_scale * c.depth * offset_px,
         )
+}
+
+/// What reprojection needs of [`Surface::current`] for `N` consecutive pixels of a row, built
+/// lane by lane from the inputs so it runs as vector code (the same bits as `Surface::current`'s
+/// fields; sky lanes' normal is unset).
+#[derive(Copy, Clone)]
+pub struct Moved<const N: usize> {
+    /// [`Surface::is_valid`].
+    pub valid: Lanes<bool, N>,
+    /// [`Surface::normal`].
+    pub normal: Lanes<Vec3, N>,
+    /// `[prev_x, prev_y]`.
+    pub prev_xy: Lanes<[f32; 2], N>,
+    /// [`Surface::prev_position`].
+    pub prev_position: Lanes<Vec3, N>,
+}
+
+impl<const N: usize> Moved<N> {
+    /// Pixels `(xs[l], y)` with their inputs `depth`, `normal_roughness` and `motion`.
+    #[inline(always)]
+    pub fn new(
+        view: &View,
+        xs: Lanes<u32, N>,
+        y: u32,
+        (width, height): (u32, u32),
+        depth: Lanes<f32, N>,
+        normal_roughness: Lanes<u32, N>,
+        motion: Lanes<[u32; 2], N>,
+    ) -> Self {
+        let valid = depth.map(has_surface);
+        let m = motion.map(packing::unpack_motion);
+        let prev_xy = xs.zip(m, |x, m| [x as f32 + m.x, y as f32 + m.y]);
+        let prev_position = Lanes::<Vec3, N>::from_index(|l| {
+            let (l, [x, y]) = (l as usize, prev_xy.0[l as usize]);
+            let q = view
+                .prev_camera
+                .unproject(x, y, depth.0[l] + m.0[l].z, width, height);
+            if valid.0[l] {
+                q
+            } else {
+                Vec3::ZERO
+            }
+        });
+        Moved {
+            valid,
+            normal: normal_roughness.map(packing::unpack_normal),
+            prev_xy,
+            prev_position,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+
+    #[test]
+    fn moved_lanes_are_surface_current_bit_for_bit() {
+        let camera = Camera::look_at(Vec3::new(0.0, 1.0, -4.0), Vec3::ZERO, Vec3::Y, 0.9);
+        let prev_camera = Camera::look_at(Vec3::new(0.2, 1.1, -4.1), Vec3::ZERO, Vec3::Y, 0.9);
+        let view = View {
+            camera,
+            prev_camera,
+        };
+        let (w, h, y) = (64, 48, 17);
+        let depth = Lanes::<f32, 4>([3.5, 0.0, f32::INFINITY, 12.25]);
+        let nr = Lanes::<u32, 4>::from_index(|l| {
+            packing::pack_normal_roughness(
+                Vec3::new(0.3, 0.8, -0.5 + l as f32 * 0.1).normalize(),
+                0.4,
+            )
+        });
+        let motion = Lanes::<[u32; 2], 4>::from_index(|l| {
+            packing::pack_motion(-1.5 + l as f32, 0.75, 0.125 * l as f32)
+        });
+        let xs = Lanes::<u32, 4>::from_index(|l| 30 + l);
+        let m = Moved::new(&view, xs, y, (w, h), depth, nr, motion);
+        for l in 0..4 {
+            let s = Surface::current(&view, xs.0[l], y, w, h, depth.0[l], nr.0[l], motion.0[l]);
+            assert_eq!(m.valid.0[l], s.is_valid());
+            assert_eq!(
+                m.prev_xy.0[l].map(f32::to_bits),
+                [s.prev_x.to_bits(), s.prev_y.to_bits()]
+            );
+            assert_eq!(
+                m.prev_position.0[l].to_array().map(f32::to_bits),
+                s.prev_position().to_array().map(f32::to_bits)
+            );
+            if s.is_valid() {
+                assert_eq!(
+                    m.normal.0[l].to_array().map(f32::to_bits),
+                    s.normal().to_array().map(f32::to_bits)
+                );
+            }
+        }
+    }
 }

@@ -24,14 +24,17 @@
 //! variance clamping.
 
 use super::buckets::rate_to_bucket;
+use super::gradient::GradientSample;
 use super::ReprojectIo;
 use super::{pixel_index, plane_index};
 use crate::camera::Camera;
+use crate::lanes::{self, Lanes};
 use crate::math;
-use crate::payload::Payload;
-use crate::surface::{self, Surface};
+use crate::packing;
+use crate::payload::{PackedPayload, Payload};
+use crate::surface::{self, Moved};
 use bytemuck::{Pod, Zeroable};
-use glam::UVec3;
+use glam::{UVec3, Vec3};
 
 /// Flag: no texel of the footprint was valid — history is lost (disocclusion, camera cut).
 pub const FLAG_DISOCCLUDED: u32 = 1;
@@ -145,15 +148,20 @@ impl Default for ReprojectParams {
     }
 }
 
-/// Whether previous-frame texel `t` shows the same surface as current texel `c`.
+/// Whether the previous-frame texel at view depth `depth`, position `t` and normal `m` shows the
+/// current surface of normal `n`, whose last-frame position was `prev`.
 #[inline]
-pub fn same_surface(c: &Surface, t: &Surface, p: &ReprojectParams) -> bool {
-    if !t.is_valid() {
-        return false;
-    }
-    let n_ok = c.normal().dot(t.normal()) >= p.normal_threshold;
-    let dist = math::abs(t.normal().dot(c.prev_position() - t.position()));
-    n_ok && dist <= p.plane_threshold * math::max(t.depth, 1e-6)
+pub fn same_surface(
+    n: Vec3,
+    prev: Vec3,
+    depth: f32,
+    t: Vec3,
+    m: Vec3,
+    p: &ReprojectParams,
+) -> bool {
+    let n_ok = n.dot(m) >= p.normal_threshold;
+    let dist = math::abs(m.dot(prev - t));
+    surface::has_surface(depth) && n_ok && dist <= p.plane_threshold * math::max(depth, 1e-6)
 }
 
 /// Ray rate a pixel asks for, from its shortest history and largest variance over the planes.
@@ -191,68 +199,96 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
     p.base_rate
 }
 
-/// The 2×2 bilinear footprint of previous-frame position `(x, y)` in pixels: texel indices,
-/// bilinear weights with every texel that fails [`same_surface`] (or lies off-screen) set to 0,
-/// and whether any survived.
-#[inline]
+/// The 2×2 bilinear footprints of `N` pixels (one lane each): texel indices and bilinear weights
+/// with every texel that fails [`same_surface`] (or lies off-screen) set to 0, per texel `k`.
+#[derive(Copy, Clone)]
+struct Footprint<const N: usize> {
+    texel: [Lanes<u32, N>; 4],
+    bilinear: [Lanes<f32, N>; 4],
+    /// Whether any texel survived.
+    any: Lanes<bool, N>,
+}
+
+/// The [`Footprint`]s of previous-frame positions `xy` (pixels) of surfaces `c`.
+#[inline(always)]
 #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices one by one.
-fn footprint(
-    c: &Surface,
-    x: f32,
-    y: f32,
-    geometry_ok: bool,
+fn footprint<const N: usize>(
+    n: Lanes<Vec3, N>,
+    prev: Lanes<Vec3, N>,
+    xy: Lanes<[f32; 2], N>,
+    geometry_ok: Lanes<bool, N>,
     prev_camera: &Camera,
     prev_depth: &[f32],
     prev_normal_roughness: &[u32],
     p: &ReprojectParams,
-) -> ([usize; 4], [f32; 4], bool) {
+) -> Footprint<N> {
     // Texel centres are at integer pixel coordinates.
-    let x0f = math::floor(x);
-    let y0f = math::floor(y);
-    let (ax, ay) = (x - x0f, y - y0f);
-    let ok = geometry_ok && math::is_finite(ax) && math::is_finite(ay);
-    let mut texel = [0usize; 4];
-    let mut bilinear = [
-        (1.0 - ax) * (1.0 - ay),
-        ax * (1.0 - ay),
-        (1.0 - ax) * ay,
-        ax * ay,
-    ];
-    let mut any = false;
+    let x0 = xy.map(|[x, _]| math::floor(x));
+    let y0 = xy.map(|[_, y]| math::floor(y));
+    let ax = xy.zip(x0, |[x, _], x0| x - x0);
+    let ay = xy.zip(y0, |[_, y], y0| y - y0);
+    let ok = Lanes::<bool, N>::from_index(|l| {
+        let l = l as usize;
+        geometry_ok.0[l] && math::is_finite(ax.0[l]) && math::is_finite(ay.0[l])
+    });
+    let mut f = Footprint {
+        texel: [Lanes::splat(0); 4],
+        bilinear: [
+            ax.zip(ay, |ax, ay| (1.0 - ax) * (1.0 - ay)),
+            ax.zip(ay, |ax, ay| ax * (1.0 - ay)),
+            ax.zip(ay, |ax, ay| (1.0 - ax) * ay),
+            ax.zip(ay, |ax, ay| ax * ay),
+        ],
+        any: Lanes::splat(false),
+    };
     let mut k = 0;
     while k < 4 {
-        let tx = x0f + (k & 1) as f32;
-        let ty = y0f + (k >> 1) as f32;
-        let inside = tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32;
-        if ok && inside {
-            let (ux, uy) = (tx as u32, ty as u32);
-            texel[k] = pixel_index(ux, uy, p.width);
-            let t = surface::load(
-                prev_camera,
-                ux,
-                uy,
-                p.width,
-                p.height,
-                prev_depth,
-                prev_normal_roughness,
-            );
-            if same_surface(c, &t, p) {
-                any = true;
+        let (dx, dy) = ((k & 1) as f32, (k >> 1) as f32);
+        // Texels off-screen (or of invalid lanes) read texel (0, 0) and are rejected: every lane
+        // computes, selects decide (vector code over lanes).
+        let used = Lanes::<bool, N>::from_index(|l| {
+            let l = l as usize;
+            let (tx, ty) = (x0.0[l] + dx, y0.0[l] + dy);
+            ok.0[l] && tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32
+        });
+        let tx = Lanes::<f32, N>::from_index(|l| {
+            let l = l as usize;
+            if used.0[l] {
+                x0.0[l] + dx
             } else {
-                bilinear[k] = 0.0;
+                0.0
             }
-        } else {
-            bilinear[k] = 0.0;
-        }
+        });
+        let ty = Lanes::<f32, N>::from_index(|l| {
+            let l = l as usize;
+            if used.0[l] {
+                y0.0[l] + dy
+            } else {
+                0.0
+            }
+        });
+        let texel = tx.zip(ty, |x, y| pixel_index(x as u32, y as u32, p.width) as u32);
+        let pd = Lanes::<f32, N>::gather(prev_depth, texel);
+        let m = Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_normal);
+        let same = Lanes::<bool, N>::from_index(|l| {
+            let l = l as usize;
+            let t = prev_camera.unproject(tx.0[l], ty.0[l], pd.0[l], p.width, p.height);
+            used.0[l] && same_surface(n.0[l], prev.0[l], pd.0[l], t, m.0[l], p)
+        });
+        f.texel[k] = texel;
+        f.bilinear[k] = f.bilinear[k].select(same, Lanes::splat(0.0));
+        f.any = f.any.zip(same, |a, s| a || s);
         k += 1;
     }
-    (texel, bilinear, any)
+    f
 }
 
-/// One invocation per pixel; loops over the signal planes so the geometric tests run once.
-/// Writes the reprojected history of every plane to `out`, the pixel's flags to `flags` and its
-/// ray request (a bucket) to `requests`.
-pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
+/// One call per `N` consecutive pixels of a row ([`crate::lanes`]; the GPU runs `N = 1`); loops
+/// over the signal planes so the geometric tests run once. Writes the reprojected history of
+/// every plane to `out`, and per plane group the pixel's flags and ray request (a bucket) to
+/// `requests`.
+#[inline(always)]
+pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
     let ReprojectIo {
         depth,
         normal_roughness,
@@ -268,136 +304,154 @@ pub fn reproject(id: UVec3, p: &ReprojectParams, io: ReprojectIo<'_>) {
         out,
         requests,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let pix = pixel_index(id.x, id.y, p.width);
+    let x0 = id.x as i32;
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(x0 + l as i32, w));
+    let row = id.y * w;
     let v = view[0];
-    let c = Surface::current(
-        &v,
-        id.x,
-        id.y,
-        p.width,
-        p.height,
-        depth[pix],
-        normal_roughness[pix],
-        motion[pix],
-    );
-    let empty = Payload {
-        m1: 0.0,
-        m2: 0.0,
-        count: 0.0,
-        rng_index: p.frame_index,
-    };
-
-    let geometry_ok = c.is_valid() && p.reset == 0;
-    let (pd, pn) = (prev_depth, prev_normal_roughness);
-    let cam = v.prev_camera;
-    let (texel, bilinear, any) = footprint(&c, c.prev_x, c.prev_y, geometry_ok, &cam, pd, pn, p);
+    let d = Lanes::<f32, N>::load_row(depth, row, x0, w);
+    let nr = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
+    let mv = Lanes::<[u32; 2], N>::load_row(motion, row, x0, w);
+    let c = Moved::new(&v, xs, id.y, (w, h), d, nr, mv);
+    let valid = c.valid;
+    let geometry_ok = valid.map(|v| v && p.reset == 0);
+    let (pd, pn, cam) = (prev_depth, prev_normal_roughness, &v.prev_camera);
+    let (n, prev) = (c.normal, c.prev_position);
+    let fp = footprint(n, prev, c.prev_xy, geometry_ok, cam, pd, pn, p);
     // Reflections move with the reflected image, not the surface (`reflect::reflect_motion`).
-    let (ptexel, pbilinear, _) = if p.parallax_plane < p.planes {
-        let [x, y] = parallax[pix];
-        footprint(&c, x, y, geometry_ok, &cam, pd, pn, p)
+    let pfp = if p.parallax_plane < p.planes {
+        let xy = Lanes::<[f32; 2], N>::load_row(parallax, row, x0, w);
+        footprint(n, prev, xy, geometry_ok, cam, pd, pn, p)
     } else {
-        (texel, bilinear, any)
+        fp
     };
-    let wanted = c.is_valid() && (p.use_mask == 0 || mask[pix] != 0);
-    let pixels = (p.width * p.height) as usize;
+    let wanted = if p.use_mask == 0 {
+        valid
+    } else {
+        let m = Lanes::<u32, N>::load_row(mask, row, x0, w);
+        valid.zip(m, |v, m| v && m != 0)
+    };
+    let pixels = (w * h) as usize;
     // Per group, reset when the group's last plane is written.
-    let mut lost = !any;
-    let mut min_count = f32::MAX;
-    let mut max_variance = 0.0f32;
+    let mut lost = fp.any.map(|a| !a);
+    let mut min_count = Lanes::<f32, N>::splat(f32::MAX);
+    let mut max_variance = Lanes::<f32, N>::splat(0.0);
     let mut z = 0;
     while z < p.planes {
-        let i = plane_index(UVec3::new(id.x, id.y, z), p.width, p.height);
-        let mut acc = Payload::default();
-        let mut sum_w = 0.0;
-        let mut best_w = 0.0;
-        let mut rng_index = p.frame_index;
-        let (texel, bilinear) = if z == p.parallax_plane {
-            (ptexel, pbilinear)
-        } else {
-            (texel, bilinear)
-        };
+        let f = if z == p.parallax_plane { pfp } else { fp };
+        let plane = z * w * h;
+        // Sums start at +0, so masked adds give the bits of adding only the used texels.
+        let zero = Lanes::<f32, N>::splat(0.0);
+        let (mut m1, mut m2, mut count, mut sum_w, mut best_w) = (zero, zero, zero, zero, zero);
+        let mut rng_index = Lanes::<u32, N>::splat(p.frame_index);
         let mut k = 0;
         while k < 4 {
-            if bilinear[k] > 0.0 {
-                let h = history[z as usize * (p.width * p.height) as usize + texel[k]].unpack();
-                // Empty texels (undersampled, never traced) are rejected one by one.
-                let w = if h.count >= 1.0 { bilinear[k] } else { 0.0 };
-                if w > 0.0 {
-                    acc.m1 += w * h.m1;
-                    acc.m2 += w * h.m2;
-                    acc.count += w * h.count;
-                    sum_w += w;
-                    if w > best_w {
-                        best_w = w;
-                        rng_index = h.rng_index;
-                    }
-                }
-            }
+            let index = f.texel[k].map(|t| plane + t);
+            let hk = Lanes::<PackedPayload, N>::gather(history, index).map(|h| h.unpack());
+            // Empty texels (undersampled, never traced) are rejected one by one.
+            let wk = f.bilinear[k].zip(hk, |b, h| if b > 0.0 && h.count >= 1.0 { b } else { 0.0 });
+            let used = wk.map(|w| w > 0.0);
+            m1 = m1.add_where(used, wk.zip(hk, |w, h| w * h.m1));
+            m2 = m2.add_where(used, wk.zip(hk, |w, h| w * h.m2));
+            count = count.add_where(used, wk.zip(hk, |w, h| w * h.count));
+            sum_w = sum_w.add_where(used, wk);
+            let best = wk.zip(best_w, |w, b| w > b);
+            best_w = wk.select(best, best_w);
+            rng_index = hk.map(|h| h.rng_index).select(best, rng_index);
             k += 1;
         }
-        let reprojected = if sum_w > p.disocclusion_threshold {
-            // A history longer than this frame allows (kept on still frames) is cut back.
-            let mut count = math::min(acc.count / sum_w, p.max_history);
-            // Plain division after the check: the same instructions on every target.
-            #[allow(clippy::manual_checked_ops)]
-            if p.gradient_stratum > 0 {
-                let lambda = gradient[super::gradient::cell_index(
-                    id.x / p.gradient_stratum,
-                    id.y / p.gradient_stratum,
-                    z,
-                    p.gradient_width,
-                    p.gradient_height,
-                )]
-                .lambda();
-                let lambda = math::min(1.0, lambda * p.gradient_scale);
-                if lambda > p.gradient_threshold {
-                    // The signal changed under the history: a disocclusion in all but geometry.
-                    lost = true;
-                    count = 0.0;
-                } else {
-                    count *= 1.0 - lambda;
-                }
-            }
-            Payload {
-                m1: acc.m1 / sum_w,
-                m2: acc.m2 / sum_w,
-                count,
-                rng_index,
-            }
+        let lambda = if p.gradient_stratum > 0 {
+            let cell = xs.map(|x| {
+                let (cx, cy) = (x / p.gradient_stratum, id.y / p.gradient_stratum);
+                super::gradient::cell_index(cx, cy, z, p.gradient_width, p.gradient_height) as u32
+            });
+            Lanes::<GradientSample, N>::gather(gradient, cell)
+                .map(|g| math::min(1.0, g.lambda() * p.gradient_scale))
         } else {
-            lost = true;
-            empty
+            zero
         };
-        min_count = math::min(min_count, reprojected.count);
-        max_variance = math::max(max_variance, reprojected.variance());
-        out[i] = reprojected.pack();
+        let reprojected = Lanes::<Payload, N>::from_index(|l| {
+            let l = l as usize;
+            let s = sum_w.0[l];
+            // A history longer than this frame allows (kept on still frames) is cut back.
+            let full = math::min(count.0[l] / s, p.max_history);
+            let count = if p.gradient_stratum == 0 {
+                full
+            } else if lambda.0[l] > p.gradient_threshold {
+                // The signal changed under the history: a disocclusion in all but geometry.
+                0.0
+            } else {
+                full * (1.0 - lambda.0[l])
+            };
+            let payload = Payload {
+                m1: m1.0[l] / s,
+                m2: m2.0[l] / s,
+                count,
+                rng_index: rng_index.0[l],
+            };
+            let empty = Payload {
+                m1: 0.0,
+                m2: 0.0,
+                count: 0.0,
+                rng_index: p.frame_index,
+            };
+            if s > p.disocclusion_threshold {
+                payload
+            } else {
+                empty
+            }
+        });
+        let dropped = Lanes::<bool, N>::from_index(|l| {
+            let l = l as usize;
+            let changed = p.gradient_stratum > 0 && lambda.0[l] > p.gradient_threshold;
+            !(sum_w.0[l] > p.disocclusion_threshold) || changed
+        });
+        lost = lost.zip(dropped, |a, b| a || b);
+        min_count = min_count.zip(reprojected, |m, r| math::min(m, r.count));
+        max_variance = max_variance.zip(reprojected, |m, r| math::max(m, r.variance()));
+        let packed = reprojected.map(|r| r.pack());
+        packed.store(out, plane_index(UVec3::new(id.x, id.y, z), w, h), live);
         let group = super::plane_group(p.plane_groups, z);
         z += 1;
         if z == p.planes || super::plane_group(p.plane_groups, z) != group {
-            let bucket = if wanted {
-                let scale = if group == p.importance_group {
-                    importance[super::reflect::tile_index(id.x, id.y, p.width)]
+            let scale = if group == p.importance_group {
+                Lanes::<f32, N>::gather(
+                    importance,
+                    xs.map(|x| super::reflect::tile_index(x, id.y, w) as u32),
+                )
+            } else {
+                Lanes::splat(1.0)
+            };
+            let word = Lanes::<u32, N>::from_index(|l| {
+                let l = l as usize;
+                let bucket = if wanted.0[l] {
+                    rate_to_bucket(
+                        requested_rate(min_count.0[l], max_variance.0[l], p) * scale.0[l],
+                    )
                 } else {
-                    1.0
+                    super::buckets::NO_RAYS
                 };
-                rate_to_bucket(requested_rate(min_count, max_variance, p) * scale)
-            } else {
-                super::buckets::NO_RAYS
-            };
-            let flags = if !c.is_valid() {
-                FLAG_SKY
-            } else if lost {
-                FLAG_DISOCCLUDED
-            } else {
-                0
-            };
-            requests[group as usize * pixels + pix] = request_word(bucket, flags);
-            lost = !any;
-            min_count = f32::MAX;
-            max_variance = 0.0;
+                let flags = if !valid.0[l] {
+                    FLAG_SKY
+                } else if lost.0[l] {
+                    FLAG_DISOCCLUDED
+                } else {
+                    0
+                };
+                request_word(bucket, flags)
+            });
+            word.store(
+                requests,
+                group as usize * pixels + pixel_index(id.x, id.y, w),
+                live,
+            );
+            lost = fp.any.map(|a| !a);
+            min_count = Lanes::splat(f32::MAX);
+            max_variance = Lanes::splat(0.0);
         }
     }
 }
