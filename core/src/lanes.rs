@@ -7,8 +7,8 @@
 //! CPU runner with the `N` the kernel declares (one call per row of `N / 8` workgroups), and
 //! every lane loop here is a plain loop over an array that LLVM turns into vector instructions
 //! (AVX2 where the CPU has it: see `crate::declare`). Wider rows amortise more per-pixel setup
-//! until the live values spill: à-trous runs 32 wide, variance 16, the detector 8 (each measured
-//! fastest).
+//! until the live values spill: à-trous runs 32 wide, variance and reprojection 16, the
+//! detector 8 (each measured fastest).
 //!
 //! Each lane performs exactly the operations of the scalar code, in the same order; branches
 //! become selects between values both computed from the same inputs. Results are therefore the
