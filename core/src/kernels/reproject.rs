@@ -251,29 +251,22 @@ fn footprint<const N: usize>(
             let (tx, ty) = (x0.0[l] + dx, y0.0[l] + dy);
             ok.0[l] && tx >= 0.0 && ty >= 0.0 && tx < p.width as f32 && ty < p.height as f32
         });
-        let tx = Lanes::<f32, N>::from_index(|l| {
+        let t = Lanes::<[f32; 2], N>::from_index(|l| {
             let l = l as usize;
             if used.0[l] {
-                x0.0[l] + dx
+                [x0.0[l] + dx, y0.0[l] + dy]
             } else {
-                0.0
+                [0.0, 0.0]
             }
         });
-        let ty = Lanes::<f32, N>::from_index(|l| {
-            let l = l as usize;
-            if used.0[l] {
-                y0.0[l] + dy
-            } else {
-                0.0
-            }
-        });
-        let texel = tx.zip(ty, |x, y| pixel_index(x as u32, y as u32, p.width) as u32);
+        let texel = t.map(|[x, y]| pixel_index(x as u32, y as u32, p.width) as u32);
         let pd = Lanes::<f32, N>::gather(prev_depth, texel);
         let m = Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_normal);
         let same = Lanes::<bool, N>::from_index(|l| {
             let l = l as usize;
-            let t = prev_camera.unproject(tx.0[l], ty.0[l], pd.0[l], p.width, p.height);
-            used.0[l] && same_surface(n.0[l], prev.0[l], pd.0[l], t, m.0[l], p)
+            let [x, y] = t.0[l];
+            let q = prev_camera.unproject(x, y, pd.0[l], p.width, p.height);
+            used.0[l] && same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
         });
         f.texel[k] = texel;
         f.bilinear[k] = f.bilinear[k].select(same, Lanes::splat(0.0));
