@@ -19,7 +19,9 @@
 //! - `lanes(N) path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
 //!   `f::<N>` per row of `N / width` workgroups side by side (compiled for AVX2 too, chosen at
-//!   run time), so the GPU keeps its workgroup shape whatever width suits the CPU;
+//!   run time), so the GPU keeps its workgroup shape whatever width suits the CPU.
+//!   `lanes(N, avx512 M)` adds a runner compiled for AVX-512 that calls `f::<M>`, taken where
+//!   the CPU has it (each width measured per kernel: AVX-512's 32 registers hold wider rows);
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
 //!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
 //!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
@@ -55,14 +57,15 @@ macro_rules! kernel_table {
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
-        $entry:ident => $desc:ident, $binds:ident, $io:ident: lanes($lanes:tt) $($kfn:ident)::+,
+        $entry:ident => $desc:ident, $binds:ident, $io:ident:
+            lanes($lanes:tt $(, avx512 $wide:tt)?) $($kfn:ident)::+,
         threads($x:tt, $y:tt, $z:tt), params $params:ty
         { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
         $($rest:tt)*
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds $io [lanes $lanes ($($kfn)::+)] ($x, $y, $z)
-                [$params]]
+            [[$(#[$doc])*] $entry $desc $binds $io [lanes $lanes [$($wide)?] ($($kfn)::+)]
+                ($x, $y, $z) [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
@@ -229,18 +232,21 @@ macro_rules! kernel_table {
         }
         run
     }};
-    (@cpu [lanes $lanes:tt ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident [$params:ty]
-        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+    (@cpu [lanes $lanes:tt [$($wide:tt)?] ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident
+        [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         // `lanes(8)` over 8-wide workgroups takes one workgroup per call (`% 1`).
         #[allow(clippy::modulo_one)]
         #[inline(always)]
-        unsafe fn lanes(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
-            // One call covers a row of `lanes / width` workgroups side by side: the first of
-            // them runs it, the others return. Pixels past the image's right edge are the
-            // kernel's to mask, as on the GPU. Plain loops, no closure: the kernel must inline
-            // into `lanes_avx2` to get AVX2.
-            const { assert!($lanes % $x == 0, "lanes a multiple of the workgroup width") };
-            if group.x % ($lanes / $x) != 0 {
+        unsafe fn lanes<const L: usize>(
+            group: $crate::glam::UVec3,
+            b: &$crate::plan::CpuBindings<'_>,
+        ) {
+            // One call covers a row of `L / width` workgroups side by side: the first of them
+            // runs it, the others return. Pixels past the image's right edge are the kernel's
+            // to mask, as on the GPU. Plain loops, no closure: the kernel must inline into
+            // `lanes_avx2`/`lanes_avx512` to get their instructions.
+            const { assert!(L % $x == 0, "lanes a multiple of the workgroup width") };
+            if group.x % (L as u32 / $x) != 0 {
                 return;
             }
             let params: $params = b.params();
@@ -250,7 +256,7 @@ macro_rules! kernel_table {
             for z in 0..$z {
                 for y in 0..$y {
                     let id = base + $crate::glam::UVec3::new(0, y, z);
-                    $($kfn)::+::<$lanes>(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                    $($kfn)::+::<L>(id, &params, $io { $($bn: &$($m)? *$bn),* });
                 }
             }
         }
@@ -259,19 +265,45 @@ macro_rules! kernel_table {
         #[target_feature(enable = "avx2")]
         unsafe fn lanes_avx2(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
-            unsafe { lanes(group, b) }
+            unsafe { lanes::<$lanes>(group, b) }
         }
+        $crate::kernel_table!(@avx512 [$($wide)?]);
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
-            if std::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2; the rest is the caller's contract.
-                return unsafe { lanes_avx2(group, b) };
+            {
+                $crate::kernel_table!(@run_avx512 [$($wide)?] group b);
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2; the rest is the caller's contract.
+                    return unsafe { lanes_avx2(group, b) };
+                }
             }
             // SAFETY: the caller's contract.
-            unsafe { lanes(group, b) }
+            unsafe { lanes::<$lanes>(group, b) }
         }
         run
     }};
+    // A kernel declared `avx512 M` also gets a runner compiled for AVX-512 (16 lanes and 32
+    // registers: wide rows spill less), `M` pixels per call, taken where the CPU has it.
+    (@avx512 []) => {};
+    (@avx512 [$wide:tt]) => {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        #[target_feature(enable = "avx2,avx512f,avx512bw,avx512dq,avx512vl")]
+        unsafe fn lanes_avx512(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+            // SAFETY: as `lanes`.
+            unsafe { lanes::<$wide>(group, b) }
+        }
+    };
+    (@run_avx512 [] $group:ident $b:ident) => {};
+    (@run_avx512 [$wide:tt] $group:ident $b:ident) => {
+        if std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512bw")
+            && std::is_x86_feature_detected!("avx512dq")
+            && std::is_x86_feature_detected!("avx512vl")
+        {
+            // SAFETY: the CPU has AVX-512; the rest is the caller's contract.
+            return unsafe { lanes_avx512($group, $b) };
+        }
+    };
     (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
@@ -316,7 +348,7 @@ macro_rules! kernel_table {
             $kfn(id, params, $crate::kernels::$io { $($bn),* });
         }
     };
-    (@entry [lanes $lanes:tt ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
+    (@entry [lanes $lanes:tt $wide:tt ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
         [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(

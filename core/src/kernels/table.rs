@@ -31,7 +31,7 @@ crate::kernel_table! {
     }
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
-    atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32) atrous::atrous,
+    atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32, avx512 128) atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
         depth: read Depth,
@@ -126,7 +126,7 @@ crate::kernel_table! {
 
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
     /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
-    variance => VARIANCE, VarianceBindings, VarianceIo: lanes(16) variance::variance,
+    variance => VARIANCE, VarianceBindings, VarianceIo: lanes(16, avx512 32) variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read PackedPayload,
         depth: read Depth,
