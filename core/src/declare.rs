@@ -260,9 +260,9 @@ macro_rules! kernel_table {
                 }
             }
         }
-        // The same code compiled for AVX2 (8 lanes in one register), chosen at run time.
+        // The same code compiled for AVX2 (8 lanes in one register) and F16C, chosen at run time.
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,f16c")]
         unsafe fn lanes_avx2(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$lanes>(group, b) }
@@ -272,8 +272,8 @@ macro_rules! kernel_table {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
                 $crate::kernel_table!(@run_avx512 [$($wide)?] group b);
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU has AVX2; the rest is the caller's contract.
+                if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("f16c") {
+                    // SAFETY: the CPU has AVX2 and F16C; the rest is the caller's contract.
                     return unsafe { lanes_avx2(group, b) };
                 }
             }

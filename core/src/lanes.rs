@@ -16,6 +16,7 @@
 //! same bits for every `N`, and bit-exact across backends as before.
 
 use crate::math;
+use crate::quantize;
 
 /// One value per lane.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -235,6 +236,99 @@ impl<const N: usize> Lanes<f32, N> {
     }
 }
 
+impl<const N: usize> Lanes<u32, N> {
+    /// [`quantize::f16_to_f32`] of every lane's binary16 code (its low 16 bits). On x86-64 with
+    /// F16C, eight lanes per conversion instruction: the same values for every code but
+    /// signalling NaNs, which the instruction quiets. No buffer holds one: the kernels store
+    /// [`quantize::f32_to_f16`]'s codes, whose NaNs are quiet (tested over every code).
+    #[inline(always)]
+    pub fn f16_to_f32(self) -> Lanes<f32, N> {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if N.is_multiple_of(8) && std::is_x86_feature_detected!("f16c") {
+            // SAFETY: the CPU has F16C.
+            return unsafe { f16c::widen(self) };
+        }
+        self.map(|h| quantize::f16_to_f32(h & 0xffff))
+    }
+}
+
+impl<const N: usize> Lanes<f32, N> {
+    /// [`quantize::f32_to_f16`] of every lane, the same codes for every input (tested over
+    /// every exponent). On x86-64 with F16C, eight lanes per conversion instruction (round to
+    /// nearest even, as `f32_to_f16`); NaNs first become the quiet NaN of their sign, the one
+    /// `f32_to_f16` gives.
+    #[inline(always)]
+    pub fn f32_to_f16(self) -> Lanes<u32, N> {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if N.is_multiple_of(8) && std::is_x86_feature_detected!("f16c") {
+            let canonical = self.map(|x| {
+                let b = x.to_bits();
+                let nan = (b & 0x7fff_ffff) > 0x7f80_0000;
+                f32::from_bits(if nan {
+                    (b & 0x8000_0000) | 0x7fc0_0000
+                } else {
+                    b
+                })
+            });
+            // SAFETY: the CPU has F16C.
+            return unsafe { f16c::narrow(canonical) };
+        }
+        self.map(quantize::f32_to_f16)
+    }
+}
+
+/// The binary16 conversion instructions, eight lanes at a time: inlined into the CPU runners
+/// compiled for AVX2 or AVX-512 (which enable F16C), called otherwise.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod f16c {
+    use super::Lanes;
+    use core::arch::x86_64::{
+        _mm256_cvtph_ps, _mm256_cvtps_ph, _mm256_loadu_ps, _mm256_storeu_ps, _mm_loadu_si128,
+        _mm_storeu_si128, _MM_FROUND_TO_NEAREST_INT,
+    };
+
+    #[target_feature(enable = "f16c")]
+    #[inline]
+    pub unsafe fn widen<const N: usize>(h: Lanes<u32, N>) -> Lanes<f32, N> {
+        let mut out = [0.0f32; N];
+        let mut i = 0;
+        while i + 8 <= N {
+            let codes: [u16; 8] = core::array::from_fn(|k| h.0[i + k] as u16);
+            // SAFETY: 8 codes in, 8 floats out, both in bounds.
+            unsafe {
+                let v = _mm256_cvtph_ps(_mm_loadu_si128(codes.as_ptr().cast()));
+                _mm256_storeu_ps(out.as_mut_ptr().add(i), v);
+            }
+            i += 8;
+        }
+        Lanes(out)
+    }
+
+    #[target_feature(enable = "f16c")]
+    #[inline]
+    pub unsafe fn narrow<const N: usize>(x: Lanes<f32, N>) -> Lanes<u32, N> {
+        let mut out = [0u32; N];
+        let mut i = 0;
+        while i + 8 <= N {
+            let mut codes = [0u16; 8];
+            // SAFETY: 8 floats in, 8 codes out, both in bounds.
+            unsafe {
+                let v = _mm256_cvtps_ph::<_MM_FROUND_TO_NEAREST_INT>(_mm256_loadu_ps(
+                    x.0.as_ptr().add(i),
+                ));
+                _mm_storeu_si128(codes.as_mut_ptr().cast(), v);
+            }
+            let mut k = 0;
+            while k < 8 {
+                out[i + k] = codes[k] as u32;
+                k += 1;
+            }
+            i += 8;
+        }
+        Lanes(out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,6 +355,61 @@ mod tests {
                 for (x, got) in chunk.iter().zip(lanes.0) {
                     assert_eq!(got.to_bits(), math::pow(*x, y).to_bits(), "{x}^{y}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn binary16_decode_over_lanes_is_f16_to_f32_for_every_quiet_code() {
+        let quiet = |h: u32| !((h >> 10) & 0x1f == 0x1f && h & 0x3ff != 0 && h & 0x200 == 0);
+        let codes: std::vec::Vec<u32> = (0..1u32 << 16).filter(|&h| quiet(h)).collect();
+        for chunk in codes.chunks(16) {
+            let lanes = Lanes::<u32, 16>::from_index(|l| {
+                // Whatever is above the low half is ignored.
+                chunk[l as usize % chunk.len()] | 0xabcd_0000
+            });
+            for (h, got) in lanes.0.iter().zip(lanes.f16_to_f32().0) {
+                let want = quantize::f16_to_f32(h & 0xffff);
+                assert_eq!(got.to_bits(), want.to_bits(), "{h:#x}");
+            }
+        }
+    }
+
+    #[test]
+    fn binary16_encode_over_lanes_is_f32_to_f16_for_every_exponent() {
+        // Every sign and exponent with mantissas around each rounding position (the round bit
+        // moves from bit 12 for normal halves up to bit 23 for the smallest subnormals), and
+        // NaNs with every payload bit.
+        let mut xs = std::vec::Vec::new();
+        for sign in [0u32, 1 << 31] {
+            for e in 0..256u32 {
+                for bit in 0..23u32 {
+                    for low in [0u32, 1, 2, 3] {
+                        let half = 1u32 << bit;
+                        for m in [half - 1, half, half + 1, half | (half << 1), half * 3 - 1] {
+                            let m = (m ^ (low << 20)) & 0x7f_ffff;
+                            xs.push(sign | (e << 23) | m);
+                        }
+                    }
+                }
+                for m in [0u32, 0x7f_ffff, 0x40_0000, 0x3f_ffff, 0x55_5555, 0x2a_aaaa] {
+                    xs.push(sign | (e << 23) | m);
+                }
+            }
+        }
+        let mut rng = 0x1234_5678u32;
+        for _ in 0..1 << 20 {
+            rng ^= rng << 13;
+            rng ^= rng >> 17;
+            rng ^= rng << 5;
+            xs.push(rng);
+        }
+        for chunk in xs.chunks(16) {
+            let lanes =
+                Lanes::<f32, 16>::from_index(|l| f32::from_bits(chunk[l as usize % chunk.len()]));
+            for (x, got) in lanes.0.iter().zip(lanes.f32_to_f16().0) {
+                let want = quantize::f32_to_f16(*x);
+                assert_eq!(got, want, "{:#x}", x.to_bits());
             }
         }
     }

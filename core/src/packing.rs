@@ -13,6 +13,7 @@
 //! - **Hit** (the built-in renderer's own ray-generation data, not a denoiser input): the
 //!   geometric normal octahedron-encoded in 16 + 16 bits, and the instance id.
 
+use crate::lanes::Lanes;
 use crate::math;
 use crate::quantize::{f16_to_f32, f32_to_f16, F16_MAX};
 use glam::{Vec2, Vec3};
@@ -87,17 +88,22 @@ pub fn unpack_normal(w: u32) -> Vec3 {
     ))
 }
 
-/// binary16 code of `x` saturated to `±65504` (NaN gives 0).
+/// `x` saturated to `±65504` (NaN gives 0).
 #[inline]
-fn f16_saturated(x: f32) -> u32 {
-    let x = if x >= -F16_MAX {
+fn saturate_f16(x: f32) -> f32 {
+    if x >= -F16_MAX {
         math::min(x, F16_MAX)
     } else if x < 0.0 {
         -F16_MAX
     } else {
         0.0
-    };
-    f32_to_f16(x)
+    }
+}
+
+/// binary16 code of `x` saturated to `±65504` (NaN gives 0).
+#[inline]
+fn f16_saturated(x: f32) -> u32 {
+    f32_to_f16(saturate_f16(x))
 }
 
 /// binary16 code of a signal value: finite values saturate to ±65504 (a bright sample keeps its
@@ -129,6 +135,22 @@ pub fn pack_f16x2(a: f32, b: f32) -> u32 {
 #[inline]
 pub fn unpack_f16x2(w: u32) -> (f32, f32) {
     (f16_to_f32(w & 0xffff), f16_to_f32(w >> 16))
+}
+
+/// [`pack_f16x2`] of `N` pairs ([`crate::lanes`]), the same codes.
+#[inline(always)]
+pub fn pack_f16x2_lanes<const N: usize>(a: Lanes<f32, N>, b: Lanes<f32, N>) -> Lanes<u32, N> {
+    let (a, b) = (
+        a.map(saturate_f16).f32_to_f16(),
+        b.map(saturate_f16).f32_to_f16(),
+    );
+    a.zip(b, |a, b| a | (b << 16))
+}
+
+/// [`unpack_f16x2`] of `N` words ([`crate::lanes`]), the same values.
+#[inline(always)]
+pub fn unpack_f16x2_lanes<const N: usize>(w: Lanes<u32, N>) -> (Lanes<f32, N>, Lanes<f32, N>) {
+    (w.f16_to_f32(), w.map(|w| w >> 16).f16_to_f32())
 }
 
 /// Packs 2.5D motion: pixel offset `(dx, dy)` to last frame's position and view-depth change `dz`.

@@ -21,6 +21,7 @@
 //! Untraced samples (`rays == 0`) are not inspected: their moments are not read. The accumulated
 //! moments are then stored at the storage precision ([`store`]).
 
+use crate::lanes::Lanes;
 use crate::math;
 use crate::packing;
 use crate::quantize;
@@ -278,6 +279,23 @@ impl Filtered {
             bits: packing::pack_f16x2(self.value, self.variance),
         }
     }
+}
+
+/// [`PackedFiltered::unpack`] of `N` lanes ([`crate::lanes`]): values and variances.
+#[inline(always)]
+pub fn unpack_filtered<const N: usize>(
+    packed: Lanes<PackedFiltered, N>,
+) -> (Lanes<f32, N>, Lanes<f32, N>) {
+    packing::unpack_f16x2_lanes(packed.map(|p| p.bits))
+}
+
+/// [`Filtered::pack`] of `N` lanes ([`crate::lanes`]).
+#[inline(always)]
+pub fn pack_filtered<const N: usize>(
+    value: Lanes<f32, N>,
+    variance: Lanes<f32, N>,
+) -> Lanes<PackedFiltered, N> {
+    packing::pack_f16x2_lanes(value, variance).map(|bits| PackedFiltered { bits })
 }
 
 #[cfg(test)]

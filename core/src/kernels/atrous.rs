@@ -15,7 +15,7 @@ use crate::camera::PixelRays;
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
-use crate::payload::{Filtered, PackedFiltered};
+use crate::payload::{self, PackedFiltered};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -116,8 +116,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         packed.store(out, (plane_row + id.x) as usize, live);
         return;
     }
-    let value = packed.map(|f| f.unpack().value);
-    let variance = packed.map(|f| f.unpack().variance);
+    let (value, variance) = payload::unpack_filtered(packed);
     let n = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w).map(packing::unpack_normal);
     let rays = PixelRays::new(&view[0].camera, w, h);
     let plane = Lanes::<TangentPlane, N>::from_index(|l| {
@@ -150,8 +149,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     let valid =
                         qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
                     let tap = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
-                    let tap_value = tap.map(|f| f.unpack().value);
-                    let tap_variance = tap.map(|f| f.unpack().variance);
+                    let (tap_value, tap_variance) = payload::unpack_filtered(tap);
                     let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
                     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
                     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w)
@@ -186,14 +184,10 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         }
         ty += 1;
     }
-    let filtered = Lanes::<PackedFiltered, N>::from_index(|l| {
-        let (l, s) = (l as usize, sum_w.0[l as usize]);
-        Filtered {
-            value: sum.0[l] / s,
-            variance: sum_var.0[l] / (s * s),
-        }
-        .pack()
-    });
+    let filtered = payload::pack_filtered(
+        sum.zip(sum_w, |sum, s| sum / s),
+        sum_var.zip(sum_w, |sum_var, s| sum_var / (s * s)),
+    );
     filtered
         .select(pass.map(|p| !p), packed)
         .store(out, (plane_row + id.x) as usize, live);
@@ -216,7 +210,8 @@ fn blurred_variance<const N: usize>(
         while dx <= 1 {
             let wt = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
             let q = Lanes::<PackedFiltered, N>::load_row(input, row, id.x as i32 + dx, p.width);
-            sum = sum.zip(q, |s, q| s + wt * q.unpack().variance);
+            let (_, variance) = payload::unpack_filtered(q);
+            sum = sum.zip(variance, |s, v| s + wt * v);
             dx += 1;
         }
         dy += 1;

@@ -27,7 +27,7 @@ use crate::camera::{PixelRays, View};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
-use crate::payload::{Filtered, PackedPayload};
+use crate::payload::{pack_filtered, unpack_filtered, Filtered, PackedPayload};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -86,7 +86,10 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     if id.x >= w || id.y >= h {
         return;
     }
-    let f = estimate::<N>(id, p, payload, depth, normal_roughness, &view[0]).map(|f| f.pack());
+    let f = estimate::<N>(id, p, payload, depth, normal_roughness, &view[0]);
+    let f = pack_filtered(f.map(|f| f.value), f.map(|f| f.variance));
+    // The variance as stored, which is what the filter will read.
+    let (_, stored_variance) = unpack_filtered(f);
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     f.store(out, plane_index(id, w, h), live);
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, id.x as i32, w);
@@ -94,10 +97,7 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     while l < N {
         if live.0[l] && surface::has_surface(cd.0[l]) {
             let tile = classify::tile_index(id.x + l as u32, id.y, w);
-            atomic::max(
-                &mut tiles[tile],
-                classify::tile_key(f.0[l].unpack().variance),
-            );
+            atomic::max(&mut tiles[tile], classify::tile_key(stored_variance.0[l]));
         }
         l += 1;
     }
