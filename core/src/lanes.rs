@@ -104,6 +104,23 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
         }
     }
 
+    /// Lanes `start + l` of `blocks` read as one row (`start + N` at most `B·N`): a window
+    /// sliding across consecutive blocks of lanes.
+    #[inline(always)]
+    pub fn window<const B: usize>(blocks: &[[T; N]; B], start: usize) -> Self {
+        #[cfg(not(target_arch = "spirv"))]
+        {
+            Self::load(blocks.as_flattened(), start)
+        }
+        #[cfg(target_arch = "spirv")]
+        {
+            Self::from_index(|l| {
+                let i = start + l as usize;
+                blocks[i / N][i % N]
+            })
+        }
+    }
+
     /// Elements `index[l]` of `s`.
     #[inline(always)]
     pub fn gather(s: &[T], index: Lanes<u32, N>) -> Self {

@@ -60,38 +60,58 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     }
     let r = p.radius as i32;
     let x0 = id.x as i32;
-    let mut sum_s = Lanes::<f32, N>::splat(0.0);
-    let mut sum_m = sum_s;
-    let mut var = sum_s;
+    // Window sums of this frame's means, the history means and the variance of their difference.
+    let mut sums = [Lanes::<f32, N>::splat(0.0); 3];
+    // A row's terms do not depend on the pixel that sums them. Where the `N + 2r` columns a row
+    // of lanes reads fit three blocks of `N` (the CPU's rows), each column's term is computed
+    // once per row, not once per tap; otherwise (the GPU's single lane with `r > 1`) once per
+    // tap. The same terms added in the same order: the same bits either way.
+    let window = r <= N as i32;
     let mut dy = -r;
     while dy <= r {
         let qy = id.y as i32 + dy;
         if qy >= 0 && qy < h as i32 {
             let row = (id.z * h + qy as u32) * w;
-            let mut dx = -r;
-            while dx <= r {
-                let qx0 = x0 + dx;
-                let s =
-                    Lanes::<PackedSample, N>::load_row(samples, row, qx0, w).map(|s| s.unpack());
-                let m =
-                    Lanes::<PackedPayload, N>::load_row(history, row, qx0, w).map(|m| m.unpack());
-                let mut l = 0;
-                while l < N {
-                    let (s, m, qx) = (s.0[l], m.0[l], qx0 + l as i32);
-                    let inside = qx >= 0 && qx < w as i32;
-                    if inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1) {
-                        sum_s.0[l] += s.m1;
-                        sum_m.0[l] += m.m1;
-                        let sigma2 = math::max(m.variance(), p.min_variance);
-                        var.0[l] += sigma2 * (1.0 / s.rays as f32 + 1.0 / m.count);
+            if window {
+                // Field by field, three blocks of `N` columns: windows slide across them.
+                let mut blocks = [[[0.0; N]; 3]; 3];
+                let mut b = 0;
+                while b * N < N + 2 * r as usize {
+                    let t = terms::<N>(samples, history, row, x0 - r + (b * N) as i32, p);
+                    let mut k = 0;
+                    while k < 3 {
+                        blocks[k][b] = t[k];
+                        k += 1;
                     }
-                    l += 1;
+                    b += 1;
                 }
-                dx += 1;
+                let mut k = 0;
+                while k < 3 {
+                    let mut acc = sums[k];
+                    let mut o = 0;
+                    while o <= 2 * r as usize {
+                        acc = acc.zip(Lanes::window(&blocks[k], o), |a, b| a + b);
+                        o += 1;
+                    }
+                    sums[k] = acc;
+                    k += 1;
+                }
+            } else {
+                let mut dx = -r;
+                while dx <= r {
+                    let t = terms::<N>(samples, history, row, x0 + dx, p);
+                    let mut k = 0;
+                    while k < 3 {
+                        sums[k] = sums[k].zip(Lanes(t[k]), |a, b| a + b);
+                        k += 1;
+                    }
+                    dx += 1;
+                }
             }
         }
         dy += 1;
     }
+    let [sum_s, sum_m, var] = sums;
     let lambda = Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
         let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
@@ -108,6 +128,42 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     });
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     lambda.store(changes, plane_index(id, w, h), live);
+}
+
+/// What the pixels of `N` lanes add to the window sums around them (module rule): this frame's
+/// mean, its history mean and the variance of their difference where the pixel counts (inside
+/// the image, traced, with history, finite), +0 where it does not. The sums start at +0, so
+/// adding +0 gives the bits of not adding.
+type Terms<const N: usize> = [[f32; N]; 3];
+
+/// The [`Terms`] of row `row` at columns `qx0 + l`.
+#[inline(always)]
+fn terms<const N: usize>(
+    samples: &[PackedSample],
+    history: &[PackedPayload],
+    row: u32,
+    qx0: i32,
+    p: &DetectParams,
+) -> Terms<N> {
+    let w = p.width;
+    let s = Lanes::<PackedSample, N>::load_row(samples, row, qx0, w);
+    let m = Lanes::<PackedPayload, N>::load_row(history, row, qx0, w);
+    let mut t = [[0.0; N]; 3];
+    let mut l = 0;
+    while l < N {
+        let (s, m, qx) = (s.0[l].unpack(), m.0[l].unpack(), qx0 + l as i32);
+        let counts =
+            qx >= 0 && qx < w as i32 && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
+        let sigma2 = math::max(m.variance(), p.min_variance);
+        let v = sigma2 * (1.0 / s.rays as f32 + 1.0 / m.count);
+        if counts {
+            t[0][l] = s.m1;
+            t[1][l] = m.m1;
+            t[2][l] = v;
+        }
+        l += 1;
+    }
+    t
 }
 
 #[cfg(test)]
@@ -161,6 +217,78 @@ mod tests {
             detect::<1>(UVec3::new(i % W, i / W, 0), &p, io);
         }
         changes[(W * W / 2) as usize]
+    }
+
+    /// `λ` of every pixel of a `w × h` image of pseudo-random history and samples (some
+    /// pixels untraced, without history or NaN), computed `N` lanes per call.
+    fn lambdas<const N: usize>(w: u32, h: u32, radius: u32) -> std::vec::Vec<u32> {
+        let mut rng = 0x9e37_79b9u32;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 17;
+            rng ^= rng << 5;
+            rng
+        };
+        let (mut history, mut samples) = (std::vec::Vec::new(), std::vec::Vec::new());
+        for _ in 0..w * h {
+            let (m, c) = ((next() % 1000) as f32 / 999.0, (next() % 40) as f32);
+            history.push(
+                Payload {
+                    m1: m,
+                    m2: m * m + 0.01,
+                    count: c,
+                    rng_index: 0,
+                }
+                .pack(),
+            );
+            let s = if next() % 50 == 0 {
+                f32::NAN
+            } else {
+                (next() % 1000) as f32 / 999.0
+            };
+            let rays = next() % 3;
+            samples.push(
+                Sample {
+                    m1: s,
+                    m2: s * s,
+                    rays,
+                    first: s,
+                }
+                .pack(),
+            );
+        }
+        let mut changes = std::vec![0.0f32; (w * h) as usize];
+        let p = DetectParams {
+            width: w,
+            height: h,
+            radius,
+            z_full: 1.5,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        for y in 0..h {
+            for x in (0..w).step_by(N) {
+                let io = DetectIo {
+                    history: &history,
+                    samples: &samples,
+                    changes: &mut changes,
+                };
+                detect::<N>(UVec3::new(x, y, 0), &p, io);
+            }
+        }
+        changes.iter().map(|c| c.to_bits()).collect()
+    }
+
+    #[test]
+    fn rows_of_lanes_give_the_bits_of_single_pixels() {
+        // One lane sums per tap (radius > 1), rows of 8 and 16 through the sliding window
+        // (radius up to the row width) or per tap (radius 9 over 8 lanes).
+        for radius in [1, 2, 3, 9] {
+            let one = lambdas::<1>(37, 11, radius);
+            assert!(one.iter().any(|&b| f32::from_bits(b) > 0.0));
+            assert_eq!(lambdas::<8>(37, 11, radius), one, "radius {radius}");
+            assert_eq!(lambdas::<16>(37, 11, radius), one, "radius {radius}");
+        }
     }
 
     #[test]

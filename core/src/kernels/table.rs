@@ -23,7 +23,7 @@ crate::kernel_table! {
 
     /// [`detect::detect`]: the change detector, between raygen and accumulation (it reads the
     /// neighbours' history, which accumulation then overwrites in place).
-    detect => DETECT, DetectBindings, DetectIo: lanes(8) detect::detect,
+    detect => DETECT, DetectBindings, DetectIo: lanes(16, avx512 32) detect::detect,
     threads(8, 8, 1), params detect::DetectParams {
         history: read PackedPayload,
         samples: read PackedSample,
