@@ -367,16 +367,19 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
         } else {
             zero
         };
+        // Enough of the footprint was the same surface; the signal changed under the history
+        // (a disocclusion in all but geometry).
+        let kept = sum_w.map(|s| s > p.disocclusion_threshold);
+        let changed = lambda.map(|g| p.gradient_stratum > 0 && g > p.gradient_threshold);
         let reprojected = Lanes::<Payload, N>::from_index(|l| {
             let l = l as usize;
             let s = sum_w.0[l];
             // A history longer than this frame allows (kept on still frames) is cut back.
             let full = math::min(count.0[l] / s, p.max_history);
-            let count = if p.gradient_stratum == 0 {
-                full
-            } else if lambda.0[l] > p.gradient_threshold {
-                // The signal changed under the history: a disocclusion in all but geometry.
+            let count = if changed.0[l] {
                 0.0
+            } else if p.gradient_stratum == 0 {
+                full
             } else {
                 full * (1.0 - lambda.0[l])
             };
@@ -392,17 +395,13 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
                 count: 0.0,
                 rng_index: p.frame_index,
             };
-            if s > p.disocclusion_threshold {
+            if kept.0[l] {
                 payload
             } else {
                 empty
             }
         });
-        let dropped = Lanes::<bool, N>::from_index(|l| {
-            let l = l as usize;
-            let changed = p.gradient_stratum > 0 && lambda.0[l] > p.gradient_threshold;
-            !(sum_w.0[l] > p.disocclusion_threshold) || changed
-        });
+        let dropped = kept.zip(changed, |kept, changed| !kept || changed);
         lost = lost.zip(dropped, |a, b| a || b);
         min_count = min_count.zip(reprojected, |m, r| math::min(m, r.count));
         max_variance = max_variance.zip(reprojected, |m, r| math::max(m, r.variance()));
