@@ -7,7 +7,7 @@ use std::sync::Arc;
 use vrrt_core::budget::{self, MsBudget, TraceCost};
 use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
-use vrrt_core::frame::{trace_planes, Frame, FrameScene, GBuffer, RaygenTarget};
+use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
 use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
@@ -280,6 +280,37 @@ impl Renderer {
         self.frame.keep_changes(exec).map(|_| ())
     }
 
+    /// Records and submits one frame's passes and reads nothing back: for timing runs
+    /// (`vrrt bench --passes`), where a readback after every frame leaves a GPU idle between
+    /// frames long enough for its clocks to fall (an H100 drops from 1980 to 345 MHz). The
+    /// budget in milliseconds is not updated.
+    pub fn render_unread<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        f: &FrameGeometry,
+    ) -> Result<(), E::Error> {
+        self.dispatch(exec, f, None).map(|_| ())
+    }
+
+    /// Uploads the scene of frame `f` and records the frame's passes.
+    fn dispatch<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        f: &FrameGeometry,
+        changes: Option<&[GradientSample]>,
+    ) -> Result<FrameReport, E::Error> {
+        let (w, h) = self.frame.denoiser().size();
+        self.gpu.upload(exec, f)?;
+        let gpu = &self.gpu;
+        let scene = FrameScene {
+            changes,
+            ..gpu.frame_scene(f)
+        };
+        self.frame.render(exec, &scene, |exec, target| {
+            gpu.gbuffer(exec, f, w, h, target)
+        })
+    }
+
     /// Renders one frame and reads back its outputs. With a budget in milliseconds, the
     /// frame's tracing time (from the executor's timings, which this does not clear) sets the
     /// next frame's budget.
@@ -306,15 +337,7 @@ impl Renderer {
         let planes = self.frame.layout().planes;
         let rays_per_pixel = self.frame.denoiser().settings().rates.rays_per_pixel;
         let first_timing = exec.timings().len();
-        self.gpu.upload(exec, f)?;
-        let gpu = &self.gpu;
-        let scene = FrameScene {
-            changes,
-            ..gpu.frame_scene(f)
-        };
-        let report = self.frame.render(exec, &scene, |exec, target| {
-            gpu.gbuffer(exec, f, w, h, target)
-        })?;
+        let report = self.dispatch(exec, f, changes)?;
         if report.absent {
             return Ok(FrameOutput {
                 denoised: vec![1.0; (w * h * planes) as usize],

@@ -24,11 +24,10 @@
 //! fractional (1.5 is one ray plus a second with probability 1/2), so baselines spend the same
 //! budget as VRRT.
 
-use super::buckets::{bucket_to_rate, BUCKET_COUNT, COUNTS_LEN};
-use super::BalanceIo;
+use super::buckets::{bucket_to_rate, BUCKET_COUNT, COUNTS_LEN, MAX_RINGS};
+use super::{BalanceIo, WorkgroupIds};
 use crate::math;
 use bytemuck::{Pod, Zeroable};
-use glam::UVec3;
 
 /// No threshold applied: the requests fit the budget exactly (or raising is off).
 pub const MODE_KEEP: u32 = 0;
@@ -273,99 +272,267 @@ fn free_share(
 }
 
 /// Solves for the thresholds of plane group `group` at `rays_per_pixel`. Its histogram is the
-/// group's part of `counts` (`buckets::count`: totals, then one row per ring).
+/// group's part of `counts` (`buckets::count`: totals, then one row per ring). The serial form
+/// of what the balancer's workgroup (`kernels::BALANCE`) computes in parallel, with the same bits.
 pub fn solve(counts: &[u32], group: u32, rays_per_pixel: f32, p: &BalanceParams) -> Balance {
-    let base = (group * COUNTS_LEN) as usize;
-    let requested = rays_at(counts, base, 0, false);
-    let mut active = 0u32;
-    let mut b = 0;
-    while b < BUCKET_COUNT {
-        active += counts[base + b as usize];
-        b += 1;
+    let base = group * COUNTS_LEN;
+    let mut s = Search::new(counts, base, rays_per_pixel, p);
+    if s.searching == 0 {
+        return s.decision;
     }
-    let budget = rays_per_pixel * active as f32;
-    if p.policy == POLICY_FIXED {
-        return Balance {
-            mode: MODE_FIXED,
-            ring_threshold: p.ring_count,
-            requested: budget,
-            granted: budget,
-            budget,
-            fixed_rate: rays_per_pixel,
-            ..Balance::default()
-        };
-    }
-    let keep = Balance {
-        mode: MODE_KEEP,
-        ring_threshold: p.ring_count,
-        requested,
-        granted: requested,
-        budget,
-        ..Balance::default()
-    };
-    let down = requested > budget;
-    if p.policy == POLICY_KEEP || requested == budget || (!down && p.raise == 0) {
-        return keep;
-    }
-    // Largest t whose total fits (both sums are non-decreasing in t).
-    let mut t = 0u32;
-    let mut fit = rays_at(counts, base, 0, down);
-    let mut cand = 1;
+    let mut fits = [0.0f32; BUCKET_COUNT as usize];
+    let mut cand = 0;
     while cand < BUCKET_COUNT {
-        let r = rays_at(counts, base, cand, down);
-        if r <= budget {
-            t = cand;
-            fit = r;
-        }
+        fits[cand as usize] = rays_at(counts, base as usize, cand, s.down != 0);
         cand += 1;
     }
-    // Rings from the centre outward get t + 1 while it fits; the next ring out gets the rest as
-    // a fraction of the step.
-    let mut k = p.ring_count;
-    let mut granted = fit;
-    let mut partial = 0.0f32;
-    if fit <= budget && t + 1 < BUCKET_COUNT {
-        let step = bucket_to_rate(t + 1) - bucket_to_rate(t);
-        while k > 0 {
-            let add = step * ring_pixels_moved(counts, base, k - 1, t, down);
-            if granted + add > budget {
-                partial = math::clamp((budget - granted) / add, 0.0, 1.0);
-                granted += partial * add;
-                break;
+    s.pick(&fits, 0);
+    let mut moved = [0.0f32; MAX_RINGS as usize];
+    let mut r = 0;
+    while r < s.rings(p) {
+        moved[r as usize] = s.ring_moved(counts, base, r);
+        r += 1;
+    }
+    s.finish(&moved, 0, p)
+}
+
+/// One group's threshold search, from the histogram's totals to the decision: what the
+/// balancer's phases share through workgroup memory.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Search {
+    /// The decision: final when `searching` is 0; else its budget and request, then its
+    /// thresholds once [`Self::finish`] ran.
+    pub decision: Balance,
+    /// Nonzero: thresholds are searched (the requests do not fit, or may be raised).
+    pub searching: u32,
+    /// Nonzero: over budget, requests are clamped down (`min(b, t)`); zero: raised.
+    pub down: u32,
+    /// The threshold picked (largest whose total fits).
+    pub t: u32,
+    /// Expected rays at `t`.
+    pub fit: f32,
+}
+
+impl Search {
+    /// What the totals of the histogram at `base` decide: the fixed or kept decision, or a
+    /// search for thresholds.
+    pub fn new(counts: &[u32], base: u32, rays_per_pixel: f32, p: &BalanceParams) -> Search {
+        let base = base as usize;
+        let requested = rays_at(counts, base, 0, false);
+        let mut active = 0u32;
+        let mut b = 0;
+        while b < BUCKET_COUNT {
+            active += counts[base + b as usize];
+            b += 1;
+        }
+        let budget = rays_per_pixel * active as f32;
+        let mut s = Search {
+            decision: Balance {
+                mode: MODE_KEEP,
+                ring_threshold: p.ring_count,
+                requested,
+                granted: requested,
+                budget,
+                ..Balance::default()
+            },
+            ..Search::default()
+        };
+        if p.policy == POLICY_FIXED {
+            s.decision = Balance {
+                mode: MODE_FIXED,
+                ring_threshold: p.ring_count,
+                requested: budget,
+                granted: budget,
+                budget,
+                fixed_rate: rays_per_pixel,
+                ..Balance::default()
+            };
+            return s;
+        }
+        let down = requested > budget;
+        s.down = down as u32;
+        s.searching =
+            !(p.policy == POLICY_KEEP || requested == budget || (!down && p.raise == 0)) as u32;
+        s
+    }
+
+    /// Picks the largest threshold whose total fits the budget (both sums are non-decreasing
+    /// in `t`), from `fits[base + t]` = [`rays_at`] of every candidate `t`.
+    pub fn pick<const N: usize>(&mut self, fits: &[f32; N], base: usize) {
+        let mut t = 0u32;
+        let mut fit = fits[base];
+        let mut cand = 1;
+        while cand < BUCKET_COUNT {
+            let r = fits[base + cand as usize];
+            if r <= self.decision.budget {
+                t = cand;
+                fit = r;
             }
-            granted += add;
-            k -= 1;
+            cand += 1;
+        }
+        self.t = t;
+        self.fit = fit;
+    }
+
+    /// Rings whose extra step [`Self::finish`] may grant: all of them when the threshold fits
+    /// and has a next step, else none.
+    pub fn rings(&self, p: &BalanceParams) -> u32 {
+        if self.fit <= self.decision.budget && self.t + 1 < BUCKET_COUNT {
+            if p.ring_count < MAX_RINGS {
+                p.ring_count
+            } else {
+                MAX_RINGS
+            }
+        } else {
+            0
         }
     }
-    Balance {
-        mode: if down { MODE_OVER } else { MODE_UNDER },
-        bucket_threshold: t,
-        ring_threshold: k,
-        partial,
-        requested,
-        granted,
-        budget,
-        ..Balance::default()
+
+    /// Pixels of ring `r` that the extra step of the picked threshold would change.
+    pub fn ring_moved(&self, counts: &[u32], base: u32, r: u32) -> f32 {
+        ring_pixels_moved(counts, base as usize, r, self.t, self.down != 0)
+    }
+
+    /// The decision, from `moved[base + r]` = [`Self::ring_moved`] of every ring `r` below
+    /// [`Self::rings`]: rings from the centre outward get `t + 1` while it fits; the next ring
+    /// out gets the rest as a fraction of the step.
+    pub fn finish<const N: usize>(
+        &self,
+        moved: &[f32; N],
+        base: usize,
+        p: &BalanceParams,
+    ) -> Balance {
+        let budget = self.decision.budget;
+        let mut k = p.ring_count;
+        let mut granted = self.fit;
+        let mut partial = 0.0f32;
+        if self.rings(p) > 0 {
+            k = self.rings(p);
+            let step = bucket_to_rate(self.t + 1) - bucket_to_rate(self.t);
+            while k > 0 {
+                let add = step * moved[base + k as usize - 1];
+                if granted + add > budget {
+                    partial = math::clamp((budget - granted) / add, 0.0, 1.0);
+                    granted += partial * add;
+                    break;
+                }
+                granted += add;
+                k -= 1;
+            }
+        }
+        Balance {
+            mode: if self.down != 0 {
+                MODE_OVER
+            } else {
+                MODE_UNDER
+            },
+            bucket_threshold: self.t,
+            ring_threshold: k,
+            partial,
+            granted,
+            ..self.decision
+        }
     }
 }
 
-/// One invocation: writes each plane group's decision ([`solve`] at its [`group_rates`]) to
-/// `out[group]` and resets its work list's arguments, `args[4·group..]`, to `[0, 0, 1, 1]`
-/// (count, groups x, y, z).
-pub fn balance(id: UVec3, p: &BalanceParams, io: BalanceIo<'_>) {
-    let BalanceIo { counts, out, args } = io;
-    if id.x == 0 && id.y == 0 && id.z == 0 {
-        let rates = group_rates(counts, p);
-        let mut g = 0;
-        while g < p.groups {
-            out[g as usize] = solve(counts, g, rates[g as usize], p);
-            let a = (g * super::apply::ARGS_LEN) as usize;
-            args[a] = 0;
-            args[a + 1] = 0;
-            args[a + 2] = 1;
-            args[a + 3] = 1;
-            g += 1;
+/// Plane groups the kernel balances: `p.groups`, at most [`MAX_GROUPS`].
+#[inline]
+fn groups(p: &BalanceParams) -> u32 {
+    if p.groups < MAX_GROUPS {
+        p.groups
+    } else {
+        MAX_GROUPS
+    }
+}
+
+/// Invocations of the balancer's workgroup (`kernels::BALANCE`): at least one per candidate
+/// threshold of a group.
+pub const THREADS: u32 = 128;
+
+/// Workgroup memory of the balancer: each group's search, the total at each of its candidate
+/// thresholds and the pixels each of its rings' extra step moves.
+#[repr(C)]
+#[derive(Copy, Clone, Pod, Zeroable)]
+pub struct Shared {
+    /// One per plane group.
+    pub search: [Search; MAX_GROUPS as usize],
+    /// `[group][candidate]`: [`rays_at`].
+    pub fits: [f32; (MAX_GROUPS * BUCKET_COUNT) as usize],
+    /// `[group][ring]`: [`Search::ring_moved`].
+    pub moved: [f32; (MAX_GROUPS * MAX_RINGS) as usize],
+}
+
+/// Phase 1: invocation `g` starts group `g`'s search at its share of the budget
+/// ([`group_rates`], computed by each such invocation alike).
+#[inline]
+pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut Shared) {
+    let g = ids.local_index;
+    if g < groups(p) {
+        let rates = group_rates(io.counts, p);
+        local.search[g as usize] = Search::new(io.counts, g * COUNTS_LEN, rates[g as usize], p);
+    }
+}
+
+/// Phase 2: the total at every candidate threshold of every searching group, one sum per
+/// invocation and round (the serial [`solve`] runs the same sums one after another).
+#[inline]
+pub fn sums(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut Shared) {
+    let mut i = ids.local_index;
+    while i < groups(p) * BUCKET_COUNT {
+        let (g, cand) = (i / BUCKET_COUNT, i % BUCKET_COUNT);
+        let s = local.search[g as usize];
+        if s.searching != 0 {
+            let base = (g * COUNTS_LEN) as usize;
+            local.fits[i as usize] = rays_at(io.counts, base, cand, s.down != 0);
         }
+        i += THREADS;
+    }
+}
+
+/// Phase 3: invocation `g` picks group `g`'s threshold.
+#[inline]
+pub fn pick(ids: WorkgroupIds, p: &BalanceParams, _io: BalanceIo<'_>, local: &mut Shared) {
+    let g = ids.local_index;
+    let Shared { search, fits, .. } = local;
+    if g < groups(p) && search[g as usize].searching != 0 {
+        search[g as usize].pick(fits, (g * BUCKET_COUNT) as usize);
+    }
+}
+
+/// Phase 4: the pixels each ring's extra step moves, one ring of one group per invocation and
+/// round.
+#[inline]
+pub fn rings(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut Shared) {
+    let mut i = ids.local_index;
+    while i < groups(p) * MAX_RINGS {
+        let (g, r) = (i / MAX_RINGS, i % MAX_RINGS);
+        let s = local.search[g as usize];
+        if s.searching != 0 && r < s.rings(p) {
+            local.moved[i as usize] = s.ring_moved(io.counts, g * COUNTS_LEN, r);
+        }
+        i += THREADS;
+    }
+}
+
+/// Phase 5: invocation `g` writes group `g`'s decision to `out[g]` and resets its work list's
+/// arguments, `args[4·g..]`, to `[0, 0, 1, 1]` (count, groups x, y, z).
+#[inline]
+pub fn write(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut Shared) {
+    let BalanceIo { out, args, .. } = io;
+    let g = ids.local_index;
+    if g < groups(p) {
+        let s = local.search[g as usize];
+        out[g as usize] = if s.searching != 0 {
+            s.finish(&local.moved, (g * MAX_RINGS) as usize, p)
+        } else {
+            s.decision
+        };
+        let a = (g * super::apply::ARGS_LEN) as usize;
+        args[a] = 0;
+        args[a + 1] = 0;
+        args[a + 2] = 1;
+        args[a + 3] = 1;
     }
 }
 

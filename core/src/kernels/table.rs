@@ -136,9 +136,12 @@ crate::kernel_table! {
         tiles: atomic TileWord,
     }
 
-    /// [`balance::balance`]: the load balancer; `counts` from `count_buckets`, one workgroup.
-    balance => BALANCE, BalanceBindings, BalanceIo: fn balance::balance,
-    threads(1, 1, 1), params balance::BalanceParams {
+    /// The load balancer ([`balance::setup`], [`balance::sums`], [`balance::pick`],
+    /// [`balance::rings`], [`balance::write`]: [`balance::solve`] with its sums spread over one
+    /// workgroup); `counts` from `count_buckets`, one workgroup.
+    balance => BALANCE, BalanceBindings, BalanceIo: workgroup balance::Shared,
+    phases [balance::setup, balance::sums, balance::pick, balance::rings, balance::write],
+    threads(128, 1, 1), params balance::BalanceParams {
         counts: read u32,
         out: write Balance,
         args: write u32,

@@ -240,3 +240,71 @@ fn equal_rates_without_requests_or_a_split() {
     let rates = group_rates(&one, &grouped(0x10, 2, 0.5));
     assert_eq!((rates[0], rates[1]), (2.0, 0.0));
 }
+
+#[test]
+fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
+    use std::{vec, vec::Vec};
+    assert_eq!(crate::kernels::BALANCE.workgroup_size, [THREADS, 1, 1]);
+    let mut state = 0x9e37_79b9u32;
+    let mut next = move |n: u32| {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state % n
+    };
+    for case in 0..200 {
+        let groups = 1 + case % MAX_GROUPS;
+        let rings = 1 + next(MAX_RINGS);
+        let mut c = vec![0u32; (groups * COUNTS_LEN) as usize];
+        for g in 0..groups {
+            for _ in 0..next(400) {
+                let (b, ring) = (next(BUCKET_COUNT), next(rings));
+                let n = 1 + next(50);
+                c[(g * COUNTS_LEN + b) as usize] += n;
+                c[(g * COUNTS_LEN + (1 + ring) * BUCKET_COUNT + b) as usize] += n;
+            }
+        }
+        let p = BalanceParams {
+            rays_per_pixel: [0.1f32, 0.5, 1.0, 1.7, 4.0][next(5) as usize],
+            ring_count: rings,
+            raise: next(2),
+            policy: [POLICY_KEEP, POLICY_BALANCE, POLICY_BALANCE, POLICY_FIXED][next(4) as usize],
+            groups,
+            plane_groups: [0x0, 0x10, 0x210, 0x3210][groups as usize - 1],
+            planes: groups,
+            signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
+        };
+        let rates = group_rates(&c, &p);
+        let serial: Vec<Balance> = (0..groups)
+            .map(|g| solve(&c, g, rates[g as usize], &p))
+            .collect();
+        let mut out = vec![Balance::default(); groups as usize];
+        let mut args = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
+        let mut local: Shared = bytemuck::Zeroable::zeroed();
+        let phases: [fn(WorkgroupIds, &BalanceParams, BalanceIo<'_>, &mut Shared); 5] =
+            [setup, sums, pick, super::rings, write];
+        for phase in phases {
+            for i in 0..THREADS {
+                let ids = WorkgroupIds {
+                    global: glam::UVec3::new(i, 0, 0),
+                    group: glam::UVec3::ZERO,
+                    local_index: i,
+                };
+                let io = BalanceIo {
+                    counts: &c,
+                    out: &mut out,
+                    args: &mut args,
+                };
+                phase(ids, &p, io, &mut local);
+            }
+        }
+        for (g, (a, b)) in out.iter().zip(&serial).enumerate() {
+            assert_eq!(
+                bytemuck::bytes_of(a),
+                bytemuck::bytes_of(b),
+                "case {case} group {g}"
+            );
+        }
+        assert!(args.chunks(4).all(|a| a == [0, 0, 1, 1]));
+    }
+}
