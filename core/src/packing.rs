@@ -150,6 +150,13 @@ pub fn pack_f16x2_lanes<const N: usize>(a: Lanes<f32, N>, b: Lanes<f32, N>) -> L
 /// [`unpack_f16x2`] of `N` words ([`crate::lanes`]), the same values.
 #[inline(always)]
 pub fn unpack_f16x2_lanes<const N: usize>(w: Lanes<u32, N>) -> (Lanes<f32, N>, Lanes<f32, N>) {
+    #[cfg(target_arch = "spirv")]
+    {
+        // One conversion instruction for both halves.
+        let v = w.map(spirv_std::float::f16x2_to_vec2);
+        (v.map(|v| v.x), v.map(|v| v.y))
+    }
+    #[cfg(not(target_arch = "spirv"))]
     (w.f16_to_f32(), w.map(|w| w >> 16).f16_to_f32())
 }
 

@@ -109,8 +109,21 @@ pub fn f32_to_f16(x: f32) -> u32 {
 
 /// Value of a binary16 code (exact). Infinity and NaN codes decode as infinity/NaN bit patterns;
 /// [`quantize`] never produces them.
+///
+/// On the GPU the conversion instruction (`UnpackHalf2x16`), which is exact everywhere: every
+/// binary16 value is an f32.
 #[inline]
 pub fn f16_to_f32(h: u32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    return spirv_std::float::f16x2_to_vec2(h).x;
+    #[cfg(not(target_arch = "spirv"))]
+    f16_to_f32_bits(h)
+}
+
+/// [`f16_to_f32`] in integer operations: the host's form (vector code over lanes).
+#[cfg(not(target_arch = "spirv"))]
+#[inline]
+fn f16_to_f32_bits(h: u32) -> f32 {
     let sign = (h & 0x8000) << 16;
     let e = (h >> 10) & 0x1f;
     let m = h & 0x3ff;

@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use std::collections::HashMap;
-use vrrt_core::kernels::copy::CopyParams;
+use vrrt_core::kernels::copy::{CopyParams, WORDS_PER_INVOCATION};
 use vrrt_core::kernels::CopyBindings;
 use vrrt_core::plan::{BindingLimit, BufferId, Executor, KernelDesc, Pass, PassBytes, PassTiming};
 
@@ -98,7 +98,7 @@ impl<E: Executor> Executor for Recorder<E> {
 
 /// Bytes copied per repeat: large enough to spill any GPU's L2 and a CPU's last-level cache.
 pub const COPY_BYTES: u64 = 128 << 20;
-/// Words per row of a copy pass's grid (64 workgroups of 64 across).
+/// Invocations per row of a copy pass's grid (64 workgroups of 64 across).
 const COPY_ROW: u32 = 4096;
 /// Timed repeats of the copy, after the untimed spin-up.
 pub const COPY_REPEATS: usize = 5;
@@ -120,10 +120,8 @@ pub struct Bandwidth {
 /// `copy` kernel, (read + written bytes, as [`Pass::bytes_moved`] counts them) / the passes' own
 /// timings. Best, not median: the floor is what the memory allows.
 pub fn bandwidth<E: Executor>(exec: &mut Recorder<E>) -> Result<Bandwidth> {
-    let row_bytes = COPY_ROW as u64 * 4;
-    // One pass per repeat where the device allows (every Vulkan device binds 128 MiB): passes
-    // on separate buffers need no barrier between them, so a GPU overlaps them, and summing
-    // their timestamps counted the overlap (an H100 measured 780 GB/s in 16 MiB passes).
+    let row_bytes = (COPY_ROW * WORDS_PER_INVOCATION) as u64 * 4;
+    // One pass per repeat where the device allows it (every Vulkan device binds 128 MiB).
     let chunk = COPY_BYTES.min(exec.binding_limit().bytes / row_bytes * row_bytes);
     if chunk == 0 {
         bail!(
@@ -152,7 +150,8 @@ pub fn bandwidth<E: Executor>(exec: &mut Recorder<E>) -> Result<Bandwidth> {
     let copy = |exec: &mut Recorder<E>| -> Result<()> {
         exec.clear_timings();
         for b in &chunks {
-            exec.dispatch(&b.over_grid(&params, COPY_ROW, words / COPY_ROW, 1))
+            let rows = words / COPY_ROW / WORDS_PER_INVOCATION;
+            exec.dispatch(&b.over_grid(&params, COPY_ROW, rows, 1))
                 .map_err(err)?;
         }
         exec.finish().map_err(err)

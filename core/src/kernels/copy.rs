@@ -6,22 +6,40 @@ use super::CopyIo;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
+/// Words each invocation copies: a GPU starts workgroups at a limited rate, and one word per
+/// 64-wide workgroup invocation held an H100 to 840 GB/s where four reach 2.5 TB/s (its
+/// memory's copy rate, 2.66 TB/s by CUDA's own copy).
+pub const WORDS_PER_INVOCATION: u32 = 4;
+/// Invocations of a workgroup (`kernels::COPY`).
+const GROUP: u32 = 64;
+
 /// Push constants of [`copy`].
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct CopyParams {
-    /// Words per row of the dispatch grid (a multiple of the workgroup width, 64, keeps every
-    /// invocation busy); word `y * row + x` is copied by invocation `(x, y)`.
+    /// Invocations per row of the dispatch grid (a multiple of the workgroup width, 64, keeps
+    /// every invocation busy); invocation `(x, y)` is number `y * row + x`.
     pub row: u32,
     /// Words to copy.
     pub len: u32,
 }
 
-/// One invocation per word: `dst[i] = src[i]` for `i < len`.
+/// Invocation `k` copies words `(k / 64) · 256 + k % 64 + 64 · j`, `j < 4`, below `len`: the 64
+/// invocations of a workgroup read 4 consecutive runs of 64 words, and `len / 4` invocations
+/// copy everything.
 pub fn copy(id: UVec3, p: &CopyParams, io: CopyIo<'_>) {
     let CopyIo { src, dst } = io;
-    let i = id.y * p.row + id.x;
-    if id.x < p.row && i < p.len {
-        dst[i as usize] = src[i as usize];
+    if id.x >= p.row {
+        return;
+    }
+    let k = id.y * p.row + id.x;
+    let base = (k / GROUP) * (GROUP * WORDS_PER_INVOCATION) + k % GROUP;
+    let mut j = 0;
+    while j < WORDS_PER_INVOCATION {
+        let i = base + j * GROUP;
+        if i < p.len {
+            dst[i as usize] = src[i as usize];
+        }
+        j += 1;
     }
 }
