@@ -221,6 +221,18 @@ impl<const N: usize> Lanes<f32, N> {
     #[allow(clippy::manual_range_contains)]
     #[inline(always)]
     pub fn pow(self, y: f32) -> Self {
+        // One lane on the GPU: the scalar form, whose loops carry a float, not an array.
+        #[cfg(target_arch = "spirv")]
+        return self.map(|x| math::pow(x, y));
+        #[cfg(not(target_arch = "spirv"))]
+        self.pow_lanes(y)
+    }
+
+    /// [`Self::pow`] with the steps across the lanes.
+    #[cfg(not(target_arch = "spirv"))]
+    #[allow(clippy::manual_range_contains)]
+    #[inline(always)]
+    fn pow_lanes(self, y: f32) -> Self {
         let whole = y >= 1.0 && y <= 1024.0 && math::floor(y) == y;
         if !whole {
             return self.map(|x| math::pow(x, y));
