@@ -100,11 +100,11 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
                 let mut dx = -r;
                 while dx <= r {
                     let t = terms::<N>(samples, history, row, x0 + dx, p);
-                    let mut k = 0;
-                    while k < 3 {
-                        sums[k] = sums[k].zip(Lanes(t[k]), |a, b| a + b);
-                        k += 1;
-                    }
+                    // Constant indices: a GPU keeps the sums in registers (indexed by a loop
+                    // counter, the arrays went through memory).
+                    sums[0] = sums[0].zip(Lanes(t[0]), |a, b| a + b);
+                    sums[1] = sums[1].zip(Lanes(t[1]), |a, b| a + b);
+                    sums[2] = sums[2].zip(Lanes(t[2]), |a, b| a + b);
                     dx += 1;
                 }
             }
