@@ -137,7 +137,7 @@ pub fn granted_rate(b: u32, ring: u32, d: &Balance) -> f32 {
 
 /// Expected rays if every bucket `b` of the histogram at `base` is mapped to `min(b, t)` (`down`)
 /// or `max(b, t)`.
-fn rays_at(counts: &[u32], base: usize, t: u32, down: bool) -> f32 {
+pub fn rays_at(counts: &[u32], base: usize, t: u32, down: bool) -> f32 {
     let mut sum = 0.0f32;
     let mut b = 0;
     while b < BUCKET_COUNT {
