@@ -18,6 +18,30 @@
 use crate::math;
 use crate::quantize;
 
+/// Runs `$body` for every lane index `$l` (a `usize`) of a function generic over `N`. On the GPU,
+/// whose kernels run one lane (`N = 1`, checked when compiled), the body runs once with the
+/// constant index 0: an array indexed by a loop counter, even one of trip count 1, was kept in
+/// memory by an H100's compiler (`Lanes::pow`'s loops cost a quarter of à-trous there).
+macro_rules! each_lane {
+    ($l:ident in $n:ident $body:block) => {{
+        #[cfg(target_arch = "spirv")]
+        {
+            const { assert!($n == 1, "GPU kernels run one lane") };
+            let $l = 0usize;
+            $body
+        }
+        #[cfg(not(target_arch = "spirv"))]
+        {
+            let mut $l = 0usize;
+            while $l < $n {
+                $body
+                $l += 1;
+            }
+        }
+    }};
+}
+pub(crate) use each_lane;
+
 /// One value per lane.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Lanes<T, const N: usize>(pub [T; N]);
@@ -33,11 +57,9 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     #[inline(always)]
     pub fn from_index(f: impl Fn(u32) -> T) -> Self {
         let mut out = [T::default(); N];
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             out[l] = f(l as u32);
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 
@@ -45,11 +67,9 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     #[inline(always)]
     pub fn map<U: Copy + Default>(self, f: impl Fn(T) -> U) -> Lanes<U, N> {
         let mut out = [U::default(); N];
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             out[l] = f(self.0[l]);
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 
@@ -61,11 +81,9 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
         f: impl Fn(T, U) -> V,
     ) -> Lanes<V, N> {
         let mut out = [V::default(); N];
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             out[l] = f(self.0[l], other.0[l]);
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 
@@ -73,13 +91,11 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     #[inline(always)]
     pub fn select(self, mask: Lanes<bool, N>, other: Self) -> Self {
         let mut out = other.0;
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             if mask.0[l] {
                 out[l] = self.0[l];
             }
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 
@@ -95,11 +111,9 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
         #[cfg(target_arch = "spirv")]
         {
             let mut out = [T::default(); N];
-            let mut l = 0;
-            while l < N {
+            each_lane!(l in N {
                 out[l] = s[start + l];
-                l += 1;
-            }
+            });
             Lanes(out)
         }
     }
@@ -125,11 +139,9 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     #[inline(always)]
     pub fn gather(s: &[T], index: Lanes<u32, N>) -> Self {
         let mut out = [T::default(); N];
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             out[l] = s[index.0[l] as usize];
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 
@@ -150,13 +162,11 @@ impl<T: Copy + Default, const N: usize> Lanes<T, N> {
     /// Stores the lanes where `mask` is set to `s[start + l]`.
     #[inline(always)]
     pub fn store(self, s: &mut [T], start: usize, mask: Lanes<bool, N>) {
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             if mask.0[l] {
                 s[start + l] = self.0[l];
             }
-            l += 1;
-        }
+        });
     }
 }
 
@@ -177,11 +187,9 @@ impl<const N: usize> Lanes<bool, N> {
     #[inline(always)]
     pub fn any(self) -> bool {
         let mut r = false;
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             r |= self.0[l];
-            l += 1;
-        }
+        });
         r
     }
 
@@ -189,11 +197,9 @@ impl<const N: usize> Lanes<bool, N> {
     #[inline(always)]
     pub fn all(self) -> bool {
         let mut r = true;
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             r &= self.0[l];
-            l += 1;
-        }
+        });
         r
     }
 }
@@ -206,11 +212,9 @@ impl<const N: usize> Lanes<f32, N> {
     #[inline(always)]
     pub fn add_where(self, mask: Lanes<bool, N>, v: Self) -> Self {
         let mut out = self.0;
-        let mut l = 0;
-        while l < N {
+        each_lane!(l in N {
             out[l] += if mask.0[l] { v.0[l] } else { 0.0 };
-            l += 1;
-        }
+        });
         Lanes(out)
     }
 

@@ -168,16 +168,14 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     });
                     let tw = TAP_WEIGHT[ay][ax];
                     let wt = w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e));
-                    let mut l = 0;
-                    while l < N {
+                    lanes::each_lane!(l in N {
                         if valid.0[l] {
                             let w = wt.0[l];
                             sum.0[l] += w * tap_value.0[l];
                             sum_var.0[l] += w * w * tap_variance.0[l];
                             sum_w.0[l] += w;
                         }
-                        l += 1;
-                    }
+                    });
                 }
                 tx += 1;
             }

@@ -18,7 +18,7 @@
 
 use super::plane_index;
 use super::DetectIo;
-use crate::lanes::Lanes;
+use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
@@ -149,8 +149,7 @@ fn terms<const N: usize>(
     let s = Lanes::<PackedSample, N>::load_row(samples, row, qx0, w);
     let m = Lanes::<PackedPayload, N>::load_row(history, row, qx0, w);
     let mut t = [[0.0; N]; 3];
-    let mut l = 0;
-    while l < N {
+    lanes::each_lane!(l in N {
         let (s, m, qx) = (s.0[l].unpack(), m.0[l].unpack(), qx0 + l as i32);
         let counts =
             qx >= 0 && qx < w as i32 && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
@@ -161,8 +160,7 @@ fn terms<const N: usize>(
             t[1][l] = m.m1;
             t[2][l] = v;
         }
-        l += 1;
-    }
+    });
     t
 }
 

@@ -93,14 +93,12 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     f.store(out, plane_index(id, w, h), live);
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, id.x as i32, w);
-    let mut l = 0;
-    while l < N {
+    lanes::each_lane!(l in N {
         if live.0[l] && surface::has_surface(cd.0[l]) {
             let tile = classify::tile_index(id.x + l as u32, id.y, w);
             atomic::max(&mut tiles[tile], classify::tile_key(stored_variance.0[l]));
         }
-        l += 1;
-    }
+    });
 }
 
 /// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
