@@ -174,10 +174,8 @@ pub struct Subject {
 pub struct Report {
     /// What was measured.
     pub subject: Subject,
-    /// The bandwidth of the floor: the better of the two measurements.
-    pub bandwidth: Bandwidth,
     /// The bandwidth measured before and after the frames (a GPU whose clocks fell during the
-    /// frames shows it as a lower second figure).
+    /// frames shows it as a lower second figure); the floor takes the better ([`Self::bandwidth`]).
     pub measured: [Bandwidth; 2],
     /// Every pass that ran in the measured frames, then `denoiser`, then `warmup`.
     pub rows: Vec<Row>,
@@ -190,11 +188,6 @@ pub struct Report {
 impl Report {
     /// The report of `frames` (warm-up frames first).
     fn new(subject: Subject, bandwidths: [Bandwidth; 2], frames: &[Vec<Share>]) -> Report {
-        let bandwidth = if bandwidths[1].bytes_per_second > bandwidths[0].bytes_per_second {
-            bandwidths[1]
-        } else {
-            bandwidths[0]
-        };
         let (warmup, measured) = frames.split_at(WARMUP_FRAMES);
         let all_ms = |f: &Vec<Share>| f.iter().map(|s| s.ms).sum::<f64>();
         let mut rows = pass_rows(measured);
@@ -202,11 +195,20 @@ impl Report {
         rows.push(denoiser_sum(&pass_rows(warmup), "warmup"));
         Report {
             subject,
-            bandwidth,
             measured: bandwidths,
             rows,
             warmup_frame_ms: warmup.iter().map(all_ms).collect(),
             frame_ms: measured.iter().map(all_ms).sum::<f64>() / measured.len() as f64,
+        }
+    }
+
+    /// The bandwidth of the floor: the better of the two measurements.
+    pub fn bandwidth(&self) -> Bandwidth {
+        let [before, after] = self.measured;
+        if after.bytes_per_second > before.bytes_per_second {
+            after
+        } else {
+            before
         }
     }
 
@@ -216,7 +218,7 @@ impl Report {
 
     /// The printed table (markdown).
     pub fn table(&self) -> String {
-        let bw = self.bandwidth.bytes_per_second;
+        let bw = self.bandwidth().bytes_per_second;
         let px = self.pixels();
         let t = &self.subject;
         let measured = self.rows.first().map_or(0, |r| r.frames);
@@ -236,7 +238,7 @@ impl Report {
             t.size.1,
             bw / 1e9,
             COPY_REPEATS,
-            self.bandwidth.copied >> 20,
+            self.bandwidth().copied >> 20,
             SPIN_UP.as_secs_f64(),
             self.measured[0].bytes_per_second / 1e9,
             self.measured[1].bytes_per_second / 1e9,
@@ -284,7 +286,7 @@ const HEADER: &str = "backend,scene,signal,config,budget_rpp,width,height,pass,d
 pub fn passes_csv(reports: &[Report]) -> String {
     let mut s = format!("{HEADER}\n");
     for rep in reports {
-        let (bw, px, t) = (rep.bandwidth.bytes_per_second, rep.pixels(), &rep.subject);
+        let (bw, px, t) = (rep.bandwidth().bytes_per_second, rep.pixels(), &rep.subject);
         for r in &rep.rows {
             let _ = writeln!(
                 s,

@@ -147,10 +147,10 @@ pub fn bandwidth<E: Executor>(exec: &mut Recorder<E>) -> Result<Bandwidth> {
         row: COPY_ROW,
         len: words,
     };
+    let rows = words / COPY_ROW / WORDS_PER_INVOCATION;
     let copy = |exec: &mut Recorder<E>| -> Result<()> {
         exec.clear_timings();
         for b in &chunks {
-            let rows = words / COPY_ROW / WORDS_PER_INVOCATION;
             exec.dispatch(&b.over_grid(&params, COPY_ROW, rows, 1))
                 .map_err(err)?;
         }

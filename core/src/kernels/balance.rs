@@ -288,8 +288,9 @@ pub fn solve(counts: &[u32], group: u32, rays_per_pixel: f32, p: &BalanceParams)
     }
     s.pick(&fits, 0);
     let mut moved = [0.0f32; MAX_RINGS as usize];
+    let rings = s.rings(p);
     let mut r = 0;
-    while r < s.rings(p) {
+    while r < rings {
         moved[r as usize] = s.ring_moved(counts, base, r);
         r += 1;
     }
@@ -407,8 +408,9 @@ impl Search {
         let mut k = p.ring_count;
         let mut granted = self.fit;
         let mut partial = 0.0f32;
-        if self.rings(p) > 0 {
-            k = self.rings(p);
+        let rings = self.rings(p);
+        if rings > 0 {
+            k = rings;
             let step = bucket_to_rate(self.t + 1) - bucket_to_rate(self.t);
             while k > 0 {
                 let add = step * moved[base + k as usize - 1];
