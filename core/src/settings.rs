@@ -199,7 +199,10 @@ pub struct FilterSettings {
     pub normal_power: f32,
     /// Plane-distance tolerance in pixel footprints (> 0; default 2).
     pub plane_tolerance: f32,
-    /// Window radius of the spatial variance estimate in pixels (0..=5; default 3, i.e. 7×7).
+    /// Window radius of the spatial variance estimate in pixels (0..=5; default 1, i.e. 3×3:
+    /// SVGF's 7×7 mixes an umbra or a thin shadow with the lit surface around it into one large
+    /// variance, and the filter then blurs the edge away; room, 160x90, first frame at 1 ray:
+    /// shadows relMSE 0.268 → 0.065, AO 0.0102 → 0.0087).
     pub spatial_radius: u32,
     /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
     pub spatial_until: f32,
@@ -284,7 +287,7 @@ impl Default for FilterSettings {
             sigma_luminance: 1.0,
             normal_power: 128.0,
             plane_tolerance: 2.0,
-            spatial_radius: 3,
+            spatial_radius: 1,
             spatial_until: 4.0,
             skip_sigma: 0.004,
         }

@@ -40,7 +40,7 @@ pub struct VarianceParams {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Window radius of the spatial fallback (3 → 7×7).
+    /// Window radius of the spatial fallback (1 → 3×3).
     pub radius: u32,
     /// Padding.
     pub _pad: u32,
@@ -59,7 +59,7 @@ impl Default for VarianceParams {
         VarianceParams {
             width: 0,
             height: 0,
-            radius: 3,
+            radius: 1,
             _pad: 0,
             spatial_until: 4.0,
             plane_scale: 0.01,
