@@ -218,7 +218,8 @@ impl Report {
 
     /// The printed table (markdown).
     pub fn table(&self) -> String {
-        let bw = self.bandwidth().bytes_per_second;
+        let floor = self.bandwidth();
+        let bw = floor.bytes_per_second;
         let px = self.pixels();
         let t = &self.subject;
         let measured = self.rows.first().map_or(0, |r| r.frames);
@@ -238,7 +239,7 @@ impl Report {
             t.size.1,
             bw / 1e9,
             COPY_REPEATS,
-            self.bandwidth().copied >> 20,
+            floor.copied >> 20,
             SPIN_UP.as_secs_f64(),
             self.measured[0].bytes_per_second / 1e9,
             self.measured[1].bytes_per_second / 1e9,
