@@ -1,8 +1,7 @@
 //! The CPU backend: the same kernel functions the GPU runs, called natively.
 //!
-//! Workgroups run in parallel on rayon's pool (on one thread for kernels declared `serial`);
-//! within a workgroup, invocations run in order (and kernels with barriers run phase by phase,
-//! see `vrrt_core::plan::KernelDesc::cpu`). Storage
+//! Workgroups run in parallel on rayon's pool; within a workgroup, invocations run in order (and
+//! kernels with barriers run phase by phase, see `vrrt_core::plan::KernelDesc::cpu`). Storage
 //! buffers are plain `Vec<u32>`, so the CPU backend is also the easiest way to use VRRT-rs from a
 //! Rust program: create buffers, write slices, dispatch, read back.
 
@@ -115,11 +114,7 @@ impl Executor for CpuExecutor {
             // SAFETY: bindings match the kernel (validated); see `CpuBindings`.
             unsafe { run(group, &bindings) };
         };
-        if pass.kernel.cpu_serial {
-            (0..total).for_each(group);
-        } else {
-            (0..total).into_par_iter().for_each(group);
-        }
+        (0..total).into_par_iter().for_each(group);
         self.timings.push(PassTiming {
             entry: pass.kernel.entry,
             ms: start.elapsed().as_secs_f64() * 1e3,

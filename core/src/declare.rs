@@ -12,10 +12,8 @@
 //!   `vrrt-shaders` expands once at its crate root,
 //! - `kernels::ALL`, the list of every kernel.
 //!
-//! Four kinds of kernel are declared:
+//! Three kinds of kernel are declared:
 //! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
-//! - `serial fn path`: as `fn`, and the CPU backend runs its workgroups on one thread
-//!   ([`KernelDesc::cpu_serial`](crate::plan::KernelDesc::cpu_serial));
 //! - `lanes(N) path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
 //!   `f::<N>` per row of `N / width` workgroups side by side (compiled for AVX2 too, chosen at
@@ -42,17 +40,6 @@ macro_rules! kernel_table {
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
-            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
-    };
-    (@kernels [$($done:tt)*]
-        $(#[$doc:meta])*
-        $entry:ident => $desc:ident, $binds:ident, $io:ident: serial fn $($kfn:ident)::+,
-        threads($x:tt, $y:tt, $z:tt), params $params:ty
-        { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
-        $($rest:tt)*
-    ) => {
-        $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds $io [serial ($($kfn)::+)] ($x, $y, $z) [$params]]
             [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
@@ -134,7 +121,6 @@ macro_rules! kernel_table {
                 params_size: core::mem::size_of::<$params>() as u32,
                 cpu: $crate::kernel_table!(@cpu [$($kind)*] ($x, $y, $z) $io [$params]
                     [$(($n $bn $method [$($m)?] $bt))*]),
-                cpu_serial: $crate::kernel_table!(@serial [$($kind)*]),
             };
 
             #[doc = concat!("The buffers of one `", stringify!($entry), "` pass, by binding name.")]
@@ -212,14 +198,7 @@ macro_rules! kernel_table {
         }
     };
 
-    // ---- whether the CPU runs the workgroups on one thread ----
-    (@serial [serial $($rest:tt)*]) => { true };
-    (@serial [$($kind:tt)*]) => { false };
-
     // ---- the native runner of one workgroup ----
-    (@cpu [serial ($($kfn:ident)::+)] $($rest:tt)*) => {
-        $crate::kernel_table!(@cpu [fn ($($kfn)::+)] $($rest)*)
-    };
     (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
@@ -334,9 +313,6 @@ macro_rules! kernel_table {
     };
 
     // ---- the SPIR-V entry point ----
-    (@entry [serial ($($kfn:ident)::+)] $($rest:tt)*) => {
-        $crate::kernel_table!(@entry [fn ($($kfn)::+)] $($rest)*);
-    };
     (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
         [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
         #[spirv(compute(threads($x, $y, $z)))]

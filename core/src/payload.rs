@@ -167,22 +167,35 @@ impl Payload {
 /// (0 = no wrap), the width of the index in the storage format. A sample whose moments are not
 /// finite (NaN/Inf from a broken raygen) is dropped like an untraced pixel, so it never enters
 /// history.
+// One select at the end, not an early return: called per lane, a row of pixels is vector code.
 #[inline]
 pub fn accumulate(prev: Payload, curr: Sample, max_history: f32, rng_wrap: u32) -> Payload {
-    if curr.rays == 0 || !math::is_finite(curr.m1) || !math::is_finite(curr.m2) {
-        return prev;
-    }
+    let traced = curr.rays != 0 && math::is_finite(curr.m1) && math::is_finite(curr.m2);
     let n = curr.rays as f32;
     let prev_count = math::max(prev.count, 0.0);
     let count = prev_count + n;
-    let m1 = (prev.m1 * prev_count + curr.m1 * n) / count;
-    let m2 = (prev.m2 * prev_count + curr.m2 * n) / count;
-    let next = prev.rng_index.wrapping_add(curr.rays);
-    Payload {
-        m1,
-        m2,
+    let merged = Payload {
+        m1: (prev.m1 * prev_count + curr.m1 * n) / count,
+        m2: (prev.m2 * prev_count + curr.m2 * n) / count,
         count: math::min(count, max_history),
-        rng_index: if rng_wrap == 0 { next } else { next % rng_wrap },
+        rng_index: wrap_rng(prev.rng_index.wrapping_add(curr.rays), rng_wrap),
+    };
+    if traced {
+        merged
+    } else {
+        prev
+    }
+}
+
+/// `next` modulo `wrap` (0 = no wrap). The storage widths are powers of two, taken by a mask: a
+/// division has no vector form.
+#[inline]
+pub fn wrap_rng(next: u32, wrap: u32) -> u32 {
+    let mask = wrap.wrapping_sub(1);
+    if wrap & mask == 0 {
+        next & mask
+    } else {
+        next % wrap
     }
 }
 
@@ -203,23 +216,27 @@ pub const CLEAN_DROPPED: u32 = 2;
 /// Applies the input clean-up policy (module docs) to one sample whose signal may not exceed
 /// `max`; returns the sample to merge and what was done (`CLEAN_*`). A dropped sample comes back
 /// with `rays == 0`, so [`accumulate`] carries the history.
+// Every outcome computed, then selected: called per lane, a row of pixels is vector code.
 #[inline]
 pub fn clean(s: Sample, max: f32) -> (Sample, u32) {
-    if s.rays == 0 {
-        return (s, CLEAN_KEPT);
-    }
-    if !math::is_finite(s.m1) || !math::is_finite(s.m2) {
-        return (Sample { rays: 0, ..s }, CLEAN_DROPPED);
-    }
+    let finite = math::is_finite(s.m1) && math::is_finite(s.m2);
     let m1 = math::clamp(s.m1, 0.0, max);
     let m2 = math::clamp(s.m2, 0.0, max);
-    let what = if m1 != s.m1 || m2 != s.m2 {
-        CLEAN_CLAMPED
-    } else {
-        CLEAN_KEPT
+    let clamped = m1 != s.m1 || m2 != s.m2;
+    let kept = Sample {
+        m1,
+        m2: math::max(m2, math::min(m1 * m1, max)),
+        ..s
     };
-    let m2 = math::max(m2, math::min(m1 * m1, max));
-    (Sample { m1, m2, ..s }, what)
+    if s.rays == 0 {
+        (s, CLEAN_KEPT)
+    } else if !finite {
+        (Sample { rays: 0, ..s }, CLEAN_DROPPED)
+    } else if clamped {
+        (kept, CLEAN_CLAMPED)
+    } else {
+        (kept, CLEAN_KEPT)
+    }
 }
 
 /// Stores `merged` (the f32 result of [`accumulate`] of sample `curr` into `prev`) at storage
@@ -231,14 +248,117 @@ pub fn clean(s: Sample, max: f32) -> (Sample, u32) {
 /// already wraps at the format's width).
 #[inline]
 pub fn store(prev: Payload, curr: Sample, merged: Payload, storage: u32) -> Payload {
-    let max = quantize::max_value(storage);
-    let m1 = quantize::store_with_correction(storage, merged.m1, prev.m1, curr.m1);
-    let m2 = quantize::store_with_correction(storage, merged.m2, prev.m2, curr.m2);
-    let floor = quantize::quantize_up(storage, math::min(m1 * m1, max));
+    let one = |m1, m2| MomentLanes::<1> {
+        m1: Lanes([m1]),
+        m2: Lanes([m2]),
+    };
+    let m = store_lanes(
+        one(prev.m1, prev.m2),
+        one(curr.m1, curr.m2),
+        one(merged.m1, merged.m2),
+        storage,
+    );
     Payload {
-        m1,
-        m2: math::max(m2, floor),
+        m1: m.m1.0[0],
+        m2: m.m2.0[0],
         ..merged
+    }
+}
+
+/// `N` payloads field by field ([`crate::lanes`]): the lanes of one field are one vector.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PayloadLanes<const N: usize> {
+    /// First moments.
+    pub m1: Lanes<f32, N>,
+    /// Second moments.
+    pub m2: Lanes<f32, N>,
+    /// History lengths.
+    pub count: Lanes<f32, N>,
+    /// Rng indices.
+    pub rng_index: Lanes<u32, N>,
+}
+
+impl<const N: usize> PayloadLanes<N> {
+    /// [`PackedPayload::unpack`] of every lane (binary16 through the lanes conversion).
+    #[inline(always)]
+    pub fn unpack(packed: Lanes<PackedPayload, N>) -> Self {
+        let (m1, m2) = packing::unpack_f16x2_lanes(packed.map(|q| q.moments));
+        PayloadLanes {
+            m1,
+            m2,
+            count: packed.map(|q| q.count_rng).f16_to_f32(),
+            rng_index: packed.map(|q| q.rng_index()),
+        }
+    }
+
+    /// [`Payload::pack`] of every lane.
+    #[inline(always)]
+    pub fn pack(&self) -> Lanes<PackedPayload, N> {
+        let moments = packing::pack_f16x2_lanes(self.m1, self.m2);
+        let count = packing::pack_f16x2_lanes(self.count, Lanes::splat(0.0));
+        Lanes::from_index(|l| {
+            let l = l as usize;
+            PackedPayload {
+                moments: moments.0[l],
+                count_rng: (count.0[l] & 0xffff) | (self.rng_index.0[l] << 16),
+            }
+        })
+    }
+
+    /// Lane `l`.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Payload {
+        Payload {
+            m1: self.m1.0[l],
+            m2: self.m2.0[l],
+            count: self.count.0[l],
+            rng_index: self.rng_index.0[l],
+        }
+    }
+
+    /// Sets lane `l` to `v`.
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, v: Payload) {
+        self.m1.0[l] = v.m1;
+        self.m2.0[l] = v.m2;
+        self.count.0[l] = v.count;
+        self.rng_index.0[l] = v.rng_index;
+    }
+
+    /// The moments alone.
+    #[inline(always)]
+    pub fn moments(&self) -> MomentLanes<N> {
+        MomentLanes {
+            m1: self.m1,
+            m2: self.m2,
+        }
+    }
+}
+
+/// The two moments of `N` pixels, field by field ([`crate::lanes`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MomentLanes<const N: usize> {
+    /// First moments.
+    pub m1: Lanes<f32, N>,
+    /// Second moments.
+    pub m2: Lanes<f32, N>,
+}
+
+/// [`store`]'s moments for every lane.
+#[inline(always)]
+pub fn store_lanes<const N: usize>(
+    prev: MomentLanes<N>,
+    curr: MomentLanes<N>,
+    merged: MomentLanes<N>,
+    storage: u32,
+) -> MomentLanes<N> {
+    let max = quantize::max_value(storage);
+    let m1 = quantize::store_with_correction_lanes(storage, merged.m1, prev.m1, curr.m1);
+    let m2 = quantize::store_with_correction_lanes(storage, merged.m2, prev.m2, curr.m2);
+    let floor = quantize::quantize_up_lanes(storage, m1.map(|m1| math::min(m1 * m1, max)));
+    MomentLanes {
+        m1,
+        m2: m2.zip(floor, math::max),
     }
 }
 

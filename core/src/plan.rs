@@ -63,10 +63,6 @@ pub struct KernelDesc {
     pub params_size: u32,
     /// The same kernel, compiled natively.
     pub cpu: CpuGroupFn,
-    /// Run its workgroups on one CPU thread: every invocation adds to one shared counter, and
-    /// cores contending for that cache line are slower than one core alone (`apply`: 48 ms on
-    /// two threads, 11 ms on one, at 1280×720).
-    pub cpu_serial: bool,
 }
 
 impl fmt::Debug for KernelDesc {
@@ -76,7 +72,6 @@ impl fmt::Debug for KernelDesc {
             .field("workgroup_size", &self.workgroup_size)
             .field("bindings", &self.bindings)
             .field("params_size", &self.params_size)
-            .field("cpu_serial", &self.cpu_serial)
             .finish()
     }
 }

@@ -17,6 +17,7 @@
 //! on the CPU and on every GPU, independent of the target's `f32tof16` rounding mode. Stored
 //! signals are non-negative: every format's range starts at 0.
 
+use crate::lanes::Lanes;
 use crate::math;
 
 /// Precision of the stored history moments
@@ -206,13 +207,20 @@ pub fn quantize(storage: u32, x: f32) -> f32 {
 /// The smallest value of format `storage` that is `>= x` (clamped to the format's range): used to
 /// keep the stored second moment at or above the square of the stored mean.
 pub fn quantize_up(storage: u32, x: f32) -> f32 {
-    let q = encode(storage, x);
-    let q = if decode(storage, q) < x && q < max_code(storage) {
-        q + 1
-    } else {
-        q
-    };
-    decode(storage, q)
+    quantize_up_lanes(storage, Lanes::<f32, 1>([x])).0[0]
+}
+
+/// [`quantize_up`] of every lane.
+#[inline(always)]
+pub fn quantize_up_lanes<const N: usize>(storage: u32, x: Lanes<f32, N>) -> Lanes<f32, N> {
+    let q = encode_lanes(storage, x);
+    let top = max_code(storage);
+    let up = decode_lanes(storage, q).zip(x, |d, x| d < x);
+    let q = Lanes::<u32, N>::from_index(|l| {
+        let l = l as usize;
+        q.0[l] + (up.0[l] && q.0[l] < top) as u32
+    });
+    decode_lanes(storage, q)
 }
 
 /// Stores `accum` (this frame's merged f32 value) in format `storage`, given the value `prev` it
@@ -227,26 +235,65 @@ pub fn quantize_up(storage: u32, x: f32) -> f32 {
 /// with the guard it stays on the nearest code, and a value far from its target still moves one
 /// unit a frame. With [`STORAGE_NO_CORRECTION`] set this is plain [`quantize`].
 pub fn store_with_correction(storage: u32, accum: f32, prev: f32, target: f32) -> f32 {
-    let qa = encode(storage, accum);
-    let qp = encode(storage, prev);
+    let one = |x| Lanes::<f32, 1>([x]);
+    store_with_correction_lanes(storage, one(accum), one(prev), one(target)).0[0]
+}
+
+/// [`store_with_correction`] of every lane: both candidate codes computed, then selected (so a
+/// row of pixels is vector code; the same bits as deciding first).
+#[inline(always)]
+pub fn store_with_correction_lanes<const N: usize>(
+    storage: u32,
+    accum: Lanes<f32, N>,
+    prev: Lanes<f32, N>,
+    target: Lanes<f32, N>,
+) -> Lanes<f32, N> {
+    let qa = encode_lanes(storage, accum);
+    let qp = encode_lanes(storage, prev);
     let correct = storage & STORAGE_NO_CORRECTION == 0;
-    if !(correct && accum != prev && qa == qp) {
-        return decode(storage, qa);
+    let top = max_code(storage);
+    let step = Lanes::<u32, N>::from_index(|l| {
+        let (l, qa) = (l as usize, qa.0[l as usize]);
+        if accum.0[l] > prev.0[l] {
+            math_min_u32(qa + 1, top)
+        } else if qa > 0 {
+            qa - 1
+        } else {
+            0
+        }
+    });
+    let stepped = decode_lanes(storage, step);
+    let q = Lanes::<u32, N>::from_index(|l| {
+        let l = l as usize;
+        let (a, p, t, s) = (accum.0[l], prev.0[l], target.0[l], stepped.0[l]);
+        let overshoots = if a > p { s > t } else { s < t };
+        if correct && a != p && qa.0[l] == qp.0[l] && !overshoots {
+            step.0[l]
+        } else {
+            qa.0[l]
+        }
+    });
+    decode_lanes(storage, q)
+}
+
+/// [`encode`] of every lane (binary16 through the lanes conversion: the same codes).
+#[inline(always)]
+fn encode_lanes<const N: usize>(storage: u32, x: Lanes<f32, N>) -> Lanes<u32, N> {
+    if storage & 0xff == STORAGE_UNORM8 {
+        x.map(f32_to_unorm8)
+    } else {
+        x.map(|x| math::clamp(x, 0.0, F16_MAX)).f32_to_f16()
     }
-    let step = if accum > prev {
-        math_min_u32(qa + 1, max_code(storage))
-    } else if qa > 0 {
-        qa - 1
+}
+
+/// [`decode`] of every lane.
+#[inline(always)]
+fn decode_lanes<const N: usize>(storage: u32, q: Lanes<u32, N>) -> Lanes<f32, N> {
+    if storage & 0xff == STORAGE_UNORM8 {
+        q.map(unorm8_to_f32)
     } else {
-        0
-    };
-    let stepped = decode(storage, step);
-    let overshoots = if accum > prev {
-        stepped > target
-    } else {
-        stepped < target
-    };
-    decode(storage, if overshoots { qa } else { step })
+        q.f16_to_f32()
+    }
 }
 
 #[inline]
@@ -346,6 +393,49 @@ mod tests {
         let (q17, target) = (f16_to_f32(17), 1e-6);
         let accum = (q17 + target) / 2.0;
         assert_eq!(store_with_correction(STORAGE_F16, accum, q17, target), q17);
+    }
+
+    /// The lanes forms (F16C where the CPU has it, 16 lanes) give the bits of one lane at a
+    /// time (the integer conversions), in both formats, with and without the correction.
+    #[test]
+    fn lanes_store_and_ceiling_match_one_lane_at_a_time() {
+        let mut rng = 0x9e37_79b9u32;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 17;
+            rng ^= rng << 5;
+            rng
+        };
+        for storage in [
+            STORAGE_F16,
+            STORAGE_UNORM8,
+            STORAGE_F16 | STORAGE_NO_CORRECTION,
+        ] {
+            for _ in 0..4096 {
+                // Values spread over every binary16 exponent, with neighbours one code apart.
+                let value = |bits: u32| f32::from_bits(0x3300_0000 + bits % 0x1000_0000);
+                let draw: [u32; 16] = core::array::from_fn(|_| next());
+                let a = Lanes::<f32, 16>::from_index(|l| value(draw[l as usize]));
+                let same: [u32; 16] = core::array::from_fn(|_| next() & 3);
+                let p = Lanes::<f32, 16>::from_index(|l| {
+                    let a = a.0[l as usize];
+                    if same[l as usize] == 0 {
+                        a
+                    } else {
+                        a * 1.0004
+                    }
+                });
+                let t = Lanes::<f32, 16>::from_index(|l| value(draw[(l as usize + 3) % 16]));
+                let got = store_with_correction_lanes(storage, a, p, t);
+                let up = quantize_up_lanes(storage, a);
+                for l in 0..16 {
+                    let want = store_with_correction(storage, a.0[l], p.0[l], t.0[l]);
+                    assert_eq!(got.0[l].to_bits(), want.to_bits(), "{storage} {:?}", a.0[l]);
+                    let want = quantize_up(storage, a.0[l]);
+                    assert_eq!(up.0[l].to_bits(), want.to_bits(), "{storage} {:?}", a.0[l]);
+                }
+            }
+        }
     }
 
     #[test]

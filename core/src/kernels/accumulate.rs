@@ -12,8 +12,11 @@
 
 use super::plane_index;
 use super::AccumulateIo;
-use crate::payload::{self, PackedSample, Payload};
-use crate::{atomic, math, quantize};
+use crate::lanes::{self, clamp_column, Lanes};
+use crate::payload::{
+    self, MomentLanes, PackedPayload, PackedSample, Payload, PayloadLanes, Sample,
+};
+use crate::{atomic, math, packing, quantize};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -94,43 +97,86 @@ fn clamp_history(
     }
 }
 
-/// One invocation per pixel and signal plane: `history = merge(history, samples)`, in place.
-pub fn accumulate(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
+/// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
+/// `history = merge(history, samples)`, in place.
+#[inline(always)]
+pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: AccumulateIo<'_>) {
     let AccumulateIo {
         history,
         samples,
         changes,
         counters,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let i = plane_index(id, p.width, p.height);
-    let (mut curr, what) = payload::clean(samples[i].unpack(), quantize::max_value(p.storage));
-    if what == payload::CLEAN_DROPPED {
-        atomic::add(&mut counters[payload::COUNTER_NON_FINITE], 1);
-    } else if what == payload::CLEAN_CLAMPED {
-        atomic::add(&mut counters[payload::COUNTER_CLAMPED], 1);
-    }
-    if p.firefly_max > 0.0 {
-        curr.m1 = math::min(curr.m1, p.firefly_max);
-        curr.m2 = math::min(curr.m2, p.firefly_max * p.firefly_max);
-    }
-    let mut prev = history[i].unpack();
-    if p.use_changes != 0 {
-        let lambda = changes[i];
+    let (x0, row) = (id.x as i32, (id.z * h + id.y) * w);
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let packed = Lanes::<PackedSample, N>::load_row(samples, row, x0, w);
+    let (s1, s2) = packing::unpack_f16x2_lanes(packed.map(|s| s.moments));
+    let stored = PayloadLanes::unpack(Lanes::<PackedPayload, N>::load_row(history, row, x0, w));
+    let lambda = if p.use_changes != 0 {
+        Lanes::<f32, N>::load_row(changes, row, x0, w)
+    } else {
+        Lanes::splat(0.0)
+    };
+    let max = quantize::max_value(p.storage);
+    let mut curr = [Sample::default(); N];
+    let mut prev = stored;
+    let (mut dropped, mut clamped) = (0u32, 0u32);
+    lanes::each_lane!(l in N {
+        let raw = Sample {
+            m1: s1.0[l],
+            m2: s2.0[l],
+            rays: packed.0[l].rays(),
+            first: 0.0,
+        };
+        let (mut c, what) = payload::clean(raw, max);
+        dropped += (live.0[l] && what == payload::CLEAN_DROPPED) as u32;
+        clamped += (live.0[l] && what == payload::CLEAN_CLAMPED) as u32;
+        if p.firefly_max > 0.0 {
+            c.m1 = math::min(c.m1, p.firefly_max);
+            c.m2 = math::min(c.m2, p.firefly_max * p.firefly_max);
+        }
+        curr[l] = c;
         // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
-        prev.count = if lambda > p.change_threshold {
+        let shortened = if lambda.0[l] > p.change_threshold {
             0.0
         } else {
-            prev.count * (1.0 - lambda)
+            stored.count.0[l] * (1.0 - lambda.0[l])
         };
+        if p.use_changes != 0 {
+            prev.count.0[l] = shortened;
+        }
+    });
+    if p.clamp_radius > 0 {
+        lanes::each_lane!(l in N {
+            let at = UVec3::new(clamp_column(x0 + l as i32, w), id.y, id.z);
+            prev.set(l, clamp_history(at, p, samples, prev.lane(l)));
+        });
     }
-    let prev = if p.clamp_radius > 0 {
-        clamp_history(id, p, samples, prev)
-    } else {
-        prev
+    let mut merged = prev;
+    lanes::each_lane!(l in N {
+        let m = payload::accumulate(prev.lane(l), curr[l], p.max_history, p.rng_wrap);
+        merged.set(l, m);
+    });
+    let curr_moments = MomentLanes {
+        m1: Lanes::from_index(|l| curr[l as usize].m1),
+        m2: Lanes::from_index(|l| curr[l as usize].m2),
     };
-    let merged = payload::accumulate(prev, curr, p.max_history, p.rng_wrap);
-    history[i] = payload::store(prev, curr, merged, p.storage).pack();
+    let m = payload::store_lanes(prev.moments(), curr_moments, merged.moments(), p.storage);
+    let out = PayloadLanes {
+        m1: m.m1,
+        m2: m.m2,
+        ..merged
+    }
+    .pack();
+    out.store(history, row as usize + id.x as usize, live);
+    if dropped > 0 {
+        atomic::add(&mut counters[payload::COUNTER_NON_FINITE], dropped);
+    }
+    if clamped > 0 {
+        atomic::add(&mut counters[payload::COUNTER_CLAMPED], clamped);
+    }
 }

@@ -10,10 +10,10 @@
 
 use super::balance::{granted_rate, Balance};
 use super::buckets::{ring_id, BUCKET_COUNT};
-use super::pixel_index;
 use super::ApplyIo;
 use crate::atomic;
 use crate::blue_noise::blue_noise;
+use crate::lanes::{self, clamp_column, Lanes};
 use crate::math;
 use crate::payload::PackedSample;
 use bytemuck::{Pod, Zeroable};
@@ -90,12 +90,15 @@ pub fn resolve_rays(
 /// Offset of the blue-noise mask per plane group (coprime with the mask's edge, far apart).
 pub const GROUP_NOISE_SHIFT: [u32; 2] = [23, 41];
 
-/// One invocation per pixel and plane group (z). Appends each tracing pixel and its rays to the
-/// group's list, `work[group · pixels..]` ([`work_entry`]), and counts them in
-/// `args[4 · group]`; `args[4 · group + 1]` ends as the number of [`LIST_GROUP`]-wide groups (the
-/// balancer reset the arguments to `[0, 0, 1, 1]` before this pass). A pixel that traces nothing
-/// gets empty samples in the group's planes.
-pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
+/// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]). Appends
+/// each tracing pixel and its rays to the group's list, `work[group · pixels..]` ([`work_entry`]),
+/// and counts them in `args[4 · group]`; `args[4 · group + 1]` ends as the number of
+/// [`LIST_GROUP`]-wide groups (the balancer reset the arguments to `[0, 0, 1, 1]` before this
+/// pass). A pixel that traces nothing gets empty samples in the group's planes. The row reserves
+/// its slots with one atomic add: invocations contending for one counter are what a CPU core pays
+/// for (two threads adding per pixel were 4x slower than one).
+#[inline(always)]
+pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let ApplyIo {
         requests,
         decision,
@@ -104,29 +107,57 @@ pub fn apply(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         args,
         samples,
     } = io;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let pixels = p.width * p.height;
-    let pix = pixel_index(id.x, id.y, p.width);
-    let group = id.z;
-    let bucket = super::reproject::bucket_of(requests[(group * pixels) as usize + pix]);
+    let pixels = w * h;
+    let (group, row) = (id.z, id.y * w);
+    let x0 = id.x as i32;
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let requests = Lanes::<u32, N>::load_row(requests, group * pixels + row, x0, w);
+    // A loop, not a closure: a closure capturing the storage reference `d` is a pointer to a
+    // pointer, which SPIR-V's logical addressing does not have.
     let d = &decision[group as usize];
-    let n = resolve_rays(id.x, id.y, group, bucket, p, d, noise);
-    if n == 0 {
-        let mut z = 0;
-        while z < p.planes {
-            if super::plane_group(p.plane_groups, z) == group {
-                samples[(z * pixels) as usize + pix] = PackedSample::default();
-            }
-            z += 1;
+    let mut rays = Lanes::<u32, N>::splat(0);
+    lanes::each_lane!(l in N {
+        let x = clamp_column(x0 + l as i32, w);
+        let bucket = super::reproject::bucket_of(requests.0[l]);
+        rays.0[l] = resolve_rays(x, id.y, group, bucket, p, d, noise);
+    });
+    let traces = live.zip(rays, |live, n| live && n > 0);
+    let mut z = 0;
+    while z < p.planes {
+        if super::plane_group(p.plane_groups, z) == group {
+            let empty =
+                Lanes::<bool, N>::from_index(|l| live.0[l as usize] && !traces.0[l as usize]);
+            Lanes::splat(PackedSample::default()).store(
+                samples,
+                (z * pixels + row + id.x) as usize,
+                empty,
+            );
         }
+        z += 1;
+    }
+    let mut count = 0;
+    lanes::each_lane!(l in N {
+        count += traces.0[l] as u32;
+    });
+    if count == 0 {
         return;
     }
     let a = (group * ARGS_LEN) as usize;
-    let slot = atomic::add(&mut args[a], 1);
-    work[(group * pixels + slot) as usize] = work_entry(pix as u32, n);
-    if slot.is_multiple_of(LIST_GROUP) {
-        atomic::max(&mut args[a + 1], slot / LIST_GROUP + 1);
+    let first = atomic::add(&mut args[a], count);
+    let mut slot = first;
+    lanes::each_lane!(l in N {
+        if traces.0[l] {
+            work[(group * pixels + slot) as usize] = work_entry(row + id.x + l as u32, rays.0[l]);
+            slot += 1;
+        }
+    });
+    // The slots that start a list group raise its group count (the last such slot wins).
+    let last = slot - 1;
+    if first.is_multiple_of(LIST_GROUP) || last / LIST_GROUP != first / LIST_GROUP {
+        atomic::max(&mut args[a + 1], last / LIST_GROUP + 1);
     }
 }

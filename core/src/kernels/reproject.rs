@@ -31,7 +31,7 @@ use crate::camera::Camera;
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
-use crate::payload::{PackedPayload, Payload};
+use crate::payload::{PackedPayload, Payload, PayloadLanes};
 use crate::surface::{self, Moved};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
@@ -161,7 +161,8 @@ pub fn same_surface(
 ) -> bool {
     let n_ok = n.dot(m) >= p.normal_threshold;
     let dist = math::abs(m.dot(prev - t));
-    surface::has_surface(depth) && n_ok && dist <= p.plane_threshold * math::max(depth, 1e-6)
+    // `&`, not `&&`: no branch, so a row of lanes is vector code.
+    surface::has_surface(depth) & n_ok & (dist <= p.plane_threshold * math::max(depth, 1e-6))
 }
 
 /// Ray rate a pixel asks for, from its shortest history and largest variance over the planes.
@@ -266,7 +267,7 @@ fn footprint<const N: usize>(
             let l = l as usize;
             let [x, y] = t.0[l];
             let q = prev_camera.unproject(x, y, pd.0[l], p.width, p.height);
-            used.0[l] && same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
+            used.0[l] & same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
         });
         f.texel[k] = texel;
         f.bilinear[k] = f.bilinear[k].select(same, Lanes::splat(0.0));
@@ -344,17 +345,17 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
         let mut k = 0;
         while k < 4 {
             let index = f.texel[k].map(|t| plane + t);
-            let hk = Lanes::<PackedPayload, N>::gather(history, index).map(|h| h.unpack());
+            let hk = PayloadLanes::unpack(Lanes::<PackedPayload, N>::gather(history, index));
             // Empty texels (undersampled, never traced) are rejected one by one.
-            let wk = f.bilinear[k].zip(hk, |b, h| if b > 0.0 && h.count >= 1.0 { b } else { 0.0 });
+            let wk = f.bilinear[k].zip(hk.count, |b, c| if b > 0.0 && c >= 1.0 { b } else { 0.0 });
             let used = wk.map(|w| w > 0.0);
-            m1 = m1.add_where(used, wk.zip(hk, |w, h| w * h.m1));
-            m2 = m2.add_where(used, wk.zip(hk, |w, h| w * h.m2));
-            count = count.add_where(used, wk.zip(hk, |w, h| w * h.count));
+            m1 = m1.add_where(used, wk.zip(hk.m1, |w, m| w * m));
+            m2 = m2.add_where(used, wk.zip(hk.m2, |w, m| w * m));
+            count = count.add_where(used, wk.zip(hk.count, |w, c| w * c));
             sum_w = sum_w.add_where(used, wk);
             let best = wk.zip(best_w, |w, b| w > b);
             best_w = wk.select(best, best_w);
-            rng_index = hk.map(|h| h.rng_index).select(best, rng_index);
+            rng_index = hk.rng_index.select(best, rng_index);
             k += 1;
         }
         let lambda = if p.gradient_stratum > 0 {
@@ -371,8 +372,13 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
         // (a disocclusion in all but geometry).
         let kept = sum_w.map(|s| s > p.disocclusion_threshold);
         let changed = lambda.map(|g| p.gradient_stratum > 0 && g > p.gradient_threshold);
-        let reprojected = Lanes::<Payload, N>::from_index(|l| {
-            let l = l as usize;
+        let mut reprojected = PayloadLanes {
+            m1,
+            m2,
+            count,
+            rng_index,
+        };
+        lanes::each_lane!(l in N {
             let s = sum_w.0[l];
             // A history longer than this frame allows (kept on still frames) is cut back.
             let full = math::min(count.0[l] / s, p.max_history);
@@ -395,17 +401,18 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
                 count: 0.0,
                 rng_index: p.frame_index,
             };
-            if kept.0[l] {
-                payload
-            } else {
-                empty
-            }
+            reprojected.set(l, if kept.0[l] { payload } else { empty });
         });
         let dropped = kept.zip(changed, |kept, changed| !kept || changed);
         lost = lost.zip(dropped, |a, b| a || b);
-        min_count = min_count.zip(reprojected, |m, r| math::min(m, r.count));
-        max_variance = max_variance.zip(reprojected, |m, r| math::max(m, r.variance()));
-        let packed = reprojected.map(|r| r.pack());
+        min_count = min_count.zip(reprojected.count, math::min);
+        max_variance = Lanes::from_index(|l| {
+            math::max(
+                max_variance.0[l as usize],
+                reprojected.lane(l as usize).variance(),
+            )
+        });
+        let packed = reprojected.pack();
         packed.store(out, plane_index(UVec3::new(id.x, id.y, z), w, h), live);
         let group = super::plane_group(p.plane_groups, z);
         z += 1;

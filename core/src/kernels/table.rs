@@ -13,7 +13,7 @@ crate::kernel_table! {
     /// [`accumulate::accumulate`]: temporal accumulation of the new samples into the reprojected
     /// history, in place (each invocation reads and writes its own element); `changes` is
     /// [`detect::detect`]'s `λ`; `counters` has `payload::COUNTERS_LEN` words.
-    accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: fn accumulate::accumulate,
+    accumulate => ACCUMULATE, AccumulateBindings, AccumulateIo: lanes(16, avx512 64) accumulate::accumulate,
     threads(8, 8, 1), params accumulate::AccumulateParams {
         history: update PackedPayload,
         samples: read PackedSample,
@@ -148,7 +148,7 @@ crate::kernel_table! {
     }
 
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
-    apply => APPLY, ApplyBindings, ApplyIo: serial fn apply::apply,
+    apply => APPLY, ApplyBindings, ApplyIo: lanes(16, avx512 64) apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
         requests: read Request,
         decision: read Balance,

@@ -30,7 +30,6 @@ static KERNEL: KernelDesc = KernelDesc {
     ],
     params_size: 0,
     cpu: no_op,
-    cpu_serial: false,
 };
 
 #[test]
