@@ -2,7 +2,8 @@
 //!
 //! Transcendentals are evaluated here with plain `+ - * /` on both targets instead of calling the
 //! platform's `exp`/`log` (GLSL.std.450 on the GPU, libm on the CPU), whose results differ in the
-//! last bits. `sqrt` is IEEE correctly rounded on both, so it maps to the native instruction.
+//! last bits. `sqrt` and `floor` are exact (correctly rounded) on both, so they map to the native
+//! instructions.
 //! `min`/`max`/`clamp` are written as comparisons so NaN handling is defined and identical.
 //!
 //! No function here returns a NaN or infinite *constant*: naga (wgpu's SPIR-V front end) rejects
@@ -96,38 +97,24 @@ pub fn is_finite(x: f32) -> bool {
 }
 
 /// Largest integer not above `x`, exact, as IEEE `floor` (−0 stays −0; ±Inf and NaN come back
-/// as they are).
+/// as they are): the same bits everywhere, so each target takes its own.
 ///
-/// The native instruction on the GPU (no control flow; naga's SPIR-V reader has rejected the
-/// branches of a hand-written floor inside larger kernels). On the host, without SSE4.1's
-/// rounding instruction, by truncation: out-of-range inputs are replaced before the conversion
-/// instead of branching around it (so a loop over [`crate::lanes`] becomes vector code), and the
-/// conversion is the plain truncating instruction (Rust's `as` adds saturation fix-ups that have
-/// no vector form).
+/// The native instruction on the GPU; on the host LLVM's floor, which the AVX2 and AVX-512
+/// runners of [`crate::lanes`] kernels turn into the vector rounding instruction (a hand-written
+/// floor by truncation and selects cost à-trous 13% and reprojection 16% at 1280×720).
 #[inline]
 pub fn floor(x: f32) -> f32 {
     #[cfg(target_arch = "spirv")]
     {
         Float::floor(x)
     }
-    #[cfg(not(target_arch = "spirv"))]
+    #[cfg(all(not(target_arch = "spirv"), feature = "std"))]
     {
-        let inside = abs(x) < 2_147_483_648.0;
-        let xc = if inside { x } else { 0.0 };
-        // SAFETY: |xc| < 2^31, so it truncates to an i32.
-        let t = unsafe { xc.to_int_unchecked::<i32>() } as f32;
-        let f = if t > xc { t - 1.0 } else { t };
-        // A zero result takes the input's sign: floor(−0) = −0, as the instruction gives.
-        let f = if f == 0.0 {
-            f32::from_bits(x.to_bits() & 0x8000_0000)
-        } else {
-            f
-        };
-        if inside {
-            f
-        } else {
-            x
-        }
+        std::primitive::f32::floor(x)
+    }
+    #[cfg(all(not(target_arch = "spirv"), not(feature = "std"), feature = "libm"))]
+    {
+        libm::floorf(x)
     }
 }
 
@@ -377,7 +364,7 @@ mod tests {
     }
 
     #[test]
-    fn pow_and_floor() {
+    fn pow_matches_std() {
         approx::assert_relative_eq!(pow(0.9, 128.0), 0.9f32.powf(128.0), max_relative = 1e-5);
         // Both paths (whole exponents by squaring, the rest through exp2/log2) agree with std.
         for &y in &[1.0f32, 2.0, 3.0, 7.0, 128.0, 1000.0, 2.5, 127.9] {
@@ -390,22 +377,6 @@ mod tests {
                 }
             }
         }
-        let special = [
-            -0.0,
-            f32::INFINITY,
-            -f32::INFINITY,
-            3e9,
-            -3e9,
-            -0.999_999_9,
-            0.999_999_9,
-        ];
-        for &x in [-2.5f32, -2.0, -0.1, 0.0, 0.1, 2.0, 2.5, 1e9]
-            .iter()
-            .chain(&special)
-        {
-            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
-        }
-        assert!(floor(f32::NAN).is_nan());
     }
 
     #[test]
