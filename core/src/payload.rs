@@ -64,13 +64,7 @@ impl PackedPayload {
     /// The payload, widened to f32.
     #[inline]
     pub fn unpack(self) -> Payload {
-        let (m1, m2) = packing::unpack_f16x2(self.moments);
-        Payload {
-            m1,
-            m2,
-            count: quantize::f16_to_f32(self.count_rng & 0xffff),
-            rng_index: self.count_rng >> 16,
-        }
+        PayloadLanes::unpack(Lanes::<PackedPayload, 1>([self])).lane(0)
     }
 
     /// The rng index alone (ray generation reads nothing else).
@@ -145,10 +139,13 @@ impl Payload {
     /// nearest, saturating at 65504), the rng index to its low 16 bits.
     #[inline]
     pub fn pack(&self) -> PackedPayload {
-        PackedPayload {
-            moments: packing::pack_f16x2(self.m1, self.m2),
-            count_rng: (packing::pack_f16x2(self.count, 0.0) & 0xffff) | (self.rng_index << 16),
-        }
+        let one = PayloadLanes::<1> {
+            m1: Lanes([self.m1]),
+            m2: Lanes([self.m2]),
+            count: Lanes([self.count]),
+            rng_index: Lanes([self.rng_index]),
+        };
+        one.pack().0[0]
     }
 
     /// Temporal variance from the moments, never negative.

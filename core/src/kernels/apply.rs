@@ -126,11 +126,10 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         rays.0[l] = resolve_rays(x, id.y, group, bucket, p, d, noise);
     });
     let traces = live.zip(rays, |live, n| live && n > 0);
+    let empty = live.zip(traces, |live, traces| live && !traces);
     let mut z = 0;
     while z < p.planes {
         if super::plane_group(p.plane_groups, z) == group {
-            let empty =
-                Lanes::<bool, N>::from_index(|l| live.0[l as usize] && !traces.0[l as usize]);
             Lanes::splat(PackedSample::default()).store(
                 samples,
                 (z * pixels + row + id.x) as usize,
