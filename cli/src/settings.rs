@@ -151,6 +151,9 @@ mod tests {
                 detect_radius: 3,
                 detect_sigma: 2.5,
                 detect_min_variance: 3.0e-5,
+                refill: false,
+                shadow_detect_radius: 3,
+                shadow_threshold: 0.25,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -35,7 +35,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 21;
+pub const DENOISER_BUFFERS: usize = 22;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -108,6 +108,13 @@ pub fn denoiser_buffers(
             "Balance",
         ),
         size("args", 1, bytes(groups * apply::ARGS_LEN as u64, 4), "u32"),
+        // The refill lists' arguments: this frame's, read by the next frame's balancer.
+        size(
+            "refill_args",
+            1,
+            bytes(groups * apply::ARGS_LEN as u64, 4),
+            "u32",
+        ),
         size("gradient_keys", 1, bytes(cells, 4), "GradientKey"),
         size("gradient_raw", 1, gradient, "GradientSample"),
         size("gradient", 2, gradient, "GradientSample"),

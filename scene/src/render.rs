@@ -9,7 +9,7 @@ use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
-use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
+use vrrt_core::kernels::apply::{work_entry, ARGS_LEN, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
@@ -199,7 +199,8 @@ pub struct FrameOutput {
     pub gradient_ran: bool,
     /// History was reset this frame (the first frame, a camera cut): every pixel starts fresh.
     pub reset: bool,
-    /// Rays the gradient prepass re-traced (over all planes; 0 when it did not run).
+    /// Rays the change detection traced (over all planes): the gradient prepass's re-traces and
+    /// the detector's refill lists.
     pub gradient_rays: u64,
     /// Gradient cells across and down (stratum resolution).
     pub gradient_size: (u32, u32),
@@ -409,7 +410,19 @@ impl Renderer {
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         // The readbacks waited for the frame, so its timings are in.
         let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
-        let rays_traced = rays.iter().map(|&r| r as f64).sum::<f64>().round() as u64;
+        // The refill lists' rays (`Denoiser::detect_changes`), one per plane of their group: the
+        // detector's, so counted with the prepass's and in the total.
+        let refill: Vec<u32> = read(exec, d.refill_args(), (groups * ARGS_LEN) as usize)?;
+        let refill_rays: u64 = (0..groups)
+            .map(|g| {
+                refill[(g * ARGS_LEN) as usize] as u64
+                    * group_planes(settings.plane_groups, planes, g) as u64
+            })
+            .sum();
+        gradient_rays += refill_rays;
+        let rays_traced = (rays.iter().map(|&r| r as f64).sum::<f64>()
+            + refill_rays as f64 / planes as f64)
+            .round() as u64;
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.unpack().value).collect(),
             raw: samples

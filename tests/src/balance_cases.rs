@@ -4,7 +4,7 @@ use crate::cases::{groups, value, FLOATS, INTS, PLANES, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::kernels::{apply, balance, buckets};
+use vrrt_core::kernels::{apply, balance, buckets, refill};
 use vrrt_core::payload::{PackedSample, Sample};
 
 /// Random requests of two plane groups (group-stacked) and their bucket histograms, as
@@ -76,6 +76,7 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&counts, INTS),
             BufferSpec::from_pod(&[balance::Balance::default(); 2], BALANCE),
             BufferSpec::from_pod(&[7u32; 8], INTS),
+            BufferSpec::from_pod(&[rng.random_range(0..300), 7, 7, 7, 40, 7, 7, 7], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: [1, 1, 1],
@@ -87,7 +88,7 @@ pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let p = balance_params(rng, w, h);
     let rates = balance::group_rates(&counts, &p);
     let decisions: Vec<balance::Balance> = (0..p.groups)
-        .map(|g| balance::solve(&counts, g, rates[g as usize], &p))
+        .map(|g| balance::solve(&counts, g, rates[g as usize], 0.0, &p))
         .collect();
     let n = (w * h) as usize;
     let samples: Vec<PackedSample> = (0..n * PLANES as usize)
@@ -122,5 +123,49 @@ pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::APPLY, w, h, p.groups),
+    }
+}
+
+pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, _) = histogram(rng, w, h);
+    let lists = rng.random_range(1..=2);
+    let n = (w * h * PLANES) as usize;
+    // Half the pixels untraced, `λ` around the threshold, some NaN.
+    let samples: Vec<PackedSample> = (0..n)
+        .map(|_| Sample {
+            m1: value(rng),
+            m2: value(rng),
+            rays: [0, 0, 1, 3][rng.random_range(0..4)],
+            first: 0.0,
+        })
+        .map(|s| s.pack())
+        .collect();
+    let changes: Vec<f32> = (0..n)
+        .map(|_| match rng.random_range(0..8) {
+            0 => f32::NAN,
+            1 => 0.5,
+            _ => rng.random_range(0.0..1.0),
+        })
+        .collect();
+    let params = refill::RefillParams {
+        width: w,
+        height: h,
+        planes: PLANES,
+        plane_groups: if lists == 2 { 0x10 } else { 0 },
+        threshold: 0.5,
+        ..Default::default()
+    };
+    Case {
+        name: format!("refill {w}x{h}x{PLANES} groups {lists}"),
+        kernel: &vrrt_core::kernels::REFILL,
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&changes, FLOATS),
+            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),
     }
 }

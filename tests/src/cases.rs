@@ -32,6 +32,7 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("variance", variance_case),
     ("balance", crate::balance_cases::balance_case),
     ("apply", crate::balance_cases::apply_case),
+    ("refill", crate::balance_cases::refill_case),
     ("fill", fill_case),
     ("copy", copy_case),
     ("gbuffer", crate::trace_cases::gbuffer_case),

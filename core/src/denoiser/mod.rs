@@ -36,7 +36,8 @@ use crate::buffers::{self, TooLarge};
 use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
-    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, reproject, variance,
+    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, refill, reproject,
+    variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -155,12 +156,15 @@ pub struct Denoiser {
     decision: BufferId,
     noise: BufferId,
     args: BufferId,
+    refill_args: BufferId,
     counters: BufferId,
     gradient_keys: BufferId,
     gradient_raw: BufferId,
     gradient: [BufferId; 2],
     gradient_out: usize,
     gradient_ran: bool,
+    /// This frame's change detector ran ([`Self::detect_changes`]).
+    detected: bool,
     kept_changes: Option<BufferId>,
     tiles: BufferId,
     tile_histogram: BufferId,
@@ -211,6 +215,11 @@ impl Denoiser {
         exec.write_buffer(noise, bytemuck::cast_slice(&blue_noise::generate_mask()))?;
         let counters = id("counters")[0];
         exec.write_buffer(counters, &[0; COUNTERS_LEN as usize * 4])?;
+        // The first balancer reads it as last frame's refill counts.
+        let refill_args = id("refill_args")[0];
+        let zeros = [0u8; (balance::MAX_GROUPS * apply::ARGS_LEN * 4) as usize];
+        let args_bytes = (settings.groups() * apply::ARGS_LEN * 4) as usize;
+        exec.write_buffer(refill_args, &zeros[..args_bytes])?;
         Ok(Denoiser {
             settings,
             width,
@@ -228,12 +237,14 @@ impl Denoiser {
             decision: id("decision")[0],
             noise,
             args: id("args")[0],
+            refill_args,
             counters,
             gradient_keys: id("gradient_keys")[0],
             gradient_raw: id("gradient_raw")[0],
             gradient: id("gradient"),
             gradient_out: 0,
             gradient_ran: false,
+            detected: false,
             kept_changes: None,
             tiles: id("tiles")[0],
             tile_histogram: id("tile_histogram")[0],
@@ -381,6 +392,21 @@ impl Denoiser {
         self.args
     }
 
+    /// The refill lists ([`Self::detect_changes`]): the detector's dropped pixels that traced
+    /// nothing, one ray each, one list per plane group at `group × pixels` (as [`Self::work`]).
+    /// Valid from [`Self::detect_changes`] to [`Self::resolve`], in the filter buffer that
+    /// holds neither the detector's `λ` nor, by then, a live work list.
+    pub fn refill_work(&self) -> BufferId {
+        self.filtered[1]
+    }
+
+    /// Indirect dispatch arguments of the refill lists (as [`Self::args`]); the counts
+    /// (`[4 · group]`) stay readable until the next frame's [`Self::plan_rays`], which takes them
+    /// off its budget.
+    pub fn refill_args(&self) -> BufferId {
+        self.refill_args
+    }
+
     /// This frame's raygen output (`Sample` per pixel and plane): the caller fills it between
     /// [`Self::plan_rays`] and [`Self::resolve`].
     pub fn samples(&self) -> BufferId {
@@ -499,6 +525,7 @@ impl Denoiser {
         self.prev_frame = self.frame.index;
         self.frame = frame;
         self.gradient_ran = false;
+        self.detected = false;
         exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))
     }
 }

@@ -122,6 +122,7 @@ impl Denoiser {
             counts: self.counts,
             out: self.decision,
             args: self.args,
+            refill: self.refill_args,
         };
         exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
 

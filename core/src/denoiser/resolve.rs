@@ -4,30 +4,75 @@
 use super::*;
 
 impl Denoiser {
-    /// Passes 2.. (after raygen): accumulation, variance estimation and the à-trous iterations.
-    pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+    /// The change detector and its refill lists, after raygen (and before [`Self::resolve`],
+    /// which runs it itself if the host did not). Returns whether refill lists were made: the
+    /// host then traces them like the frame's work lists ([`Self::refill_work`],
+    /// [`Self::refill_args`]) into [`Self::samples`] before [`Self::resolve`].
+    pub fn detect_changes<E: Executor>(&mut self, exec: &mut E) -> Result<bool, E::Error> {
+        self.detect(exec, self.settings.gradient.refill)
+    }
+
+    /// The detector, and the refill lists when `refill` (a host that does not trace them must
+    /// not make them: the next frame's balancer would take their rays off its budget).
+    fn detect<E: Executor>(&mut self, exec: &mut E, refill: bool) -> Result<bool, E::Error> {
+        if self.detected || !self.detects() {
+            return Ok(false);
+        }
+        self.detected = true;
         let s = self.settings;
         let (w, h, planes) = (self.width, self.height, s.planes);
-        // The detector's λ goes to a filter buffer: the filter writes them only after
-        // accumulation, and the work list aliased there is spent by raygen.
-        let changes = self.kept_changes.unwrap_or(self.filtered[0]);
-        let detect = self.detects();
-        if detect {
-            let p = detect::DetectParams {
-                width: w,
-                height: h,
-                radius: s.gradient.detect_radius,
-                z_full: s.gradient.detect_sigma,
-                min_variance: s.gradient.detect_min_variance,
-                ..Default::default()
-            };
-            let pass = kernels::DetectBindings {
-                history: self.history[self.cur],
-                samples: self.samples,
-                changes,
-            };
-            exec.dispatch(&pass.over_grid(&p, w, h, planes))?;
+        let p = detect::DetectParams {
+            width: w,
+            height: h,
+            radius: s.gradient.detect_radius,
+            z_full: s.gradient.detect_sigma,
+            min_variance: s.gradient.detect_min_variance,
+            ..Default::default()
+        };
+        let pass = kernels::DetectBindings {
+            history: self.history[self.cur],
+            samples: self.samples,
+            changes: self.changes_buffer(),
+        };
+        exec.dispatch(&pass.over_grid(&p, w, h, planes))?;
+        if !refill {
+            return Ok(false);
         }
+        let p = refill::RefillParams {
+            width: w,
+            height: h,
+            planes,
+            plane_groups: s.plane_groups,
+            threshold: s.gradient.threshold,
+            ..Default::default()
+        };
+        let pass = kernels::RefillBindings {
+            requests: self.requests,
+            samples: self.samples,
+            changes: self.changes_buffer(),
+            work: self.refill_work(),
+            args: self.refill_args,
+        };
+        exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
+        Ok(true)
+    }
+
+    /// Where the detector's `λ` goes: the kept buffer, or a filter buffer the filter writes only
+    /// after accumulation (the work list aliased there is spent by raygen; the refill lists live
+    /// in the other one).
+    fn changes_buffer(&self) -> BufferId {
+        self.kept_changes.unwrap_or(self.filtered[0])
+    }
+
+    /// Passes 2.. (after raygen): the change detector (without refill lists) unless
+    /// [`Self::detect_changes`] ran, accumulation, variance estimation and the à-trous
+    /// iterations.
+    pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        self.detect(exec, false)?;
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
+        let changes = self.changes_buffer();
+        let detect = self.detects();
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,

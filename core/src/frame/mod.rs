@@ -5,9 +5,9 @@
 //! decided here, so an engine gets the same frame that `vrrt run` measures:
 //!
 //! ```text
-//! absent? ─► temporal ─► G-buffer ─► gradients ─► reflections.prepare ─► rates ─► raygen ─► reuse ─► resolve
-//! (no pass)  reset/moved  (renderer)  (A-SVGF)     tiles, parallax        reproject,        (reflections) accumulate,
-//!                                                                         balance, apply              variance, filter
+//! absent? ─► temporal ─► G-buffer ─► gradients ─► reflections.prepare ─► rates ─► raygen ─► reuse ─► detect ─► raygen ─► resolve
+//! (no pass)  reset/moved  (renderer)  (A-SVGF)     tiles, parallax        reproject,        (reflections) + refill  (refill   accumulate,
+//!                                                                         balance, apply                  lists     lists)    variance, filter
 //! ```
 //!
 //! Rules that live here and nowhere else:
@@ -152,7 +152,8 @@ pub struct Frame {
 
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
-    /// plane count and the parallax plane of `settings` are set from the layout. Reflections
+    /// plane count and the parallax plane of `settings` are set from the layout; shadows take
+    /// the detector's `gradient.shadow_*` values when it is on. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
@@ -164,6 +165,10 @@ impl Frame {
         mut settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         let layout = signal.layout(lights);
+        if matches!(signal, Signal::Shadows) && settings.gradient.detect_radius > 0 {
+            settings.gradient.detect_radius = settings.gradient.shadow_detect_radius;
+            settings.gradient.threshold = settings.gradient.shadow_threshold;
+        }
         settings.planes = layout.planes;
         settings.parallax_plane = layout
             .reflections
@@ -270,6 +275,10 @@ impl Frame {
         trace_planes(exec, self.signal, &self.layout, scene, reflections, &target)?;
         if let Some(r) = reflections {
             r.reuse(exec, &self.denoiser, &gb, &reflection_scene)?;
+        }
+        if self.denoiser.detect_changes(exec)? {
+            let refill = RaygenTarget::refill(&self.denoiser, gb.geometry);
+            trace_planes(exec, self.signal, &self.layout, scene, reflections, &refill)?;
         }
         self.denoiser.resolve(exec)?;
         Ok(FrameReport {

@@ -86,6 +86,15 @@ impl RaygenTarget {
         }
     }
 
+    /// As [`Self::of`], over the denoiser's refill lists ([`Denoiser::detect_changes`]).
+    pub fn refill(denoiser: &Denoiser, geometry: BufferId) -> Self {
+        RaygenTarget {
+            work: denoiser.refill_work(),
+            args: denoiser.refill_args(),
+            ..Self::of(denoiser, geometry)
+        }
+    }
+
     /// The work list that traces plane `plane`.
     pub fn list(&self, plane: u32) -> u32 {
         kernels::plane_group(self.plane_groups, plane)

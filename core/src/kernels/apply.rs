@@ -94,9 +94,7 @@ pub const GROUP_NOISE_SHIFT: [u32; 2] = [23, 41];
 /// each tracing pixel and its rays to the group's list, `work[group · pixels..]` ([`work_entry`]),
 /// and counts them in `args[4 · group]`; `args[4 · group + 1]` ends as the number of
 /// [`LIST_GROUP`]-wide groups (the balancer reset the arguments to `[0, 0, 1, 1]` before this
-/// pass). A pixel that traces nothing gets empty samples in the group's planes. The row reserves
-/// its slots with one atomic add: invocations contending for one counter are what a CPU core pays
-/// for (two threads adding per pixel were 4x slower than one).
+/// pass; [`append`]). A pixel that traces nothing gets empty samples in the group's planes.
 #[inline(always)]
 pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let ApplyIo {
@@ -138,6 +136,24 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         }
         z += 1;
     }
+    append(work, args, group, pixels, row + id.x, traces, rays);
+}
+
+/// Appends the lanes that `trace` (pixels `pix0 + l`, `rays[l]` rays each) to group `group`'s
+/// work list (`work[group · pixels..]`, counted in `args[4 · group]`, whose `args[4 · group + 1]`
+/// ends as the number of [`LIST_GROUP`]-wide groups). The row reserves its slots with one
+/// atomic add: invocations contending for one counter are what a CPU core pays for (two threads
+/// adding per pixel were 4x slower than one).
+#[inline(always)]
+pub fn append<const N: usize>(
+    work: &mut [u32],
+    args: &mut [u32],
+    group: u32,
+    pixels: u32,
+    pix0: u32,
+    traces: Lanes<bool, N>,
+    rays: Lanes<u32, N>,
+) {
     let mut count = 0;
     lanes::each_lane!(l in N {
         count += traces.0[l] as u32;
@@ -150,7 +166,7 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let mut slot = first;
     lanes::each_lane!(l in N {
         if traces.0[l] {
-            work[(group * pixels + slot) as usize] = work_entry(row + id.x + l as u32, rays.0[l]);
+            work[(group * pixels + slot) as usize] = work_entry(pix0 + l as u32, rays.0[l]);
             slot += 1;
         }
     });

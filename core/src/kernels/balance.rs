@@ -274,9 +274,15 @@ fn free_share(
 /// Solves for the thresholds of plane group `group` at `rays_per_pixel`. Its histogram is the
 /// group's part of `counts` (`buckets::count`: totals, then one row per ring). The serial form
 /// of what the balancer's workgroup (`kernels::BALANCE`) computes in parallel, with the same bits.
-pub fn solve(counts: &[u32], group: u32, rays_per_pixel: f32, p: &BalanceParams) -> Balance {
+pub fn solve(
+    counts: &[u32],
+    group: u32,
+    rays_per_pixel: f32,
+    spent: f32,
+    p: &BalanceParams,
+) -> Balance {
     let base = group * COUNTS_LEN;
-    let mut s = Search::new(counts, base, rays_per_pixel, p);
+    let mut s = Search::new(counts, base, rays_per_pixel, spent, p);
     if s.searching == 0 {
         return s.decision;
     }
@@ -318,7 +324,15 @@ pub struct Search {
 impl Search {
     /// What the totals of the histogram at `base` decide: the fixed or kept decision, or a
     /// search for thresholds.
-    pub fn new(counts: &[u32], base: u32, rays_per_pixel: f32, p: &BalanceParams) -> Search {
+    /// `spent`: rays of the group's budget already spent (last frame's refill list,
+    /// [`super::refill`]).
+    pub fn new(
+        counts: &[u32],
+        base: u32,
+        rays_per_pixel: f32,
+        spent: f32,
+        p: &BalanceParams,
+    ) -> Search {
         let base = base as usize;
         let requested = rays_at(counts, base, 0, false);
         let mut active = 0u32;
@@ -327,7 +341,7 @@ impl Search {
             active += counts[base + b as usize];
             b += 1;
         }
-        let budget = rays_per_pixel * active as f32;
+        let budget = math::max(rays_per_pixel * active as f32 - spent, 0.0);
         let mut s = Search {
             decision: Balance {
                 mode: MODE_KEEP,
@@ -472,7 +486,9 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     let g = ids.local_index;
     if g < groups(p) {
         let rates = group_rates(io.counts, p);
-        local.search[g as usize] = Search::new(io.counts, g * COUNTS_LEN, rates[g as usize], p);
+        let spent = io.refill[(g * super::apply::ARGS_LEN) as usize] as f32;
+        let base = g * COUNTS_LEN;
+        local.search[g as usize] = Search::new(io.counts, base, rates[g as usize], spent, p);
     }
 }
 
@@ -517,11 +533,13 @@ pub fn rings(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     }
 }
 
-/// Phase 5: invocation `g` writes group `g`'s decision to `out[g]` and resets its work list's
-/// arguments, `args[4·g..]`, to `[0, 0, 1, 1]` (count, groups x, y, z).
+/// Phase 5: invocation `g` writes group `g`'s decision to `out[g]` and resets its work lists'
+/// arguments, `args[4·g..]` and `refill[4·g..]`, to `[0, 0, 1, 1]` (count, groups x, y, z).
 #[inline]
 pub fn write(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut Shared) {
-    let BalanceIo { out, args, .. } = io;
+    let BalanceIo {
+        out, args, refill, ..
+    } = io;
     let g = ids.local_index;
     if g < groups(p) {
         let s = local.search[g as usize];
@@ -531,10 +549,16 @@ pub fn write(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
             s.decision
         };
         let a = (g * super::apply::ARGS_LEN) as usize;
+        // Written out: an array of the two storage references is a pointer to a pointer, which
+        // SPIR-V's logical addressing does not have.
         args[a] = 0;
         args[a + 1] = 0;
         args[a + 2] = 1;
         args[a + 3] = 1;
+        refill[a] = 0;
+        refill[a + 1] = 0;
+        refill[a + 2] = 1;
+        refill[a + 3] = 1;
     }
 }
 

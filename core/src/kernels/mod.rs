@@ -15,6 +15,7 @@ pub mod fill;
 pub mod gbuffer;
 pub mod gradient;
 pub mod raygen;
+pub mod refill;
 pub mod reflect;
 pub mod reproject;
 mod table;

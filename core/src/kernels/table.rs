@@ -138,13 +138,15 @@ crate::kernel_table! {
 
     /// The load balancer ([`balance::setup`], [`balance::sums`], [`balance::pick`],
     /// [`balance::rings`], [`balance::write`]: [`balance::solve`] with its sums spread over one
-    /// workgroup); `counts` from `count_buckets`, one workgroup.
+    /// workgroup); `counts` from `count_buckets`; `refill` holds last frame's refill lists'
+    /// arguments, whose counts come off the budget, and is reset with `args`; one workgroup.
     balance => BALANCE, BalanceBindings, BalanceIo: workgroup balance::Shared,
     phases [balance::setup, balance::sums, balance::pick, balance::rings, balance::write],
     threads(128, 1, 1), params balance::BalanceParams {
         counts: read u32,
         out: write Balance,
         args: write u32,
+        refill: update u32,
     }
 
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
@@ -156,6 +158,17 @@ crate::kernel_table! {
         work: write WorkEntry,
         args: atomic u32,
         samples: write PackedSample,
+    }
+
+    /// [`refill::refill`]: the detector's dropped, untraced pixels as a second work list per
+    /// plane group (after the detector, before the second raygen and accumulation).
+    refill => REFILL, RefillBindings, RefillIo: lanes(16, avx512 64) refill::refill,
+    threads(8, 8, 1), params refill::RefillParams {
+        requests: read Request,
+        samples: read PackedSample,
+        changes: read f32,
+        work: write WorkEntry,
+        args: atomic u32,
     }
 
     /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.

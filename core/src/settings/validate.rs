@@ -208,6 +208,18 @@ impl GradientSettings {
             "gradient.detect_min_variance",
             self.detect_min_variance,
             ">= 0",
+        )?;
+        check(
+            self.shadow_detect_radius <= 4,
+            "gradient.shadow_detect_radius",
+            self.shadow_detect_radius as f32,
+            "0..=4",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.shadow_threshold),
+            "gradient.shadow_threshold",
+            self.shadow_threshold,
+            "0..=1",
         )
     }
 }

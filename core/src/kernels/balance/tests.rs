@@ -18,7 +18,7 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
 
 /// The decision of a one-group histogram.
 fn solve_one(c: &[u32], p: &BalanceParams) -> Balance {
-    solve(c, 0, p.rays_per_pixel, p)
+    solve(c, 0, p.rays_per_pixel, 0.0, p)
 }
 
 /// A histogram with `n` pixels per (bucket, ring) entry given.
@@ -70,6 +70,18 @@ fn over_budget_drops_the_highest_requests_first() {
         "converged pixels keep their ray"
     );
     assert!(bucket_to_rate(granted_bucket(79, 0, &d)) >= 1.0);
+}
+
+#[test]
+fn last_frames_refill_rays_come_off_the_budget() {
+    // 100 pixels asking for 1 ray, 10 rays already spent by last frame's refill list.
+    let c = histogram(&[(64, 0, 100)]);
+    let d = solve(&c, 0, 1.0, 10.0, &params(1.0, 1, 1));
+    assert_eq!(d.budget, 90.0);
+    assert_eq!(d.mode, MODE_OVER);
+    assert!(granted(&c, 1, &d) <= 90.0, "{}", granted(&c, 1, &d));
+    // More spent than the whole budget: nothing is left, not a negative budget.
+    assert_eq!(solve(&c, 0, 1.0, 500.0, &params(1.0, 1, 1)).budget, 0.0);
 }
 
 #[test]
@@ -206,7 +218,7 @@ fn a_quiet_signal_gives_rays_to_one_that_asks_at_equal_total() {
     approx::assert_relative_eq!(rates[0], 0.25, max_relative = 1e-5);
     approx::assert_relative_eq!(rates[1], 1.75, max_relative = 1e-5);
     // Each group's decision spends its own rate.
-    let d = solve(&c, 1, rates[1], &p);
+    let d = solve(&c, 1, rates[1], 0.0, &p);
     approx::assert_relative_eq!(d.budget, 175.0, max_relative = 1e-5);
 }
 
@@ -275,8 +287,13 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
         };
         let rates = group_rates(&c, &p);
+        // Last frame's refill lists: their counts come off each group's budget.
+        let mut refill = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
+        for g in 0..groups as usize {
+            refill[4 * g] = next(3) * next(200);
+        }
         let serial: Vec<Balance> = (0..groups)
-            .map(|g| solve(&c, g, rates[g as usize], &p))
+            .map(|g| solve(&c, g, rates[g as usize], refill[4 * g as usize] as f32, &p))
             .collect();
         let mut out = vec![Balance::default(); groups as usize];
         let mut args = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
@@ -294,6 +311,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
                     counts: &c,
                     out: &mut out,
                     args: &mut args,
+                    refill: &mut refill,
                 };
                 phase(ids, &p, io, &mut local);
             }
@@ -306,5 +324,6 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             );
         }
         assert!(args.chunks(4).all(|a| a == [0, 0, 1, 1]));
+        assert!(refill.chunks(4).all(|a| a == [0, 0, 1, 1]));
     }
 }
