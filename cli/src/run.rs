@@ -51,8 +51,8 @@ pub struct RunArgs {
     /// are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
     /// the other options start from, and they win over it: `--denoiser` applies its changes on
     /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
-    /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`
-    /// and `plane_groups`.
+    /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
+    /// `plane_groups` and `shadow_planes`.
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.

@@ -35,6 +35,11 @@ pub struct Settings {
     /// plane traced together. `Frame` sets it from the signal's layout when
     /// [`RateSettings::per_signal`].
     pub plane_groups: u32,
+    /// Planes that take the shadows' detector window ([`GradientSettings::shadow_detect_radius`],
+    /// [`GradientSettings::shadow_threshold`]), one bit per plane from plane 0 up; the others
+    /// take `detect_radius` and `threshold`. 0 (default): none. `Frame` sets it from the
+    /// signal's layout, so a shared frame's shadow planes get the shadows' window too.
+    pub shadow_planes: u32,
     /// Reprojection and accumulation of history.
     pub temporal: TemporalSettings,
     /// Ray rates: the budget, VRRT's supersampling, undersampling and load balancing.
@@ -185,14 +190,15 @@ pub struct GradientSettings {
     /// Trace one ray, in the same frame, for each pixel whose history the detector drops and that
     /// traced none (`kernels::refill`; default on); the rays come off the next frame's budget.
     pub refill: bool,
-    /// `detect_radius` of shadow signals (`frame::Signal::Shadows`) when the detector is on
-    /// (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
+    /// `detect_radius` of the shadow planes ([`Settings::shadow_planes`]) when the detector is
+    /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history
     /// lags. Room/bunny/dragon at 1 rpp, moving relMSE 0.416/0.206/0.914 at radius 2 and
     /// threshold 0.5, 0.340/0.140/0.679 at these defaults. AO's soft, faint changes need the
     /// larger window to be significant (radius 1: bunny AO 0.0070 → 0.0080).
     pub shadow_detect_radius: u32,
-    /// `threshold` of shadow signals when the detector is on (0..=1; default 0.3).
+    /// The detector's `threshold` on the shadow planes ([`Settings::shadow_planes`]; 0..=1;
+    /// default 0.3). The prepass's `λ` keeps `threshold` on every plane.
     pub shadow_threshold: f32,
 }
 
@@ -232,6 +238,7 @@ impl Default for Settings {
             planes: 1,
             parallax_plane: None,
             plane_groups: 0,
+            shadow_planes: 0,
             temporal: TemporalSettings::default(),
             rates: RateSettings::default(),
             gradient: GradientSettings::default(),
@@ -401,6 +408,12 @@ impl Settings {
             "plane_groups",
             self.plane_groups as f32,
             "4 bits per plane: groups 0, 1, … in plane order, at most 4, none past the planes",
+        )?;
+        check(
+            self.shadow_planes >> self.planes == 0,
+            "shadow_planes",
+            self.shadow_planes as f32,
+            "one bit per plane, none past the planes",
         )?;
         if let Some(z) = self.parallax_plane {
             check(

@@ -153,10 +153,15 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         planes: PLANES,
         plane_groups: if lists == 2 { 0x10 } else { 0 },
         threshold: 0.5,
+        shadow_threshold: 0.25,
+        shadow_planes: rng.random_range(0..1 << PLANES),
         ..Default::default()
     };
     Case {
-        name: format!("refill {w}x{h}x{PLANES} groups {lists}"),
+        name: format!(
+            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b}",
+            params.shadow_planes
+        ),
         kernel: &vrrt_core::kernels::REFILL,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),

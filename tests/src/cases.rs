@@ -191,12 +191,13 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         storage,
         use_changes: rng.random_range(0..2),
         change_threshold: 0.5,
-        _pad: [0; 2],
+        shadow_threshold: 0.25,
+        shadow_planes: rng.random_range(0..1 << PLANES),
     };
     Case {
         name: format!(
-            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {}",
-            params.clamp_radius, params.use_changes
+            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {} shadows {:b}",
+            params.clamp_radius, params.use_changes, params.shadow_planes
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![
@@ -218,12 +219,17 @@ fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         width: w,
         height: h,
         radius: rng.random_range(0..4),
+        shadow_radius: rng.random_range(0..4),
+        shadow_planes: rng.random_range(0..1 << PLANES),
         z_full: [1.0, 3.0, 5.0][rng.random_range(0..3)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         ..Default::default()
     };
     Case {
-        name: format!("detect {w}x{h}x{PLANES} radius {}", params.radius),
+        name: format!(
+            "detect {w}x{h}x{PLANES} radius {} shadows {:b} radius {}",
+            params.radius, params.shadow_planes, params.shadow_radius
+        ),
         kernel: &vrrt_core::kernels::DETECT,
         buffers: vec![
             BufferSpec::from_pod(&history, PAYLOAD),

@@ -25,6 +25,8 @@ impl Denoiser {
             width: w,
             height: h,
             radius: s.gradient.detect_radius,
+            shadow_radius: s.gradient.shadow_detect_radius,
+            shadow_planes: s.shadow_planes,
             z_full: s.gradient.detect_sigma,
             min_variance: s.gradient.detect_min_variance,
             ..Default::default()
@@ -44,6 +46,8 @@ impl Denoiser {
             planes,
             plane_groups: s.plane_groups,
             threshold: s.gradient.threshold,
+            shadow_threshold: s.gradient.shadow_threshold,
+            shadow_planes: s.shadow_planes,
             ..Default::default()
         };
         let pass = kernels::RefillBindings {
@@ -89,7 +93,8 @@ impl Denoiser {
                 },
             use_changes: detect as u32,
             change_threshold: s.gradient.threshold,
-            _pad: [0; 2],
+            shadow_threshold: s.gradient.shadow_threshold,
+            shadow_planes: s.shadow_planes,
         };
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],

@@ -152,8 +152,8 @@ pub struct Frame {
 
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
-    /// plane count and the parallax plane of `settings` are set from the layout; shadows take
-    /// the detector's `gradient.shadow_*` values when it is on. Reflections
+    /// plane count, the parallax plane and the shadow planes (which take the detector's
+    /// `gradient.shadow_*` window) of `settings` are set from the layout. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
@@ -165,11 +165,8 @@ impl Frame {
         mut settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         let layout = signal.layout(lights);
-        if matches!(signal, Signal::Shadows) && settings.gradient.detect_radius > 0 {
-            settings.gradient.detect_radius = settings.gradient.shadow_detect_radius;
-            settings.gradient.threshold = settings.gradient.shadow_threshold;
-        }
         settings.planes = layout.planes;
+        settings.shadow_planes = layout.shadow_planes();
         settings.parallax_plane = layout
             .reflections
             .filter(|_| signal.reflections().is_some_and(|r| r.parallax));

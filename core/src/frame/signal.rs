@@ -39,6 +39,12 @@ pub struct PlaneLayout {
 }
 
 impl PlaneLayout {
+    /// The shadow planes as a bit mask (`Settings::shadow_planes`).
+    pub fn shadow_planes(&self) -> u32 {
+        self.shadows
+            .map_or(0, |(first, n)| ((1u32 << n) - 1) << first)
+    }
+
     /// One plane group per signal, in plane order (`Settings::plane_groups`): AO, the shadows
     /// of every light, reflections.
     pub fn plane_groups(&self) -> u32 {
@@ -160,5 +166,19 @@ mod tests {
         assert_eq!(all.layout(2).plane_groups(), 0x2110);
         assert_eq!(all.layout(1).plane_groups(), 0x210);
         assert_eq!(Signal::Shadows.layout(3).plane_groups(), 0);
+    }
+
+    #[test]
+    fn the_shadow_planes_are_marked_wherever_they_are() {
+        let all = Signal::All {
+            max_distance: 1.0,
+            reflections: ReflectionSettings::default(),
+        };
+        assert_eq!(all.layout(2).shadow_planes(), 0b0110);
+        assert_eq!(Signal::Shadows.layout(3).shadow_planes(), 0b111);
+        assert_eq!(
+            Signal::Ao { max_distance: 1.0 }.layout(3).shadow_planes(),
+            0
+        );
     }
 }

@@ -10,8 +10,8 @@
 //! clamp of the history, f32 merge, then storage at the history's
 //! precision with the stuck correction ([`payload::store`]).
 
-use super::plane_index;
 use super::AccumulateIo;
+use super::{detect, plane_index};
 use crate::lanes::{self, clamp_column, Lanes};
 use crate::payload::{
     self, MomentLanes, PackedPayload, PackedSample, Payload, PayloadLanes, Sample,
@@ -47,8 +47,10 @@ pub struct AccumulateParams {
     pub use_changes: u32,
     /// `λ` above which history is dropped.
     pub change_threshold: f32,
-    /// Padding.
-    pub _pad: [u32; 2],
+    /// `change_threshold` of the planes in `shadow_planes`.
+    pub shadow_threshold: f32,
+    /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
+    pub shadow_planes: u32,
 }
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
@@ -122,6 +124,12 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         Lanes::splat(0.0)
     };
     let max = quantize::max_value(p.storage);
+    let threshold = detect::threshold(
+        p.change_threshold,
+        p.shadow_threshold,
+        p.shadow_planes,
+        id.z,
+    );
     let mut curr = [Sample::default(); N];
     let mut prev = stored;
     let (mut dropped, mut clamped) = (0u32, 0u32);
@@ -141,7 +149,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         }
         curr[l] = c;
         // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
-        let shortened = if lambda.0[l] > p.change_threshold {
+        let shortened = if lambda.0[l] > threshold {
             0.0
         } else {
             stored.count.0[l] * (1.0 - lambda.0[l])

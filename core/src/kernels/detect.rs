@@ -16,8 +16,8 @@
 //! below `z_full − 1`. A rare ray that disagrees with a converged pixel is significant but moves
 //! the window sums little, so it shortens history by little.
 
-use super::plane_index;
 use super::DetectIo;
+use super::{plane_in, plane_index};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::payload::{PackedPayload, PackedSample};
@@ -34,15 +34,17 @@ pub struct DetectParams {
     pub height: u32,
     /// Window radius in pixels.
     pub radius: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Window radius of the planes in `shadow_planes`.
+    pub shadow_radius: u32,
     /// Significance (in standard deviations of `D`) from which a change counts fully.
     pub z_full: f32,
     /// Floor of the per-ray variance (signal units squared): a converged pixel's history
     /// variance may read 0.
     pub min_variance: f32,
+    /// Planes (bit per plane) that take `shadow_radius` (`Settings::shadow_planes`).
+    pub shadow_planes: u32,
     /// Padding.
-    pub _pad1: [f32; 2],
+    pub _pad: u32,
 }
 
 /// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
@@ -58,7 +60,11 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
-    let r = p.radius as i32;
+    let r = if plane_in(p.shadow_planes, id.z) {
+        p.shadow_radius
+    } else {
+        p.radius
+    } as i32;
     let x0 = id.x as i32;
     // Window sums of this frame's means, the history means and the variance of their difference.
     let mut sums = [Lanes::<f32, N>::splat(0.0); 3];
@@ -128,6 +134,17 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     });
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     lambda.store(changes, plane_index(id, w, h), live);
+}
+
+/// The `λ` above which plane `plane` drops history: `shadow` on the planes of `shadow_planes`
+/// (`Settings::shadow_planes`), `general` on the others.
+#[inline]
+pub fn threshold(general: f32, shadow: f32, shadow_planes: u32, plane: u32) -> f32 {
+    if plane_in(shadow_planes, plane) {
+        shadow
+    } else {
+        general
+    }
 }
 
 /// What the pixels of `N` lanes add to the window sums around them (module rule): this frame's
@@ -220,6 +237,20 @@ mod tests {
     /// `λ` of every pixel of a `w × h` image of pseudo-random history and samples (some
     /// pixels untraced, without history or NaN), computed `N` lanes per call.
     fn lambdas<const N: usize>(w: u32, h: u32, radius: u32) -> std::vec::Vec<u32> {
+        let p = DetectParams {
+            width: w,
+            height: h,
+            radius,
+            z_full: 1.5,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        lambdas_with::<N>(&p)
+    }
+
+    /// [`lambdas`] of plane 0 under the parameters `p`.
+    fn lambdas_with<const N: usize>(p: &DetectParams) -> std::vec::Vec<u32> {
+        let (w, h) = (p.width, p.height);
         let mut rng = 0x9e37_79b9u32;
         let mut next = move || {
             rng ^= rng << 13;
@@ -256,14 +287,6 @@ mod tests {
             );
         }
         let mut changes = std::vec![0.0f32; (w * h) as usize];
-        let p = DetectParams {
-            width: w,
-            height: h,
-            radius,
-            z_full: 1.5,
-            min_variance: 1e-4,
-            ..Default::default()
-        };
         for y in 0..h {
             for x in (0..w).step_by(N) {
                 let io = DetectIo {
@@ -271,7 +294,7 @@ mod tests {
                     samples: &samples,
                     changes: &mut changes,
                 };
-                detect::<N>(UVec3::new(x, y, 0), &p, io);
+                detect::<N>(UVec3::new(x, y, 0), p, io);
             }
         }
         changes.iter().map(|c| c.to_bits()).collect()
@@ -287,6 +310,26 @@ mod tests {
             assert_eq!(lambdas::<8>(37, 11, radius), one, "radius {radius}");
             assert_eq!(lambdas::<16>(37, 11, radius), one, "radius {radius}");
         }
+    }
+
+    #[test]
+    fn shadow_planes_take_the_shadow_radius() {
+        let (w, h) = (37, 11);
+        let one = lambdas::<8>(w, h, 1);
+        let mut p = DetectParams {
+            width: w,
+            height: h,
+            radius: 3,
+            shadow_radius: 1,
+            z_full: 1.5,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        assert_ne!(lambdas_with::<8>(&p), one, "radius 3 must differ");
+        p.shadow_planes = 1;
+        assert_eq!(lambdas_with::<8>(&p), one);
+        p.shadow_planes = 2;
+        assert_eq!(lambdas_with::<8>(&p), lambdas::<8>(w, h, 3));
     }
 
     #[test]

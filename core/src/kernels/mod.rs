@@ -37,6 +37,13 @@ pub fn pixel_index(x: u32, y: u32, width: u32) -> usize {
     (y * width + x) as usize
 }
 
+/// Whether plane `plane` is in the bit mask `planes` (bit `z` for plane `z`; e.g.
+/// `Settings::shadow_planes`).
+#[inline]
+pub fn plane_in(planes: u32, plane: u32) -> bool {
+    plane < 32 && (planes >> plane) & 1 != 0
+}
+
 /// Most signal planes a packed plane-group map holds (4 bits each).
 pub const MAX_GROUPED_PLANES: u32 = 8;
 

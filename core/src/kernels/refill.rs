@@ -31,8 +31,12 @@ pub struct RefillParams {
     pub plane_groups: u32,
     /// `λ` above which accumulation drops history (`gradient.threshold`).
     pub threshold: f32,
+    /// `threshold` of the planes in `shadow_planes`.
+    pub shadow_threshold: f32,
+    /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
+    pub shadow_planes: u32,
     /// Padding.
-    pub _pad: [u32; 3],
+    pub _pad: u32,
 }
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]): appends
@@ -58,10 +62,11 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     let requests = Lanes::<u32, N>::load_row(requests, group * pixels + row, x0, w);
     let mut traced = Lanes::<bool, N>::splat(false);
     let mut dropped = Lanes::<bool, N>::splat(false);
-    let threshold = p.threshold;
     let mut z = 0;
     while z < p.planes {
         if super::plane_group(p.plane_groups, z) == group {
+            let threshold =
+                super::detect::threshold(p.threshold, p.shadow_threshold, p.shadow_planes, z);
             let s = Lanes::<PackedSample, N>::load_row(samples, z * pixels + row, x0, w);
             let lambda = Lanes::<f32, N>::load_row(changes, z * pixels + row, x0, w);
             traced = traced.zip(s, |t, s| t || s.rays() > 0);
