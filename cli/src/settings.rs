@@ -153,6 +153,7 @@ mod tests {
                 detect_sigma: 2.5,
                 detect_min_variance: 3.0e-5,
                 refill: false,
+                refill_rays: 7,
                 shadow_detect_radius: 3,
                 shadow_threshold: 0.25,
             },

@@ -60,6 +60,7 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         plane_groups: if groups == 2 { 0x10 } else { 0 },
         planes: PLANES,
         signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
+        refill_rays: rng.random_range(1..=16),
     }
 }
 
@@ -155,7 +156,7 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         threshold: 0.5,
         shadow_threshold: 0.25,
         shadow_planes: rng.random_range(0..1 << PLANES),
-        ..Default::default()
+        rays: rng.random_range(1..=16),
     };
     Case {
         name: format!(

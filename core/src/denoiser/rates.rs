@@ -117,6 +117,7 @@ impl Denoiser {
             plane_groups: s.plane_groups,
             planes: s.planes,
             signal_floor: s.rates.signal_floor,
+            refill_rays: s.gradient.refill_rays,
         };
         let balance = kernels::BalanceBindings {
             counts: self.counts,

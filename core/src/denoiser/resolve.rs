@@ -48,6 +48,7 @@ impl Denoiser {
             threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
             shadow_planes: s.shadow_planes,
+            rays: s.gradient.refill_rays,
             ..Default::default()
         };
         let pass = kernels::RefillBindings {

@@ -70,6 +70,8 @@ pub struct BalanceParams {
     /// Least share of the rays a group gets under [`POLICY_BALANCE`], as a fraction of its equal
     /// share (0..=1); 1 gives every group `rays_per_pixel` ([`group_rates`]).
     pub signal_floor: f32,
+    /// Rays of each entry of last frame's refill lists (`refill`, [`super::refill`]).
+    pub refill_rays: u32,
 }
 
 /// The balancer's decision (what [`super::apply`] reads) and its bookkeeping.
@@ -486,7 +488,7 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     let g = ids.local_index;
     if g < groups(p) {
         let rates = group_rates(io.counts, p);
-        let spent = io.refill[(g * super::apply::ARGS_LEN) as usize] as f32;
+        let spent = (io.refill[(g * super::apply::ARGS_LEN) as usize] * p.refill_rays) as f32;
         let base = g * COUNTS_LEN;
         local.search[g as usize] = Search::new(io.counts, base, rates[g as usize], spent, p);
     }

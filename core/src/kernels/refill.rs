@@ -5,9 +5,10 @@
 //! rays. Undersampling leaves 45–49% of a converged image untraced each frame, so where it drops
 //! history (`λ` above the threshold) such a pixel would have no estimate at all and the à-trous
 //! filter would fill it from its far taps (on the dragon, two pixels whose reference is 0 came
-//! out at 8.7 and 10.3, pulled from a highlight 24 rows away). One ray gives it an estimate of
-//! its own. Its rays come out of the ray budget: the balancer takes the lists' counts off the next
-//! frame's budget ([`super::balance`]).
+//! out at 8.7 and 10.3, pulled from a highlight 24 rows away). A few rays give it an estimate of
+//! its own, as a fresh pixel's request would have. Its rays come out of the ray budget: the
+//! balancer takes the lists' counts times their rays off the next frame's budget
+//! ([`super::balance`]).
 
 use super::apply::append;
 use super::buckets::BUCKET_COUNT;
@@ -35,13 +36,13 @@ pub struct RefillParams {
     pub shadow_threshold: f32,
     /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
     pub shadow_planes: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Rays of each listed pixel (`gradient.refill_rays`).
+    pub rays: u32,
 }
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]): appends
 /// each pixel that asked for rays (not sky, not masked), traced none in the group's planes, and
-/// whose history the detector drops in one of them, with one ray, to the group's list
+/// whose history the detector drops in one of them, with `rays` rays, to the group's list
 /// ([`append`]; the balancer reset `args` to `[0, 0, 1, 1]`).
 #[inline(always)]
 pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
@@ -86,6 +87,6 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         pixels,
         row + id.x,
         refills,
-        Lanes::splat(1),
+        Lanes::splat(p.rays),
     );
 }

@@ -210,6 +210,12 @@ impl GradientSettings {
             ">= 0",
         )?;
         check(
+            (1..=16).contains(&self.refill_rays),
+            "gradient.refill_rays",
+            self.refill_rays as f32,
+            "1..=16",
+        )?;
+        check(
             self.shadow_detect_radius <= 4,
             "gradient.shadow_detect_radius",
             self.shadow_detect_radius as f32,

@@ -13,6 +13,7 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
         plane_groups: 0,
         planes: 1,
         signal_floor: 1.0,
+        refill_rays: 1,
     }
 }
 
@@ -285,15 +286,19 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             plane_groups: [0x0, 0x10, 0x210, 0x3210][groups as usize - 1],
             planes: groups,
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
+            refill_rays: 1 + next(8),
         };
         let rates = group_rates(&c, &p);
-        // Last frame's refill lists: their counts come off each group's budget.
+        // Last frame's refill lists: their counts times their rays come off each group's budget.
         let mut refill = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
         for g in 0..groups as usize {
             refill[4 * g] = next(3) * next(200);
         }
         let serial: Vec<Balance> = (0..groups)
-            .map(|g| solve(&c, g, rates[g as usize], refill[4 * g as usize] as f32, &p))
+            .map(|g| {
+                let spent = (refill[4 * g as usize] * p.refill_rays) as f32;
+                solve(&c, g, rates[g as usize], spent, &p)
+            })
             .collect();
         let mut out = vec![Balance::default(); groups as usize];
         let mut args = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
