@@ -49,7 +49,6 @@ impl Denoiser {
             shadow_threshold: s.gradient.shadow_threshold,
             shadow_planes: s.shadow_planes,
             rays: s.gradient.refill_rays,
-            ..Default::default()
         };
         let pass = kernels::RefillBindings {
             requests: self.requests,
