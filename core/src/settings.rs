@@ -192,8 +192,8 @@ pub struct GradientSettings {
     /// budget.
     pub refill: bool,
     /// Rays of each refilled pixel (1..=16; default 4: room shadows at 1 rpp, moving relMSE
-    /// 0.340 with one ray, 0.305 with 2, 0.291 with 4, 0.290 with 8; the other scenes and signals
-    /// within 1%). A dropped pixel is a fresh one, and a fresh one asks for up to 16.
+    /// 0.340 with one ray, 0.305 with 2, 0.289 with 4, 0.290 with 8; the other scenes and signals
+    /// within 2%). A dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
     /// `detect_radius` of the shadow planes ([`Settings::shadow_planes`]) when the detector is
     /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the

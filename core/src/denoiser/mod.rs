@@ -393,9 +393,9 @@ impl Denoiser {
     }
 
     /// The refill lists ([`Self::detect_changes`]): the detector's dropped pixels that traced
-    /// nothing, one ray each, one list per plane group at `group × pixels` (as [`Self::work`]).
-    /// Valid from [`Self::detect_changes`] to [`Self::resolve`], in the filter buffer that
-    /// holds neither the detector's `λ` nor, by then, a live work list.
+    /// nothing, `gradient.refill_rays` rays each, one list per plane group at `group × pixels`
+    /// (as [`Self::work`]). Valid from [`Self::detect_changes`] to [`Self::resolve`], in the
+    /// filter buffer that holds neither the detector's `λ` nor, by then, a live work list.
     pub fn refill_work(&self) -> BufferId {
         self.filtered[1]
     }
