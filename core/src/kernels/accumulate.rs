@@ -124,7 +124,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         Lanes::splat(0.0)
     };
     let max = quantize::max_value(p.storage);
-    let threshold = detect::threshold(
+    let threshold = detect::per_plane(
         p.change_threshold,
         p.shadow_threshold,
         p.shadow_planes,

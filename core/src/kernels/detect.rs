@@ -60,11 +60,7 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
-    let r = if plane_in(p.shadow_planes, id.z) {
-        p.shadow_radius
-    } else {
-        p.radius
-    } as i32;
+    let r = per_plane(p.radius, p.shadow_radius, p.shadow_planes, id.z) as i32;
     let x0 = id.x as i32;
     // Window sums of this frame's means, the history means and the variance of their difference.
     let mut sums = [Lanes::<f32, N>::splat(0.0); 3];
@@ -136,10 +132,11 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     lambda.store(changes, plane_index(id, w, h), live);
 }
 
-/// The `λ` above which plane `plane` drops history: `shadow` on the planes of `shadow_planes`
-/// (`Settings::shadow_planes`), `general` on the others.
+/// The detector's setting for plane `plane` (its window radius, the `λ` above which history is
+/// dropped): `shadow` on the planes of `shadow_planes` (`Settings::shadow_planes`), `general` on
+/// the others.
 #[inline]
-pub fn threshold(general: f32, shadow: f32, shadow_planes: u32, plane: u32) -> f32 {
+pub fn per_plane<T: Copy>(general: T, shadow: T, shadow_planes: u32, plane: u32) -> T {
     if plane_in(shadow_planes, plane) {
         shadow
     } else {

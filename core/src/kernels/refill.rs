@@ -67,7 +67,7 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     while z < p.planes {
         if super::plane_group(p.plane_groups, z) == group {
             let threshold =
-                super::detect::threshold(p.threshold, p.shadow_threshold, p.shadow_planes, z);
+                super::detect::per_plane(p.threshold, p.shadow_threshold, p.shadow_planes, z);
             let s = Lanes::<PackedSample, N>::load_row(samples, z * pixels + row, x0, w);
             let lambda = Lanes::<f32, N>::load_row(changes, z * pixels + row, x0, w);
             traced = traced.zip(s, |t, s| t || s.rays() > 0);
