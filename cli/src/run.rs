@@ -52,7 +52,7 @@ pub struct RunArgs {
     /// the other options start from, and they win over it: `--denoiser` applies its changes on
     /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
     /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
-    /// `plane_groups` and `shadow_planes`.
+    /// `plane_groups`, `shadow_planes` and `ao_planes`.
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.

@@ -12,8 +12,8 @@ const HEADER: &str = "\
 # VRRT-rs denoiser settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
 # Units and ranges: vrrt_core::settings (one struct per table). `parallax_plane` (a plane index)
-# is absent by default; `vrrt run` and `vrrt bench` set it, `planes`, `plane_groups` and
-# `shadow_planes` from the signal.
+# is absent by default; `vrrt run` and `vrrt bench` set it, `planes`, `plane_groups`,
+# `shadow_planes` and `ao_planes` from the signal.
 ";
 
 /// Parses the text of a settings file and validates it. The error is one line: where (line and
@@ -115,6 +115,7 @@ mod tests {
             parallax_plane: Some(2),
             plane_groups: 0x110,
             shadow_planes: 0b010,
+            ao_planes: 0b001,
             temporal: TemporalSettings {
                 max_history: 1000.5,
                 normal_threshold: -0.3,
@@ -156,6 +157,7 @@ mod tests {
                 refill_rays: 7,
                 shadow_detect_radius: 3,
                 shadow_threshold: 0.25,
+                ao_detect_sigma: 2.5,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -223,12 +223,17 @@ fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         shadow_planes: rng.random_range(0..1 << PLANES),
         z_full: [1.0, 3.0, 5.0][rng.random_range(0..3)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
-        ..Default::default()
+        ao_planes: rng.random_range(0..1 << PLANES),
+        ao_z_full: [1.0, 2.0][rng.random_range(0..2)],
     };
     Case {
         name: format!(
-            "detect {w}x{h}x{PLANES} radius {} shadows {:b} radius {}",
-            params.radius, params.shadow_planes, params.shadow_radius
+            "detect {w}x{h}x{PLANES} radius {} shadows {:b} radius {} ao {:b} σ {}",
+            params.radius,
+            params.shadow_planes,
+            params.shadow_radius,
+            params.ao_planes,
+            params.ao_z_full
         ),
         kernel: &vrrt_core::kernels::DETECT,
         buffers: vec![

@@ -28,8 +28,9 @@ impl Denoiser {
             shadow_radius: s.gradient.shadow_detect_radius,
             shadow_planes: s.shadow_planes,
             z_full: s.gradient.detect_sigma,
+            ao_planes: s.ao_planes,
+            ao_z_full: s.gradient.ao_detect_sigma,
             min_variance: s.gradient.detect_min_variance,
-            ..Default::default()
         };
         let pass = kernels::DetectBindings {
             history: self.history[self.cur],

@@ -167,6 +167,7 @@ impl Frame {
         let layout = signal.layout(lights);
         settings.planes = layout.planes;
         settings.shadow_planes = layout.shadow_planes();
+        settings.ao_planes = layout.ao_planes();
         settings.parallax_plane = layout
             .reflections
             .filter(|_| signal.reflections().is_some_and(|r| r.parallax));

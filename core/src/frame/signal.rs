@@ -45,6 +45,11 @@ impl PlaneLayout {
             .map_or(0, |(first, n)| ((1u32 << n) - 1) << first)
     }
 
+    /// The AO plane as a bit mask (`Settings::ao_planes`).
+    pub fn ao_planes(&self) -> u32 {
+        self.ao.map_or(0, |z| 1 << z)
+    }
+
     /// One plane group per signal, in plane order (`Settings::plane_groups`): AO, the shadows
     /// of every light, reflections.
     pub fn plane_groups(&self) -> u32 {
@@ -180,5 +185,8 @@ mod tests {
             Signal::Ao { max_distance: 1.0 }.layout(3).shadow_planes(),
             0
         );
+        assert_eq!(all.layout(2).ao_planes(), 0b0001);
+        assert_eq!(Signal::Ao { max_distance: 1.0 }.layout(3).ao_planes(), 1);
+        assert_eq!(Signal::Shadows.layout(3).ao_planes(), 0);
     }
 }

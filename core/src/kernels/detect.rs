@@ -43,8 +43,10 @@ pub struct DetectParams {
     pub min_variance: f32,
     /// Planes (bit per plane) that take `shadow_radius` (`Settings::shadow_planes`).
     pub shadow_planes: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Planes (bit per plane) that take `ao_z_full` (`Settings::ao_planes`).
+    pub ao_planes: u32,
+    /// `z_full` of the planes in `ao_planes`.
+    pub ao_z_full: f32,
 }
 
 /// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
@@ -61,6 +63,7 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
         return;
     }
     let r = per_plane(p.radius, p.shadow_radius, p.shadow_planes, id.z) as i32;
+    let z_full = per_plane(p.z_full, p.ao_z_full, p.ao_planes, id.z);
     let x0 = id.x as i32;
     // Window sums of this frame's means, the history means and the variance of their difference.
     let mut sums = [Lanes::<f32, N>::splat(0.0); 3];
@@ -120,7 +123,7 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
         let diff = math::abs(sum_s - sum_m);
         let top = math::max(sum_s, sum_m);
         let z = diff / math::sqrt(var);
-        let significance = math::saturate(z - (p.z_full - 1.0));
+        let significance = math::saturate(z - (z_full - 1.0));
         let lambda = math::saturate(diff / top) * significance;
         if top > 0.0 && var > 0.0 {
             lambda
@@ -132,13 +135,13 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     lambda.store(changes, plane_index(id, w, h), live);
 }
 
-/// The detector's setting for plane `plane` (its window radius, the `λ` above which history is
-/// dropped): `shadow` on the planes of `shadow_planes` (`Settings::shadow_planes`), `general` on
-/// the others.
+/// The detector's setting for plane `plane` (its window radius, significance, the `λ` above
+/// which history is dropped): `special` on the planes of the mask `planes` (e.g.
+/// `Settings::shadow_planes`), `general` on the others.
 #[inline]
-pub fn per_plane<T: Copy>(general: T, shadow: T, shadow_planes: u32, plane: u32) -> T {
-    if plane_in(shadow_planes, plane) {
-        shadow
+pub fn per_plane<T: Copy>(general: T, special: T, planes: u32, plane: u32) -> T {
+    if plane_in(planes, plane) {
+        special
     } else {
         general
     }
@@ -327,6 +330,28 @@ mod tests {
         assert_eq!(lambdas_with::<8>(&p), one);
         p.shadow_planes = 2;
         assert_eq!(lambdas_with::<8>(&p), lambdas::<8>(w, h, 3));
+    }
+
+    #[test]
+    fn ao_planes_take_the_ao_significance() {
+        let mut p = DetectParams {
+            width: 37,
+            height: 11,
+            radius: 2,
+            z_full: 1.5,
+            ao_z_full: 3.0,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        let general = lambdas_with::<8>(&p);
+        p.z_full = 3.0;
+        let strict = lambdas_with::<8>(&p);
+        assert_ne!(general, strict, "the significance must matter here");
+        p.z_full = 1.5;
+        p.ao_planes = 1;
+        assert_eq!(lambdas_with::<8>(&p), strict);
+        p.ao_planes = 2;
+        assert_eq!(lambdas_with::<8>(&p), general);
     }
 
     #[test]

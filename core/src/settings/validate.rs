@@ -226,6 +226,12 @@ impl GradientSettings {
             "gradient.shadow_threshold",
             self.shadow_threshold,
             "0..=1",
+        )?;
+        check(
+            finite(self.ao_detect_sigma) && self.ao_detect_sigma >= 1.0,
+            "gradient.ao_detect_sigma",
+            self.ao_detect_sigma,
+            ">= 1",
         )
     }
 }
