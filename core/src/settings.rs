@@ -186,7 +186,8 @@ pub struct GradientSettings {
     /// Significance, in standard deviations, from which a detected change counts fully (>= 1;
     /// default 1: room at 1 rpp, moving-region relMSE of shadows 0.556 at 3, 0.490 at 2, 0.466
     /// at 1.5; with the refill lists, 1 is better than 1.5 on every signal of room, bunny and
-    /// dragon; without them the dragon's reflections had a frame at relMSE 2.0).
+    /// dragon; without them the dragon's reflections had a frame at relMSE 2.0). The AO planes
+    /// take `ao_detect_sigma`.
     pub detect_sigma: f32,
     /// Per-ray variance the detector assumes at least (signal units squared, >= 0; default
     /// 1e-4): a converged pixel's history may read 0.
