@@ -158,6 +158,9 @@ mod tests {
                 shadow_detect_radius: 3,
                 shadow_threshold: 0.25,
                 ao_detect_sigma: 2.5,
+                shadow_verify_sigma: 0.75,
+                shadow_verify_history: 9.5,
+                shadow_drop_sigma: 2.25,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -216,6 +216,19 @@ pub struct GradientSettings {
     /// static-region relMSE 11% above no detector at 1σ, +3.3% at 1.5σ, +1.4% at 2σ; room AO
     /// whole-sequence 0.00344 → 0.00338, dragon 0.00762 → 0.00783.
     pub ao_detect_sigma: f32,
+    /// Verification of the shadow planes ([`Settings::shadow_planes`]; >= 0, 0 = off; default
+    /// 1.5): a pixel that traced fewer than `refill_rays` and whose own rays lie this many
+    /// standard deviations from its history (`kernels::detect::pixel_z`) joins the refill lists,
+    /// and accumulation drops its history where the `refill_rays` then lie
+    /// `shadow_drop_sigma` from it. A thin umbra that the camera slides under a pixel of lit
+    /// history is one disagreeing ray, which the detector's window dilutes; four rays decide it.
+    pub shadow_verify_sigma: f32,
+    /// History length (rays) from which that test trusts a pixel's history variance (>= 1;
+    /// default 1: a younger history already asks for rays).
+    pub shadow_verify_history: f32,
+    /// Significance of two or more rays against their history from which accumulation drops
+    /// it on the shadow planes (> 0; default 1.5).
+    pub shadow_drop_sigma: f32,
 }
 
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,
@@ -318,6 +331,9 @@ impl Default for GradientSettings {
             refill_rays: 4,
             shadow_detect_radius: 1,
             shadow_threshold: 0.3,
+            shadow_verify_sigma: 1.5,
+            shadow_verify_history: 1.0,
+            shadow_drop_sigma: 1.5,
         }
     }
 }

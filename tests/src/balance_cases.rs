@@ -1,6 +1,6 @@
 //! Equivalence cases of the load balancer (`balance`, `apply`), split off to keep `cases` short.
 
-use crate::cases::{groups, value, FLOATS, INTS, PLANES, SAMPLE};
+use crate::cases::{groups, histories, value, FLOATS, INTS, PAYLOAD, PLANES, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -157,16 +157,21 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         shadow_threshold: 0.25,
         shadow_planes: rng.random_range(0..1 << PLANES),
         rays: rng.random_range(1..=16),
+        verify_sigma: [0.0, 1.0, 1.5][rng.random_range(0..3)],
+        verify_history: [1.0, 4.0][rng.random_range(0..2)],
+        min_variance: [0.0, 1e-4][rng.random_range(0..2)],
+        _pad: 0,
     };
     Case {
         name: format!(
-            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b}",
-            params.shadow_planes
+            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} verify {}",
+            params.shadow_planes, params.verify_sigma
         ),
         kernel: &vrrt_core::kernels::REFILL,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&histories(rng, n), PAYLOAD),
             BufferSpec::from_pod(&changes, FLOATS),
             BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
             BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),

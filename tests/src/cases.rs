@@ -127,14 +127,14 @@ pub(crate) fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 
 }
 
 /// `PackedPayload`: binary16 fields, compared as the words they are.
-const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
+pub(crate) const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
 /// `PackedSample`: binary16 fields, compared as the words they are.
 pub(crate) const SAMPLE: &[Word] = &[Word::U32, Word::U32];
 pub(crate) const FLOATS: &[Word] = &[Word::F32];
 pub(crate) const INTS: &[Word] = &[Word::U32];
 
 /// History with ordinary and extreme lengths (0, fractional, at and past the clamp).
-fn histories(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
+pub(crate) fn histories(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
     (0..n)
         .map(|_| {
             Payload {
@@ -193,11 +193,13 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         change_threshold: 0.5,
         shadow_threshold: 0.25,
         shadow_planes: rng.random_range(0..1 << PLANES),
+        drop_sigma: [0.0, 1.5, 3.0][rng.random_range(0..3)],
+        min_variance: [0.0, 1e-4][rng.random_range(0..2)],
     };
     Case {
         name: format!(
-            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {} shadows {:b}",
-            params.clamp_radius, params.use_changes, params.shadow_planes
+            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {} shadows {:b} drop {}",
+            params.clamp_radius, params.use_changes, params.shadow_planes, params.drop_sigma
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![

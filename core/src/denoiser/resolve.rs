@@ -50,10 +50,15 @@ impl Denoiser {
             shadow_threshold: s.gradient.shadow_threshold,
             shadow_planes: s.shadow_planes,
             rays: s.gradient.refill_rays,
+            verify_sigma: s.gradient.shadow_verify_sigma,
+            verify_history: s.gradient.shadow_verify_history,
+            min_variance: s.gradient.detect_min_variance,
+            _pad: 0,
         };
         let pass = kernels::RefillBindings {
             requests: self.requests,
             samples: self.samples,
+            history: self.history[self.cur],
             changes: self.changes_buffer(),
             work: self.refill_work(),
             args: self.refill_args,
@@ -96,6 +101,8 @@ impl Denoiser {
             change_threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
             shadow_planes: s.shadow_planes,
+            drop_sigma: s.gradient.shadow_drop_sigma,
+            min_variance: s.gradient.detect_min_variance,
         };
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],

@@ -51,6 +51,12 @@ pub struct AccumulateParams {
     pub shadow_threshold: f32,
     /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
     pub shadow_planes: u32,
+    /// On the planes in `shadow_planes`, history is dropped where this frame's rays (two or
+    /// more: a verified pixel's, [`super::refill`]) lie this many standard deviations from it
+    /// ([`detect::pixel_z`]); 0 turns the test off.
+    pub drop_sigma: f32,
+    /// Floor of the per-ray variance of that test.
+    pub min_variance: f32,
 }
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
@@ -130,6 +136,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         p.shadow_planes,
         id.z,
     );
+    let verify = p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z);
     let mut curr = [Sample::default(); N];
     let mut prev = stored;
     let (mut dropped, mut clamped) = (0u32, 0u32);
@@ -149,7 +156,9 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         }
         curr[l] = c;
         // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
-        let shortened = if lambda.0[l] > threshold {
+        let z = detect::pixel_z(c.m1, c.rays, stored.m1.0[l], stored.count.0[l], stored.lane(l).variance(), p.min_variance);
+        let verified = verify && c.rays >= 2 && z >= p.drop_sigma;
+        let shortened = if lambda.0[l] > threshold || verified {
             0.0
         } else {
             stored.count.0[l] * (1.0 - lambda.0[l])
@@ -186,5 +195,59 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
     }
     if clamped > 0 {
         atomic::add(&mut counters[payload::COUNTER_CLAMPED], clamped);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// History after accumulating `rays` dark rays into one lit pixel (mean 0.8 over 8 rays) on
+    /// plane 0, with the shadow-plane mask `shadow_planes`.
+    fn after(rays: u32, shadow_planes: u32) -> Payload {
+        let mut history = [Payload {
+            m1: 0.8,
+            m2: 0.8,
+            count: 8.0,
+            rng_index: 0,
+        }
+        .pack()];
+        let samples = [Sample {
+            m1: 0.0,
+            m2: 0.0,
+            rays,
+            first: 0.0,
+        }
+        .pack()];
+        let p = AccumulateParams {
+            width: 1,
+            height: 1,
+            max_history: 64.0,
+            use_changes: 1,
+            change_threshold: 0.5,
+            shadow_threshold: 0.3,
+            shadow_planes,
+            drop_sigma: 1.5,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        let io = AccumulateIo {
+            history: &mut history,
+            samples: &samples,
+            changes: &[0.0],
+            counters: &mut [0; payload::COUNTERS_LEN as usize],
+        };
+        accumulate::<1>(UVec3::ZERO, &p, io);
+        history[0].unpack()
+    }
+
+    #[test]
+    fn verified_rays_that_disagree_drop_shadow_history() {
+        // Four dark rays against p = 0.8 over 8 rays: 1.89σ, dropped on a shadow plane.
+        let dropped = after(4, 1);
+        assert_eq!((dropped.m1, dropped.count), (0.0, 4.0));
+        // Merged on any other plane, and from one ray (never verified) on a shadow plane.
+        assert_eq!(after(4, 0).count, 12.0);
+        assert_eq!(after(1, 1).count, 9.0);
     }
 }

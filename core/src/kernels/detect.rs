@@ -147,6 +147,20 @@ pub fn per_plane<T: Copy>(general: T, special: T, planes: u32, plane: u32) -> T 
     }
 }
 
+/// How many standard deviations this frame's `n` rays of mean `s` lie from the history mean
+/// `m` of `c` rays and per-ray variance `v` (at least `min_variance`): the pixel's own test,
+/// which the window sums dilute. 0 without rays or history.
+#[inline]
+pub fn pixel_z(s: f32, n: u32, m: f32, c: f32, v: f32, min_variance: f32) -> f32 {
+    let var = math::max(v, min_variance) * (1.0 / n as f32 + 1.0 / c);
+    let z = math::abs(s - m) / math::sqrt(var);
+    if n > 0 && c > 0.0 && var > 0.0 && math::is_finite(z) {
+        z
+    } else {
+        0.0
+    }
+}
+
 /// What the pixels of `N` lanes add to the window sums around them (module rule): this frame's
 /// mean, its history mean and the variance of their difference where the pixel counts (inside
 /// the image, traced, with history, finite), +0 where it does not. The sums start at +0, so
@@ -187,6 +201,22 @@ mod tests {
     use crate::payload::{Payload, Sample};
 
     const W: u32 = 9;
+
+    #[test]
+    fn pixel_z_measures_a_pixel_against_its_history() {
+        // Four dark rays under a lit history of 5.7 rays (p = 0.82): 3.27σ.
+        let z = pixel_z(0.0, 4, 0.82, 5.7, 0.82 * 0.18, 1e-4);
+        assert!((z - 3.27).abs() < 0.01, "{z}");
+        // One dark ray is a fifth of the time what that history gives: under 2σ.
+        assert!(pixel_z(0.0, 1, 0.82, 5.7, 0.82 * 0.18, 1e-4) < 2.0);
+        // A converged history of variance 0 takes the floor.
+        let floor = pixel_z(0.01, 1, 0.0, 64.0, 0.0, 1e-4);
+        assert!((floor - 0.01 / (1e-4f32 * (1.0 + 1.0 / 64.0)).sqrt()).abs() < 1e-4);
+        // No rays, no history, or no variance at all: nothing to test.
+        assert_eq!(pixel_z(0.0, 0, 0.82, 5.7, 0.15, 1e-4), 0.0);
+        assert_eq!(pixel_z(0.0, 4, 0.82, 0.0, 0.15, 1e-4), 0.0);
+        assert_eq!(pixel_z(0.5, 4, 0.82, 5.7, 0.0, 0.0), 0.0);
+    }
 
     /// `λ` at the centre of a `W × W` image whose history has mean `m` (variance `v`, 32 rays)
     /// and whose pixels traced one ray each this frame, of value `sample(x, y)`.

@@ -14,7 +14,7 @@ use super::apply::append;
 use super::buckets::BUCKET_COUNT;
 use super::RefillIo;
 use crate::lanes::{self, Lanes};
-use crate::payload::PackedSample;
+use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -38,6 +38,16 @@ pub struct RefillParams {
     pub shadow_planes: u32,
     /// Rays of each listed pixel (`gradient.refill_rays`).
     pub rays: u32,
+    /// Significance of one pixel's own rays against its history ([`super::detect::pixel_z`])
+    /// from which a pixel that traced fewer than `rays` is listed to verify, on the planes in
+    /// `shadow_planes`; 0 lists none.
+    pub verify_sigma: f32,
+    /// History length (rays) from which a pixel's history variance is trusted for that test.
+    pub verify_history: f32,
+    /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
+    pub min_variance: f32,
+    /// Padding.
+    pub _pad: u32,
 }
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]): appends
@@ -49,6 +59,7 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     let RefillIo {
         requests,
         samples,
+        history,
         changes,
         work,
         args,
@@ -63,6 +74,8 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     let requests = Lanes::<u32, N>::load_row(requests, group * pixels + row, x0, w);
     let mut traced = Lanes::<bool, N>::splat(false);
     let mut dropped = Lanes::<bool, N>::splat(false);
+    let mut surprised = Lanes::<bool, N>::splat(false);
+    let mut fewer = Lanes::<bool, N>::splat(false);
     let mut z = 0;
     while z < p.planes {
         if super::plane_group(p.plane_groups, z) == group {
@@ -70,15 +83,26 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
                 super::detect::per_plane(p.threshold, p.shadow_threshold, p.shadow_planes, z);
             let s = Lanes::<PackedSample, N>::load_row(samples, z * pixels + row, x0, w);
             let lambda = Lanes::<f32, N>::load_row(changes, z * pixels + row, x0, w);
+            let m = Lanes::<PackedPayload, N>::load_row(history, z * pixels + row, x0, w);
             traced = traced.zip(s, |t, s| t || s.rays() > 0);
             dropped = dropped.zip(lambda, |d, l| d || l > threshold);
+            fewer = fewer.zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
+            lanes::each_lane!(l in N {
+                let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
+                let sigmas = super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, m.variance(), p.min_variance);
+                surprised.0[l] |= p.verify_sigma > 0.0
+                    && super::plane_in(p.shadow_planes, z)
+                    && m.count >= p.verify_history
+                    && sigmas >= p.verify_sigma;
+            });
         }
         z += 1;
     }
     let mut refills = Lanes::<bool, N>::splat(false);
     lanes::each_lane!(l in N {
         let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
-        refills.0[l] = id.x + (l as u32) < w && asked && !traced.0[l] && dropped.0[l];
+        let verify = fewer.0[l] && surprised.0[l] && !dropped.0[l];
+        refills.0[l] = id.x + (l as u32) < w && asked && ((!traced.0[l] && dropped.0[l]) || verify);
     });
     append(
         work,
@@ -89,4 +113,68 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         refills,
         Lanes::splat(p.rays),
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernels::apply;
+    use crate::payload::{Payload, Sample};
+
+    /// The work list of one pixel of plane 0 that asked for rays, traced `rays` of value `value`
+    /// and has a lit history (mean 0.9 over 16 rays), with the shadow-plane mask
+    /// `shadow_planes`.
+    fn listed(rays: u32, value: f32, shadow_planes: u32) -> std::vec::Vec<(usize, u32)> {
+        let history = [Payload {
+            m1: 0.9,
+            m2: 0.9,
+            count: 16.0,
+            rng_index: 0,
+        }
+        .pack()];
+        let samples = [Sample {
+            m1: value,
+            m2: value * value,
+            rays,
+            first: value,
+        }
+        .pack()];
+        let (mut work, mut args) = ([0u32; 1], [0u32, 0, 1, 1]);
+        let p = RefillParams {
+            width: 1,
+            height: 1,
+            planes: 1,
+            threshold: 0.5,
+            shadow_threshold: 0.3,
+            shadow_planes,
+            rays: 4,
+            verify_sigma: 1.5,
+            verify_history: 1.0,
+            min_variance: 1e-4,
+            ..Default::default()
+        };
+        let io = RefillIo {
+            requests: &[0],
+            samples: &samples,
+            history: &history,
+            changes: &[0.0],
+            work: &mut work,
+            args: &mut args,
+        };
+        refill::<1>(UVec3::ZERO, &p, io);
+        work[..args[0] as usize]
+            .iter()
+            .map(|&e| apply::work_item(e))
+            .collect()
+    }
+
+    #[test]
+    fn a_shadow_ray_that_disagrees_with_its_history_is_verified() {
+        // One dark ray under p = 0.9: 2.9σ, re-traced with four rays (the first one again).
+        assert_eq!(listed(1, 0.0, 1), [(0, 4)]);
+        // A lit ray agrees; other planes verify nothing; four rays are already verified.
+        assert!(listed(1, 1.0, 1).is_empty());
+        assert!(listed(1, 0.0, 0).is_empty());
+        assert!(listed(4, 0.0, 1).is_empty());
+    }
 }

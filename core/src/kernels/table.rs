@@ -166,6 +166,7 @@ crate::kernel_table! {
     threads(8, 8, 1), params refill::RefillParams {
         requests: read Request,
         samples: read PackedSample,
+        history: read PackedPayload,
         changes: read f32,
         work: write WorkEntry,
         args: atomic u32,

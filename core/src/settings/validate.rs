@@ -232,6 +232,24 @@ impl GradientSettings {
             "gradient.ao_detect_sigma",
             self.ao_detect_sigma,
             ">= 1",
+        )?;
+        check(
+            finite(self.shadow_verify_sigma) && self.shadow_verify_sigma >= 0.0,
+            "gradient.shadow_verify_sigma",
+            self.shadow_verify_sigma,
+            ">= 0",
+        )?;
+        check(
+            finite(self.shadow_verify_history) && self.shadow_verify_history >= 1.0,
+            "gradient.shadow_verify_history",
+            self.shadow_verify_history,
+            ">= 1",
+        )?;
+        check(
+            finite(self.shadow_drop_sigma) && self.shadow_drop_sigma > 0.0,
+            "gradient.shadow_drop_sigma",
+            self.shadow_drop_sigma,
+            "> 0",
         )
     }
 }
