@@ -136,7 +136,6 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         p.shadow_planes,
         id.z,
     );
-    let verify = p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z);
     let mut curr = [Sample::default(); N];
     let mut prev = stored;
     let (mut dropped, mut clamped) = (0u32, 0u32);
@@ -156,9 +155,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         }
         curr[l] = c;
         // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
-        let z = detect::pixel_z(c.m1, c.rays, stored.m1.0[l], stored.count.0[l], stored.lane(l).variance(), p.min_variance);
-        let verified = verify && c.rays >= 2 && z >= p.drop_sigma;
-        let shortened = if lambda.0[l] > threshold || verified {
+        let shortened = if lambda.0[l] > threshold {
             0.0
         } else {
             stored.count.0[l] * (1.0 - lambda.0[l])
@@ -167,6 +164,19 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
             prev.count.0[l] = shortened;
         }
     });
+    // The shadows' verified pixels ([`super::refill`]): a uniform branch, so the other planes
+    // pay nothing for the test.
+    if p.use_changes != 0 && p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z) {
+        lanes::each_lane!(l in N {
+            let c = curr[l];
+            let (m, count) = (stored.m1.0[l], stored.count.0[l]);
+            let v = stored.lane(l).variance();
+            let z = detect::pixel_z(c.m1, c.rays, m, count, v, p.min_variance);
+            if c.rays >= 2 && z >= p.drop_sigma {
+                prev.count.0[l] = 0.0;
+            }
+        });
+    }
     if p.clamp_radius > 0 {
         lanes::each_lane!(l in N {
             let at = UVec3::new(clamp_column(x0 + l as i32, w), id.y, id.z);

@@ -83,18 +83,19 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
                 super::detect::per_plane(p.threshold, p.shadow_threshold, p.shadow_planes, z);
             let s = Lanes::<PackedSample, N>::load_row(samples, z * pixels + row, x0, w);
             let lambda = Lanes::<f32, N>::load_row(changes, z * pixels + row, x0, w);
-            let m = Lanes::<PackedPayload, N>::load_row(history, z * pixels + row, x0, w);
             traced = traced.zip(s, |t, s| t || s.rays() > 0);
             dropped = dropped.zip(lambda, |d, l| d || l > threshold);
-            fewer = fewer.zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
-            lanes::each_lane!(l in N {
-                let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
-                let sigmas = super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, m.variance(), p.min_variance);
-                surprised.0[l] |= p.verify_sigma > 0.0
-                    && super::plane_in(p.shadow_planes, z)
-                    && m.count >= p.verify_history
-                    && sigmas >= p.verify_sigma;
-            });
+            // Verification, on the shadow planes only (a uniform branch).
+            if p.verify_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
+                let m = Lanes::<PackedPayload, N>::load_row(history, z * pixels + row, x0, w);
+                fewer = fewer.zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
+                lanes::each_lane!(l in N {
+                    let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
+                    let v = m.variance();
+                    let sigmas = super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, v, p.min_variance);
+                    surprised.0[l] |= m.count >= p.verify_history && sigmas >= p.verify_sigma;
+                });
+            }
         }
         z += 1;
     }
