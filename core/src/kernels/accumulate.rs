@@ -253,7 +253,7 @@ mod tests {
 
     #[test]
     fn verified_rays_that_disagree_drop_shadow_history() {
-        // Four dark rays against p = 0.8 over 8 rays: 1.89σ, dropped on a shadow plane.
+        // Four dark rays against p = 0.8 over 8 rays: 3.3σ, dropped on a shadow plane.
         let dropped = after(4, 1);
         assert_eq!((dropped.m1, dropped.count), (0.0, 4.0));
         // Merged on any other plane, and from one ray (never verified) on a shadow plane.

@@ -9,6 +9,13 @@
 //! its own, as a fresh pixel's request would have. Its rays come out of the ray budget: the
 //! balancer takes the lists' counts times their rays off the next frame's budget
 //! ([`super::balance`]).
+//!
+//! The shadow planes also list the pixels to verify: those that traced fewer rays than a listed
+//! pixel gets and whose own rays disagree with their history ([`super::detect::pixel_z`]). One
+//! binary ray under a lit history is too weak to drop it, and the detector's window dilutes it
+//! (a thin umbra the camera slides under lit history: 1.97σ, `λ` 0.12); raygen re-traces the
+//! pixel from the same rng index (its first ray again, three new), and accumulation
+//! ([`super::accumulate`]) drops the history if the rays together still disagree.
 
 use super::apply::append;
 use super::buckets::BUCKET_COUNT;
@@ -92,7 +99,8 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
                 lanes::each_lane!(l in N {
                     let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
                     let v = m.variance();
-                    let sigmas = super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, v, p.min_variance);
+                    let sigmas =
+                        super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, v, p.min_variance);
                     surprised.0[l] |= m.count >= p.verify_history && sigmas >= p.verify_sigma;
                 });
             }
@@ -103,7 +111,8 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     lanes::each_lane!(l in N {
         let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
         let verify = fewer.0[l] && surprised.0[l] && !dropped.0[l];
-        refills.0[l] = id.x + (l as u32) < w && asked && ((!traced.0[l] && dropped.0[l]) || verify);
+        let refill = !traced.0[l] && dropped.0[l];
+        refills.0[l] = id.x + (l as u32) < w && asked && (refill || verify);
     });
     append(
         work,
