@@ -69,11 +69,15 @@ fn accumulate_matches_cpu() {
     };
     let changes = vec![0u8; n * 4];
     let counters = [0u8; payload::COUNTERS_LEN as usize * 4];
-    let inputs: [&[u8]; 4] = [
+    // Depth and normals: read only by a variance clamp, which these parameters leave off.
+    let geometry = vec![0u8; (W * H) as usize * 4];
+    let inputs: [&[u8]; 6] = [
         bytemuck::cast_slice(&history),
         bytemuck::cast_slice(&samples),
         &changes,
         &counters,
+        &geometry,
+        &geometry,
     ];
     let p = bytemuck::bytes_of(&params);
     let (gpu, cpu) = run_both::<PackedPayload>(

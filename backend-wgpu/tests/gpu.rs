@@ -29,8 +29,9 @@ fn accumulate_matches_cpu() {
     let samples = b.buffer(bytemuck::cast_slice(&samples(&mut rng, n)));
     let changes = b.buffer(&vec![0u8; n as usize * 4]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
+    let [depth, normals] = [0; 2].map(|_| b.buffer(&vec![0u8; (W * H) as usize * 4]));
     let params = accumulate_params();
-    let buffers = [history, samples, changes, counters];
+    let buffers = [history, samples, changes, counters, depth, normals];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &buffers,
@@ -187,9 +188,10 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let snapshot = b.buffer(&vec![0u8; n as usize * 8]);
     let changes = b.buffer(&vec![0u8; n as usize * 4]);
     let counters = b.buffer(&[0u8; payload::COUNTERS_LEN as usize * 4]);
+    let [depth, normals] = [0; 2].map(|_| b.buffer(&vec![0u8; (W * H) as usize * 4]));
     let params = accumulate_params();
     let params = bytemuck::bytes_of(&params);
-    let first = [history, samples_buf, changes, counters];
+    let first = [history, samples_buf, changes, counters, depth, normals];
     b.dispatch(&Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &first,
@@ -227,7 +229,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
     let mut args = vec![0u32; 4];
     args[1..].copy_from_slice(&groups);
     let args = b.buffer(bytemuck::cast_slice(&args));
-    let second = [history, samples_buf, changes, counters];
+    let second = [history, samples_buf, changes, counters, depth, normals];
     b.dispatch(&Pass {
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: &second,
@@ -258,7 +260,7 @@ fn writes_stay_ordered_and_indirect_dispatch_works() {
 fn passes_are_timed() {
     let Some(mut gpu) = gpu() else { return };
     let n = W * H * PLANES;
-    let ids: Vec<BufferId> = [8, 8, 4, 4]
+    let ids: Vec<BufferId> = [8, 8, 4, 4, 4, 4]
         .iter()
         .map(|s| gpu.create_buffer(n as u64 * s).unwrap())
         .collect();
@@ -299,7 +301,7 @@ fn plan_errors_are_reported() {
     let Some(mut gpu) = gpu() else { return };
     let a = gpu.create_buffer(64).unwrap();
     let params = accumulate_params();
-    let aliased = [a, a, a, a];
+    let aliased = [a; 6];
     let err = gpu
         .dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ACCUMULATE,
@@ -326,7 +328,7 @@ fn plan_errors_are_reported() {
         .unwrap_err();
     assert!(matches!(err, WgpuError::Exec(ExecError::Plan(_))), "{err}");
     // Indirect counts in a buffer the pass writes (`history`, binding 0, accumulated in place).
-    let bufs = [0; 4].map(|_| gpu.create_buffer(64).unwrap());
+    let bufs = [0; 6].map(|_| gpu.create_buffer(64).unwrap());
     let err = gpu
         .dispatch(&Pass {
             kernel: &vrrt_core::kernels::ACCUMULATE,
@@ -478,8 +480,14 @@ fn embedded_in_an_engine() {
         cpu.create_buffer(changes).unwrap(),
     );
 
+    let geometry = (W * H) as u64 * 4;
+    let [depth_g, normals_g] = [0; 2].map(|_| gpu.create_buffer(geometry).unwrap());
+    let [depth_c, normals_c] = [0; 2].map(|_| cpu.create_buffer(geometry).unwrap());
+
     let params = accumulate_params();
-    let gpu_buffers = [history_g, samples_g, changes_g, counters_g];
+    let gpu_buffers = [
+        history_g, samples_g, changes_g, counters_g, depth_g, normals_g,
+    ];
     let gpu_pass = Pass::over_grid(
         &vrrt_core::kernels::ACCUMULATE,
         &gpu_buffers,
@@ -492,7 +500,9 @@ fn embedded_in_an_engine() {
     gpu.encode(&mut encoder, &[gpu_pass]).unwrap();
     queue.submit([encoder.finish()]);
     cpu.dispatch(&Pass {
-        buffers: &[history_c, samples_c, changes_c, counters_c],
+        buffers: &[
+            history_c, samples_c, changes_c, counters_c, depth_c, normals_c,
+        ],
         ..gpu_pass
     })
     .unwrap();

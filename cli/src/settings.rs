@@ -122,6 +122,8 @@ mod tests {
                 plane_threshold: 1.0e-7,
                 clamp_radius: 2,
                 clamp_gamma: 0.1 + 0.2,
+                reflection_clamp_radius: 4,
+                clamp_depth_tolerance: 0.125,
                 firefly_max: 3.3333333,
                 storage: StoragePrecision::Unorm8,
                 rng_wrap: 12345,

@@ -71,6 +71,17 @@ pub struct TemporalSettings {
     pub clamp_radius: u32,
     /// Variance clamp width in standard deviations (> 0; default 1).
     pub clamp_gamma: f32,
+    /// Variance clamp of the reflections' history ([`Settings::parallax_plane`]) over the pixels
+    /// of the window that lie on the pixel's own surface (normals within `normal_threshold`, view
+    /// depths within `clamp_depth_tolerance`): window radius in pixels, 0 = off (0..=5; default
+    /// 2; it replaces `clamp_radius` on that plane). The detector keeps a moving highlight's
+    /// history short, and the à-trous filter turns short histories' noise into blotches; clamped,
+    /// history stays long without lagging. A window across edges (the textbook clamp) pulled the
+    /// room's and the dragon's reflections towards other surfaces.
+    pub reflection_clamp_radius: u32,
+    /// View-depth tolerance of that window, as a fraction of the pixel's depth (> 0; default
+    /// 0.05).
+    pub clamp_depth_tolerance: f32,
     /// Firefly clamp of this frame's per-pixel mean, in signal units; 0 = off (>= 0; default 0,
     /// off).
     pub firefly_max: f32,
@@ -285,6 +296,8 @@ impl Default for TemporalSettings {
             plane_threshold: 0.02,
             clamp_radius: 0,
             clamp_gamma: 1.0,
+            reflection_clamp_radius: 2,
+            clamp_depth_tolerance: 0.05,
             firefly_max: 0.0,
             storage: StoragePrecision::F16,
             rng_wrap: 0,
@@ -405,8 +418,9 @@ impl Settings {
     }
 
     /// These settings with VRRT's rates and the adaptive filter turned off, as in [`Self::svgf`]:
-    /// every pixel traces `rays_per_pixel`, no supersampling, undersampling or balancing, and
-    /// every tile runs every filter iteration. The other fields are kept.
+    /// every pixel traces `rays_per_pixel`, no supersampling, undersampling or balancing, no
+    /// change detector, the textbook variance clamp only (no reflections' own-surface clamp),
+    /// and every tile runs every filter iteration. The other fields are kept.
     pub fn to_svgf(self, rays_per_pixel: f32) -> Self {
         Settings {
             rates: RateSettings {
@@ -423,6 +437,10 @@ impl Settings {
             gradient: GradientSettings {
                 detect_radius: 0,
                 ..self.gradient
+            },
+            temporal: TemporalSettings {
+                reflection_clamp_radius: 0,
+                ..self.temporal
             },
             ..self
         }

@@ -195,11 +195,21 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         shadow_planes: rng.random_range(1..1 << PLANES),
         drop_sigma: [1.5, 3.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
+        surface_clamp_planes: rng.random_range(0..1 << PLANES),
+        surface_clamp_radius: rng.random_range(0..4),
+        normal_threshold: 0.9,
+        depth_tolerance: 0.05,
     };
+    let g = Images::pack(&surfaces(rng, w, h), w, &inputs::test_view());
     Case {
         name: format!(
-            "accumulate {w}x{h}x{PLANES} clamp {} storage {storage} changes {} shadows {:b} drop {}",
-            params.clamp_radius, params.use_changes, params.shadow_planes, params.drop_sigma
+            "accumulate {w}x{h}x{PLANES} clamp {} surface {} {:b} storage {storage} changes {} shadows {:b} drop {}",
+            params.clamp_radius,
+            params.surface_clamp_radius,
+            params.surface_clamp_planes,
+            params.use_changes,
+            params.shadow_planes,
+            params.drop_sigma
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![
@@ -207,6 +217,8 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&changes, FLOATS),
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
+            BufferSpec::from_pod(&g.depth, FLOATS),
+            BufferSpec::from_pod(&g.normal_roughness, INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ACCUMULATE, w, h, PLANES),

@@ -103,12 +103,18 @@ impl Denoiser {
             shadow_planes: s.shadow_planes,
             drop_sigma: s.gradient.shadow_drop_sigma,
             min_variance: s.gradient.detect_min_variance,
+            surface_clamp_planes: s.parallax_plane.map_or(0, |z| 1 << z),
+            surface_clamp_radius: s.temporal.reflection_clamp_radius,
+            normal_threshold: s.temporal.normal_threshold,
+            depth_tolerance: s.temporal.clamp_depth_tolerance,
         };
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],
             samples: self.samples,
             changes,
             counters: self.counters,
+            depth: self.depth[self.cur],
+            normal_roughness: self.normal_roughness[self.cur],
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
 

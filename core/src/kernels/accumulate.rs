@@ -57,17 +57,34 @@ pub struct AccumulateParams {
     pub drop_sigma: f32,
     /// Floor of the per-ray variance of that test.
     pub min_variance: f32,
+    /// Planes (bit per plane) whose variance clamp takes `surface_clamp_radius` and only the
+    /// window's pixels on the pixel's own surface (the reflections' plane).
+    pub surface_clamp_planes: u32,
+    /// Window radius of that clamp; 0 leaves those planes to `clamp_radius`.
+    pub surface_clamp_radius: u32,
+    /// Own surface: normals' cosine at least this (`temporal.normal_threshold`)…
+    pub normal_threshold: f32,
+    /// …and view depths within this fraction of the pixel's.
+    pub depth_tolerance: f32,
 }
 
-/// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples around `id`,
-/// keeping the history's own variance (its second moment moves with the mean).
+/// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples within `radius`
+/// of `id` (with `surface`, only those on `id`'s own surface: a window across an edge mixes in
+/// another surface's signal), keeping the history's own variance (its second moment moves with
+/// the mean).
 fn clamp_history(
     id: UVec3,
     p: &AccumulateParams,
-    samples: &[PackedSample],
+    (radius, surface): (u32, bool),
+    (samples, depth, normal_roughness): (&[PackedSample], &[f32], &[u32]),
     prev: Payload,
 ) -> Payload {
-    let r = p.clamp_radius as i32;
+    let r = radius as i32;
+    let centre = (id.y * p.width + id.x) as usize;
+    let (d0, n0) = (
+        depth[centre],
+        packing::unpack_normal(normal_roughness[centre]),
+    );
     let (mut s1, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
     let mut dy = -r;
     while dy <= r {
@@ -78,7 +95,13 @@ fn clamp_history(
                 let q = samples
                     [plane_index(UVec3::new(qx as u32, qy as u32, id.z), p.width, p.height)]
                 .unpack();
-                if q.rays > 0 && math::is_finite(q.m1) {
+                let qi = (qy as u32 * p.width + qx as u32) as usize;
+                let own = !surface || {
+                    let m = packing::unpack_normal(normal_roughness[qi]);
+                    n0.dot(m) >= p.normal_threshold
+                        && math::abs(depth[qi] - d0) <= p.depth_tolerance * d0
+                };
+                if q.rays > 0 && math::is_finite(q.m1) && own {
                     s1 += q.m1;
                     s2 += q.m1 * q.m1;
                     n += 1.0;
@@ -114,6 +137,8 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         samples,
         changes,
         counters,
+        depth,
+        normal_roughness,
     } = io;
     let (w, h) = (p.width, p.height);
     if id.x >= w || id.y >= h {
@@ -177,10 +202,17 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
             }
         });
     }
-    if p.clamp_radius > 0 {
+    let surface = p.surface_clamp_radius > 0 && super::plane_in(p.surface_clamp_planes, id.z);
+    let radius = if surface {
+        p.surface_clamp_radius
+    } else {
+        p.clamp_radius
+    };
+    if radius > 0 {
+        let inputs = (samples, depth, normal_roughness);
         lanes::each_lane!(l in N {
             let at = UVec3::new(clamp_column(x0 + l as i32, w), id.y, id.z);
-            prev.set(l, clamp_history(at, p, samples, prev.lane(l)));
+            prev.set(l, clamp_history(at, p, (radius, surface), inputs, prev.lane(l)));
         });
     }
     let mut merged = prev;
@@ -211,6 +243,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// History after accumulating `rays` dark rays into one lit pixel (mean 0.8 over 8 rays) on
     /// plane 0, with the shadow-plane mask `shadow_planes`.
@@ -246,9 +279,67 @@ mod tests {
             samples: &samples,
             changes: &[0.0],
             counters: &mut [0; payload::COUNTERS_LEN as usize],
+            depth: &[1.0],
+            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0)],
         };
         accumulate::<1>(UVec3::ZERO, &p, io);
         history[0].unpack()
+    }
+
+    /// History mean of the middle pixel of a row of three after a variance clamp of radius 1
+    /// (only the window's own surface with `surface`): the middle pixel's history reads 0.9,
+    /// it and its left neighbour traced 0.2 on a floor at depth 1, the right one 5.0 on a wall
+    /// at depth 2.
+    fn clamped(surface: bool) -> f32 {
+        let mut history = [Payload {
+            m1: 0.9,
+            m2: 0.9,
+            count: 8.0,
+            rng_index: 0,
+        }
+        .pack(); 3];
+        let samples = [0.2, 0.2, 5.0].map(|v| {
+            Sample {
+                m1: v,
+                m2: v * v,
+                rays: 1,
+                first: v,
+            }
+            .pack()
+        });
+        let floor = packing::pack_normal_roughness(Vec3::Z, 0.0);
+        let wall = packing::pack_normal_roughness(Vec3::X, 0.0);
+        let p = AccumulateParams {
+            width: 3,
+            height: 1,
+            max_history: 64.0,
+            clamp_radius: 1,
+            clamp_gamma: 1.0,
+            surface_clamp_planes: surface as u32,
+            surface_clamp_radius: 1,
+            normal_threshold: 0.9,
+            depth_tolerance: 0.05,
+            ..Default::default()
+        };
+        let io = AccumulateIo {
+            history: &mut history,
+            samples: &samples,
+            changes: &[0.0; 3],
+            counters: &mut [0; payload::COUNTERS_LEN as usize],
+            depth: &[1.0, 1.0, 2.0],
+            normal_roughness: &[floor, floor, wall],
+        };
+        accumulate::<1>(UVec3::new(1, 0, 0), &p, io);
+        // The clamped history (8 rays) merged with the middle pixel's own ray.
+        (history[1].unpack().m1 * 9.0 - 0.2) / 8.0
+    }
+
+    #[test]
+    fn the_surface_clamp_keeps_to_the_pixels_own_surface() {
+        // The floor's two rays agree: the history is clamped to 0.2.
+        assert!((clamped(true) - 0.2).abs() < 1e-3, "{}", clamped(true));
+        // Across the edge the wall's ray widens the window (mean 1.8, σ 2.26): 0.9 stays.
+        assert!((clamped(false) - 0.9).abs() < 1e-3, "{}", clamped(false));
     }
 
     #[test]

@@ -19,6 +19,8 @@ crate::kernel_table! {
         samples: read PackedSample,
         changes: read f32,
         counters: atomic u32,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
     }
 
     /// [`detect::detect`]: the change detector, between raygen and accumulation (it reads the

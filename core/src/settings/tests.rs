@@ -27,11 +27,19 @@ fn svgf_is_the_default_with_rates_off() {
     assert!(s.rates.spend_saved_rays);
     assert_eq!(s.filter.skip_sigma, 0.0);
     assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
+    assert_eq!(
+        s.temporal.reflection_clamp_radius, 0,
+        "SVGF's clamp is the textbook one"
+    );
     let gradient = GradientSettings {
         detect_radius: d.gradient.detect_radius,
         ..s.gradient
     };
-    assert_eq!((s.temporal, gradient), (d.temporal, d.gradient));
+    let temporal = TemporalSettings {
+        reflection_clamp_radius: d.temporal.reflection_clamp_radius,
+        ..s.temporal
+    };
+    assert_eq!((temporal, gradient), (d.temporal, d.gradient));
     assert_eq!(
         FilterSettings {
             skip_sigma: d.filter.skip_sigma,

@@ -65,6 +65,18 @@ impl TemporalSettings {
             "> 0",
         )?;
         check(
+            self.reflection_clamp_radius <= 5,
+            "temporal.reflection_clamp_radius",
+            self.reflection_clamp_radius as f32,
+            "0..=5",
+        )?;
+        check(
+            finite(self.clamp_depth_tolerance) && self.clamp_depth_tolerance > 0.0,
+            "temporal.clamp_depth_tolerance",
+            self.clamp_depth_tolerance,
+            "> 0",
+        )?;
+        check(
             finite(self.firefly_max) && self.firefly_max >= 0.0,
             "temporal.firefly_max",
             self.firefly_max,
