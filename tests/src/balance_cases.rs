@@ -1,6 +1,8 @@
 //! Equivalence cases of the load balancer (`balance`, `apply`), split off to keep `cases` short.
 
-use crate::cases::{groups, histories, value, FLOATS, INTS, PAYLOAD, PLANES, SAMPLE};
+use crate::cases::{
+    groups, histories, value, EXTREME_LENGTHS, FLOATS, INTS, PAYLOAD, PLANES, SAMPLE,
+};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -171,7 +173,7 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&samples, SAMPLE),
-            BufferSpec::from_pod(&histories(rng, n), PAYLOAD),
+            BufferSpec::from_pod(&histories(rng, n, EXTREME_LENGTHS), PAYLOAD),
             BufferSpec::from_pod(&changes, FLOATS),
             BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
             BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),

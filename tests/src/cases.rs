@@ -133,14 +133,19 @@ pub(crate) const SAMPLE: &[Word] = &[Word::U32, Word::U32];
 pub(crate) const FLOATS: &[Word] = &[Word::F32];
 pub(crate) const INTS: &[Word] = &[Word::U32];
 
-/// History with ordinary and extreme lengths (0, fractional, at and past the clamp).
-pub(crate) fn histories(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
+/// History lengths at the extremes: 0, fractional, at and past the clamp.
+pub(crate) const EXTREME_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 63.5, 64.0, 70.0];
+/// History lengths around the young-history rules (`spatial_until` 4, short histories).
+const YOUNG_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0];
+
+/// Random history of the given `lengths`.
+pub(crate) fn histories(rng: &mut Pcg32, n: usize, lengths: &[f32]) -> Vec<PackedPayload> {
     (0..n)
         .map(|_| {
             Payload {
                 m1: value(rng),
                 m2: value(rng),
-                count: [0.0, 0.5, 1.0, 63.5, 64.0, 70.0][rng.random_range(0..6)],
+                count: lengths[rng.random_range(0..lengths.len())],
                 rng_index: rng.random(),
             }
             .pack()
@@ -170,7 +175,7 @@ fn hostile_samples(rng: &mut Pcg32, n: usize) -> Vec<PackedSample> {
 
 fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let history = histories(rng, n);
+    let history = histories(rng, n, EXTREME_LENGTHS);
     let samples = hostile_samples(rng, n);
     let changes: Vec<f32> = (0..n)
         .map(|_| [0.0, 0.0, 0.25, 0.5, 0.75, 1.0][rng.random_range(0..6)])
@@ -227,7 +232,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
-    let history = histories(rng, n);
+    let history = histories(rng, n, EXTREME_LENGTHS);
     let samples = hostile_samples(rng, n);
     let params = detect::DetectParams {
         width: w,
@@ -361,20 +366,6 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-fn history(rng: &mut Pcg32, n: usize) -> Vec<PackedPayload> {
-    (0..n)
-        .map(|_| {
-            Payload {
-                m1: value(rng),
-                m2: value(rng),
-                count: [0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0][rng.random_range(0..8)],
-                rng_index: rng.random(),
-            }
-            .pack()
-        })
-        .collect()
-}
-
 /// A random G-buffer whose positions lie on the test camera's rays ([`inputs::test_view`]), so
 /// positions reconstructed from depth match the surfaces'.
 fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
@@ -481,7 +472,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             prev.depth(),
             prev.normal_roughness(),
             inputs::view(&view),
-            BufferSpec::from_pod(&history(rng, n), PAYLOAD),
+            BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
             BufferSpec::from_pod(&mask, INTS),
             BufferSpec::from_pod(&gradient, FLOATS),
             BufferSpec::from_pod(&importance, FLOATS),
@@ -514,7 +505,7 @@ fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         name: format!("variance {w}x{h}x{PLANES}"),
         kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![
-            BufferSpec::from_pod(&history(rng, n), PAYLOAD),
+            BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
             g.depth(),
             g.normal_roughness(),
             inputs::view(&view),

@@ -147,12 +147,19 @@ pub fn per_plane<T: Copy>(general: T, special: T, planes: u32, plane: u32) -> T 
     }
 }
 
+/// Variance of the difference between the mean of `n` new rays and a history mean of `c` rays,
+/// both of per-ray variance `v` (at least `min_variance`): the noise both tests measure against.
+#[inline]
+fn difference_variance(v: f32, min_variance: f32, n: u32, c: f32) -> f32 {
+    math::max(v, min_variance) * (1.0 / n as f32 + 1.0 / c)
+}
+
 /// How many standard deviations this frame's `n` rays of mean `s` lie from the history mean
 /// `m` of `c` rays and per-ray variance `v` (at least `min_variance`): the pixel's own test,
 /// which the window sums dilute. 0 without rays or history.
 #[inline]
 pub fn pixel_z(s: f32, n: u32, m: f32, c: f32, v: f32, min_variance: f32) -> f32 {
-    let var = math::max(v, min_variance) * (1.0 / n as f32 + 1.0 / c);
+    let var = difference_variance(v, min_variance, n, c);
     let z = math::abs(s - m) / math::sqrt(var);
     if n > 0 && c > 0.0 && var > 0.0 && math::is_finite(z) {
         z
@@ -184,8 +191,7 @@ fn terms<const N: usize>(
         let (s, m, qx) = (s.0[l].unpack(), m.0[l].unpack(), qx0 + l as i32);
         let counts =
             qx >= 0 && qx < w as i32 && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
-        let sigma2 = math::max(m.variance(), p.min_variance);
-        let v = sigma2 * (1.0 / s.rays as f32 + 1.0 / m.count);
+        let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
         if counts {
             t[0][l] = s.m1;
             t[1][l] = m.m1;
