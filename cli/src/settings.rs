@@ -163,6 +163,7 @@ mod tests {
                 shadow_verify_sigma: 0.75,
                 shadow_verify_history: 9.5,
                 shadow_drop_sigma: 2.25,
+                reflection_confirm_sigma: 0.5,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -240,6 +240,14 @@ pub struct GradientSettings {
     /// Significance of two or more rays against their history from which accumulation drops
     /// it on the shadow planes (> 0; default 1.5).
     pub shadow_drop_sigma: f32,
+    /// Confirmation of the reflections' drops (`Settings::parallax_plane`; >= 0, 0 = off;
+    /// default 1.25): where `λ` drops history, the pixel's own rays (the refill lists give it
+    /// some) must lie this many standard deviations from it (`kernels::detect::pixel_z`), or the
+    /// history is kept whole. The 1σ window reads noise as a change now and then, and a converged
+    /// reflection dropped by chance comes back as blotches: dragon reflections at 1 rpp, static
+    /// regions against no detector +34% / +10% / +6% / −0.3% at 112x63 / 128x72 / 160x90 /
+    /// 192x108 without it, +15% / −3% / −9% / −13% with it.
+    pub reflection_confirm_sigma: f32,
 }
 
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,
@@ -347,6 +355,7 @@ impl Default for GradientSettings {
             shadow_verify_sigma: 1.5,
             shadow_verify_history: 1.0,
             shadow_drop_sigma: 1.5,
+            reflection_confirm_sigma: 1.25,
         }
     }
 }

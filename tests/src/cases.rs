@@ -204,17 +204,21 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         surface_clamp_radius: rng.random_range(0..4),
         normal_threshold: 0.9,
         depth_tolerance: 0.05,
+        confirm_planes: rng.random_range(0..1 << PLANES),
+        confirm_sigma: [1.25, 3.0][rng.random_range(0..2)],
     };
     let g = Images::pack(&surfaces(rng, w, h), w, &inputs::test_view());
     Case {
         name: format!(
-            "accumulate {w}x{h}x{PLANES} clamp {} surface {} {:b} storage {storage} changes {} shadows {:b} drop {}",
+            "accumulate {w}x{h}x{PLANES} clamp {} surface {} {:b} storage {storage} changes {} shadows {:b} drop {} confirm {:b} {}",
             params.clamp_radius,
             params.surface_clamp_radius,
             params.surface_clamp_planes,
             params.use_changes,
             params.shadow_planes,
-            params.drop_sigma
+            params.drop_sigma,
+            params.confirm_planes,
+            params.confirm_sigma
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![

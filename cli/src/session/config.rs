@@ -96,6 +96,8 @@ impl Config {
                 s.gradient.threshold = 0.5;
                 s.gradient.scale = 1.0;
                 s.gradient.detect_radius = 0;
+                // The oracle's drops are true changes: nothing to confirm.
+                s.gradient.reflection_confirm_sigma = 0.0;
                 return s;
             }
         }

@@ -107,6 +107,8 @@ impl Denoiser {
             surface_clamp_radius: s.temporal.reflection_clamp_radius,
             normal_threshold: s.temporal.normal_threshold,
             depth_tolerance: s.temporal.clamp_depth_tolerance,
+            confirm_planes: s.parallax_plane.map_or(0, |z| 1 << z),
+            confirm_sigma: s.gradient.reflection_confirm_sigma,
         };
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],

@@ -3,10 +3,11 @@
 //! Seed: vrrt-call-of-duty-2026, "Undersampling" (`TemporalAccumulation`) and "Full pipeline"
 //! ("temporal accumulation is a good place to do firefly clamping, and variance-based clamp, if you
 //! still want to use it"). The variance clamp is the SVGF baseline's history rectification; VRRT
-//! runs without it and relies on temporal gradients instead.
+//! relies on temporal gradients instead, and clamps only its reflections, to their own surface.
 //!
 //! Order per pixel and plane: input clean-up ([`payload::clean`], counted in the counters buffer),
-//! firefly clamp, history shortened where [`super::detect`] found a change, optional variance
+//! firefly clamp, history shortened where [`super::detect`] found a change (dropped on the
+//! reflections' plane only where the pixel's own rays confirm it), optional variance
 //! clamp of the history, f32 merge, then storage at the history's
 //! precision with the stuck correction ([`payload::store`]).
 
@@ -66,6 +67,12 @@ pub struct AccumulateParams {
     pub normal_threshold: f32,
     /// …and view depths within this fraction of the pixel's.
     pub depth_tolerance: f32,
+    /// Planes (bit per plane) where a drop that `λ` asks for needs the pixel's own rays to
+    /// confirm it: they must lie `confirm_sigma` standard deviations from the history
+    /// ([`detect::pixel_z`]); unconfirmed, the history is kept whole.
+    pub confirm_planes: u32,
+    /// Significance of that confirmation; 0 turns it off.
+    pub confirm_sigma: f32,
 }
 
 /// Clamps the history mean to `mean ± gamma·σ` of this frame's traced samples within `radius`
@@ -189,6 +196,23 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
             prev.count.0[l] = shortened;
         }
     });
+    // The reflections' drops: the detector's 1σ window often reads noise as a change, and
+    // dropping a converged reflection by chance costs more than the lag of one unconfirmed drop.
+    // A pixel the detector drops has rays of its own (the refill lists give them); they decide.
+    // A uniform branch, like the one below.
+    if p.use_changes != 0 && p.confirm_sigma > 0.0 && super::plane_in(p.confirm_planes, id.z) {
+        lanes::each_lane!(l in N {
+            let c = curr[l];
+            if lambda.0[l] > threshold && c.rays > 0 {
+                let (m, count) = (stored.m1.0[l], stored.count.0[l]);
+                let v = stored.lane(l).variance();
+                let z = detect::pixel_z(c.m1, c.rays, m, count, v, p.min_variance);
+                if z < p.confirm_sigma {
+                    prev.count.0[l] = count;
+                }
+            }
+        });
+    }
     // The shadows' verified pixels ([`super::refill`]): a uniform branch, so the other planes
     // pay nothing for the test.
     if p.use_changes != 0 && p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z) {
@@ -284,6 +308,57 @@ mod tests {
         };
         accumulate::<1>(UVec3::ZERO, &p, io);
         history[0].unpack()
+    }
+
+    /// History after a detected change (`λ` 0.9) on a confirming plane: four rays of `value`
+    /// into a pixel with mean 0.8 (per-ray variance 0.16) over 8 rays.
+    fn after_change(value: f32, confirm_sigma: f32) -> Payload {
+        let mut history = [Payload {
+            m1: 0.8,
+            m2: 0.8,
+            count: 8.0,
+            rng_index: 0,
+        }
+        .pack()];
+        let samples = [Sample {
+            m1: value,
+            m2: value * value,
+            rays: 4,
+            first: value,
+        }
+        .pack()];
+        let p = AccumulateParams {
+            width: 1,
+            height: 1,
+            max_history: 64.0,
+            use_changes: 1,
+            change_threshold: 0.5,
+            min_variance: 1e-4,
+            confirm_planes: 1,
+            confirm_sigma,
+            ..Default::default()
+        };
+        let io = AccumulateIo {
+            history: &mut history,
+            samples: &samples,
+            changes: &[0.9],
+            counters: &mut [0; payload::COUNTERS_LEN as usize],
+            depth: &[1.0],
+            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0)],
+        };
+        accumulate::<1>(UVec3::ZERO, &p, io);
+        history[0].unpack()
+    }
+
+    #[test]
+    fn only_confirmed_drops_stand_on_confirming_planes() {
+        // Rays that agree with the history (0σ) keep it whole: 8 + 4 rays.
+        assert_eq!(after_change(0.8, 1.25).count, 12.0);
+        // Rays that disagree (0.8 against 0: 3.3σ) confirm the drop: only the new rays remain.
+        let dropped = after_change(0.0, 1.25);
+        assert_eq!((dropped.m1, dropped.count), (0.0, 4.0));
+        // Without confirmation the detector's `λ` alone drops it.
+        assert_eq!(after_change(0.8, 0.0).count, 4.0);
     }
 
     /// History mean of the middle pixel of a row of three after a variance clamp of radius 1

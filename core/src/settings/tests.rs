@@ -52,7 +52,7 @@ fn svgf_is_the_default_with_rates_off() {
 #[test]
 fn out_of_range_names_stage_and_field() {
     let d = Settings::default();
-    let cases: [(Settings, &str); 13] = [
+    let cases: [(Settings, &str); 14] = [
         (Settings { planes: 5, ..d }, "planes"),
         (
             Settings {
@@ -170,6 +170,16 @@ fn out_of_range_names_stage_and_field() {
                 ..d
             },
             "gradient.threshold",
+        ),
+        (
+            Settings {
+                gradient: GradientSettings {
+                    reflection_confirm_sigma: -1.0,
+                    ..d.gradient
+                },
+                ..d
+            },
+            "gradient.reflection_confirm_sigma",
         ),
     ];
     for (s, field) in &cases {

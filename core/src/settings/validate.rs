@@ -262,6 +262,12 @@ impl GradientSettings {
             "gradient.shadow_drop_sigma",
             self.shadow_drop_sigma,
             "> 0",
+        )?;
+        check(
+            finite(self.reflection_confirm_sigma) && self.reflection_confirm_sigma >= 0.0,
+            "gradient.reflection_confirm_sigma",
+            self.reflection_confirm_sigma,
+            ">= 0",
         )
     }
 }
