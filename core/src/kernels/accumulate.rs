@@ -269,9 +269,15 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    /// History after accumulating `rays` dark rays into one lit pixel (mean 0.8 over 8 rays) on
-    /// plane 0, with the shadow-plane mask `shadow_planes`.
-    fn after(rays: u32, shadow_planes: u32) -> Payload {
+    /// History of one lit pixel (mean 0.8, per-ray variance 0.16, over 8 rays) on plane 0 after
+    /// accumulating `rays` rays of `value` under the detector's `lambda`, with the shadow-plane
+    /// mask `shadow_planes` and plane 0 confirming drops at `confirm_sigma`.
+    fn accumulated(
+        (rays, value): (u32, f32),
+        lambda: f32,
+        shadow_planes: u32,
+        confirm_sigma: f32,
+    ) -> Payload {
         let mut history = [Payload {
             m1: 0.8,
             m2: 0.8,
@@ -280,10 +286,10 @@ mod tests {
         }
         .pack()];
         let samples = [Sample {
-            m1: 0.0,
-            m2: 0.0,
+            m1: value,
+            m2: value * value,
             rays,
-            first: 0.0,
+            first: value,
         }
         .pack()];
         let p = AccumulateParams {
@@ -296,12 +302,14 @@ mod tests {
             shadow_planes,
             drop_sigma: 1.5,
             min_variance: 1e-4,
+            confirm_planes: 1,
+            confirm_sigma,
             ..Default::default()
         };
         let io = AccumulateIo {
             history: &mut history,
             samples: &samples,
-            changes: &[0.0],
+            changes: &[lambda],
             counters: &mut [0; payload::COUNTERS_LEN as usize],
             depth: &[1.0],
             normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0)],
@@ -310,44 +318,14 @@ mod tests {
         history[0].unpack()
     }
 
-    /// History after a detected change (`λ` 0.9) on a confirming plane: four rays of `value`
-    /// into a pixel with mean 0.8 (per-ray variance 0.16) over 8 rays.
+    /// [`accumulated`] with `rays` dark rays and no change detected.
+    fn after(rays: u32, shadow_planes: u32) -> Payload {
+        accumulated((rays, 0.0), 0.0, shadow_planes, 0.0)
+    }
+
+    /// [`accumulated`] with four rays of `value` under a detected change (`λ` 0.9).
     fn after_change(value: f32, confirm_sigma: f32) -> Payload {
-        let mut history = [Payload {
-            m1: 0.8,
-            m2: 0.8,
-            count: 8.0,
-            rng_index: 0,
-        }
-        .pack()];
-        let samples = [Sample {
-            m1: value,
-            m2: value * value,
-            rays: 4,
-            first: value,
-        }
-        .pack()];
-        let p = AccumulateParams {
-            width: 1,
-            height: 1,
-            max_history: 64.0,
-            use_changes: 1,
-            change_threshold: 0.5,
-            min_variance: 1e-4,
-            confirm_planes: 1,
-            confirm_sigma,
-            ..Default::default()
-        };
-        let io = AccumulateIo {
-            history: &mut history,
-            samples: &samples,
-            changes: &[0.9],
-            counters: &mut [0; payload::COUNTERS_LEN as usize],
-            depth: &[1.0],
-            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0)],
-        };
-        accumulate::<1>(UVec3::ZERO, &p, io);
-        history[0].unpack()
+        accumulated((4, value), 0.9, 0, confirm_sigma)
     }
 
     #[test]
