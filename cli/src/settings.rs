@@ -173,6 +173,7 @@ mod tests {
                 spatial_radius: 0,
                 spatial_until: 0.0,
                 skip_sigma: 1.0e-3,
+                cap_variance: false,
             },
         };
         assert_eq!(parse(&to_toml(&s)), Ok(s));

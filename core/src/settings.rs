@@ -278,6 +278,10 @@ pub struct FilterSettings {
     /// counted as halving it, `kernels::classify`); 0 = every tile runs every iteration (>= 0;
     /// default 0.004, below what a [0, 1] signal shows on an 8-bit display).
     pub skip_sigma: f32,
+    /// Cap the luminance test's blurred variance at the pixel's own (default on; SVGF as
+    /// published: off). Next to a noisier surface the 3×3 blur raises a pixel's σ to its
+    /// neighbours' and the filter pulls a highlight into the dark line beside it.
+    pub cap_variance: bool,
 }
 
 impl Default for Settings {
@@ -370,6 +374,7 @@ impl Default for FilterSettings {
             spatial_radius: 1,
             spatial_until: 4.0,
             skip_sigma: 0.004,
+            cap_variance: true,
         }
     }
 }
@@ -441,6 +446,7 @@ impl Settings {
             },
             filter: FilterSettings {
                 skip_sigma: 0.0,
+                cap_variance: false,
                 ..self.filter
             },
             gradient: GradientSettings {

@@ -288,13 +288,17 @@ fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         step: 1 << iteration,
         iteration,
+        cap_variance: rng.random_range(0..2),
         ..atrous::AtrousParams::default()
     };
     let (tw, th) = classify::tile_grid(w, h);
     // Tiles needing 0..=5 iterations: some pass through, some filter.
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
-        name: format!("atrous {w}x{h}x{PLANES} step {}", params.step),
+        name: format!(
+            "atrous {w}x{h}x{PLANES} step {} cap {}",
+            params.step, params.cap_variance
+        ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
             BufferSpec::from_pod(&input, INTS),

@@ -174,6 +174,7 @@ impl Denoiser {
                 sigma_luminance: s.filter.sigma_luminance,
                 plane_scale,
                 normal_power: s.filter.normal_power,
+                cap_variance: s.filter.cap_variance as u32,
                 ..Default::default()
             };
             let atrous = kernels::AtrousBindings {

@@ -39,8 +39,9 @@ pub struct AtrousParams {
     pub plane_scale: f32,
     /// Exponent of the normal weight (SVGF: 128).
     pub normal_power: f32,
-    /// Padding.
-    pub _pad1: f32,
+    /// Nonzero: the luminance test's variance (the 3×3-blurred one) is capped at the pixel's
+    /// own (VRRT; SVGF as published does not cap it).
+    pub cap_variance: u32,
 }
 
 impl Default for AtrousParams {
@@ -53,7 +54,7 @@ impl Default for AtrousParams {
             sigma_luminance: 4.0,
             plane_scale: 0.01,
             normal_power: 128.0,
-            _pad1: 0.0,
+            cap_variance: 0,
         }
     }
 }
@@ -128,7 +129,13 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             cd.0[l as usize],
         )
     });
-    let blurred = blurred_variance::<N>(input, id, p);
+    let mut blurred = blurred_variance::<N>(input, id, p);
+    if p.cap_variance != 0 {
+        // The blur steadies σ in flat noise, but next to a noisier surface (a highlight above a
+        // dark contact line) it raises the dark pixel's σ to the bright side's and the luminance
+        // test lets the bright taps in. Capped, the blur may only lower σ.
+        blurred = blurred.zip(variance, math::min);
+    }
     let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
     let mut sum = value;
@@ -220,6 +227,56 @@ fn blurred_variance<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::{Camera, View};
+    use crate::payload::Filtered;
+    use glam::Vec3;
+
+    /// The first iteration at the middle of a 5×3 patch of one wall facing the camera: a
+    /// highlight along the top row (4.0, variance of the estimate 4.0), a dark, settled surface
+    /// below it (0.1, variance 1e-4).
+    fn below_a_highlight(cap_variance: u32) -> f32 {
+        let (w, h) = (5, 3);
+        let input: std::vec::Vec<PackedFiltered> = (0..w * h)
+            .map(|i| {
+                let (value, variance) = if i < w { (4.0, 4.0) } else { (0.1, 1e-4) };
+                Filtered { value, variance }.pack()
+            })
+            .collect();
+        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
+        let view = [View {
+            camera,
+            prev_camera: camera,
+        }];
+        let mut out = input.clone();
+        let p = AtrousParams {
+            width: w,
+            height: h,
+            cap_variance,
+            ..Default::default()
+        };
+        let io = AtrousIo {
+            input: &input,
+            depth: &[5.0; 15],
+            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0); 15],
+            view: &view,
+            tiles: &[5],
+            out: &mut out,
+        };
+        atrous::<1>(UVec3::new(2, 1, 0), &p, io);
+        out[(w + 2) as usize].unpack().value
+    }
+
+    #[test]
+    fn a_capped_variance_keeps_the_highlight_out() {
+        // Blurred, the dark pixel's σ is the highlight's (about 1): the bright taps get in.
+        assert!(below_a_highlight(0) > 0.15, "{}", below_a_highlight(0));
+        // Capped at its own (0.01), they do not.
+        assert!(
+            (below_a_highlight(1) - 0.1).abs() < 1e-3,
+            "{}",
+            below_a_highlight(1)
+        );
+    }
 
     #[test]
     fn tap_tables_match_the_per_tap_formulas() {

@@ -26,6 +26,10 @@ fn svgf_is_the_default_with_rates_off() {
     assert!(!s.rates.load_balance && !s.rates.undersample);
     assert!(s.rates.spend_saved_rays);
     assert_eq!(s.filter.skip_sigma, 0.0);
+    assert!(
+        !s.filter.cap_variance,
+        "SVGF's variance is the textbook blur"
+    );
     assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
     assert_eq!(
         s.temporal.reflection_clamp_radius, 0,
@@ -43,6 +47,7 @@ fn svgf_is_the_default_with_rates_off() {
     assert_eq!(
         FilterSettings {
             skip_sigma: d.filter.skip_sigma,
+            cap_variance: d.filter.cap_variance,
             ..s.filter
         },
         d.filter
