@@ -175,7 +175,6 @@ impl Denoiser {
                 plane_scale,
                 normal_power: s.filter.normal_power,
                 cap_variance: s.filter.cap_variance as u32,
-                ..Default::default()
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],
