@@ -415,6 +415,34 @@ pub fn pack_filtered<const N: usize>(
     packing::pack_f16x2_lanes(value, variance).map(|bits| PackedFiltered { bits })
 }
 
+/// Test inputs the kernels' unit tests share.
+#[cfg(test)]
+impl Sample {
+    /// `rays` rays that all read `value` (the 0th one too).
+    pub(crate) fn uniform(value: f32, rays: u32) -> Self {
+        Sample {
+            m1: value,
+            m2: value * value,
+            rays,
+            first: value,
+        }
+    }
+}
+
+#[cfg(test)]
+impl Payload {
+    /// The history of a binary signal (lit or not per ray): mean `mean` over `count` rays, so
+    /// its second moment is its mean.
+    pub(crate) fn binary(mean: f32, count: f32) -> Self {
+        Payload {
+            m1: mean,
+            m2: mean,
+            count,
+            rng_index: 0,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

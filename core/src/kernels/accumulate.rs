@@ -278,20 +278,8 @@ mod tests {
         shadow_planes: u32,
         confirm_sigma: f32,
     ) -> Payload {
-        let mut history = [Payload {
-            m1: 0.8,
-            m2: 0.8,
-            count: 8.0,
-            rng_index: 0,
-        }
-        .pack()];
-        let samples = [Sample {
-            m1: value,
-            m2: value * value,
-            rays,
-            first: value,
-        }
-        .pack()];
+        let mut history = [Payload::binary(0.8, 8.0).pack()];
+        let samples = [Sample::uniform(value, rays).pack()];
         let p = AccumulateParams {
             width: 1,
             height: 1,
@@ -344,22 +332,8 @@ mod tests {
     /// it and its left neighbour traced 0.2 on a floor at depth 1, the right one 5.0 on a wall
     /// at depth 2.
     fn clamped(surface: bool) -> f32 {
-        let mut history = [Payload {
-            m1: 0.9,
-            m2: 0.9,
-            count: 8.0,
-            rng_index: 0,
-        }
-        .pack(); 3];
-        let samples = [0.2, 0.2, 5.0].map(|v| {
-            Sample {
-                m1: v,
-                m2: v * v,
-                rays: 1,
-                first: v,
-            }
-            .pack()
-        });
+        let mut history = [Payload::binary(0.9, 8.0).pack(); 3];
+        let samples = [0.2, 0.2, 5.0].map(|v| Sample::uniform(v, 1).pack());
         let floor = packing::pack_normal_roughness(Vec3::Z, 0.0);
         let wall = packing::pack_normal_roughness(Vec3::X, 0.0);
         let p = AccumulateParams {

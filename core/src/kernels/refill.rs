@@ -135,20 +135,8 @@ mod tests {
     /// and has a lit history (mean 0.9 over 16 rays), with the shadow-plane mask
     /// `shadow_planes`.
     fn listed(rays: u32, value: f32, shadow_planes: u32) -> std::vec::Vec<(usize, u32)> {
-        let history = [Payload {
-            m1: 0.9,
-            m2: 0.9,
-            count: 16.0,
-            rng_index: 0,
-        }
-        .pack()];
-        let samples = [Sample {
-            m1: value,
-            m2: value * value,
-            rays,
-            first: value,
-        }
-        .pack()];
+        let history = [Payload::binary(0.9, 16.0).pack()];
+        let samples = [Sample::uniform(value, rays).pack()];
         let (mut work, mut args) = ([0u32; 1], [0u32, 0, 1, 1]);
         let p = RefillParams {
             width: 1,
