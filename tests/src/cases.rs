@@ -8,12 +8,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::kernels::{
-    accumulate, atrous, buckets, classify, copy, detect, fill, reproject, variance,
-};
-use vrrt_core::payload::{
-    self, Filtered, PackedFiltered, PackedPayload, PackedSample, Payload, Sample,
-};
+use vrrt_core::kernels::{accumulate, buckets, copy, detect, fill, reproject};
+use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
 use vrrt_core::surface::{Surface, NO_INSTANCE};
@@ -25,11 +21,11 @@ pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
 pub static TABLE: &[(&str, Generator)] = &[
     ("accumulate", accumulate_case),
     ("detect", detect_case),
-    ("atrous", atrous_case),
-    ("classify", classify_case),
+    ("atrous", crate::filter_cases::atrous_case),
+    ("classify", crate::filter_cases::classify_case),
     ("count_buckets", buckets_case),
     ("reproject", reproject_case),
-    ("variance", variance_case),
+    ("variance", crate::filter_cases::variance_case),
     ("balance", crate::balance_cases::balance_case),
     ("apply", crate::balance_cases::apply_case),
     ("refill", crate::balance_cases::refill_case),
@@ -136,7 +132,7 @@ pub(crate) const INTS: &[Word] = &[Word::U32];
 /// History lengths at the extremes: 0, fractional, at and past the clamp.
 pub(crate) const EXTREME_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 63.5, 64.0, 70.0];
 /// History lengths around the young-history rules (`spatial_until` 4, short histories).
-const YOUNG_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0];
+pub(crate) const YOUNG_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0];
 
 /// Random history of the given `lengths`.
 pub(crate) fn histories(rng: &mut Pcg32, n: usize, lengths: &[f32]) -> Vec<PackedPayload> {
@@ -269,82 +265,6 @@ fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let n = (w * h * PLANES) as usize;
-    let input: Vec<PackedFiltered> = (0..n)
-        .map(|_| {
-            Filtered {
-                value: value(rng),
-                variance: value(rng).abs(),
-            }
-            .pack()
-        })
-        .collect();
-    let view = inputs::test_view();
-    let g = Images::pack(&surfaces(rng, w, h), w, &view);
-    let iteration = rng.random_range(0..5);
-    let params = atrous::AtrousParams {
-        width: w,
-        height: h,
-        step: 1 << iteration,
-        iteration,
-        cap_variance: rng.random_range(0..2),
-        ..atrous::AtrousParams::default()
-    };
-    let (tw, th) = classify::tile_grid(w, h);
-    // Tiles needing 0..=5 iterations: some pass through, some filter.
-    let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
-    Case {
-        name: format!(
-            "atrous {w}x{h}x{PLANES} step {} cap {}",
-            params.step, params.cap_variance
-        ),
-        kernel: &vrrt_core::kernels::ATROUS,
-        buffers: vec![
-            BufferSpec::from_pod(&input, INTS),
-            g.depth(),
-            g.normal_roughness(),
-            inputs::view(&view),
-            BufferSpec::from_pod(&tiles, INTS),
-            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
-        ],
-        params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
-    }
-}
-
-fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let (tw, th) = classify::tile_grid(w, h);
-    // Tile words as the variance pass leaves them: empty tiles, worst variances, and NaN or
-    // infinite ones (a buggy writer): classify's guard.
-    let tiles: Vec<u32> = (0..tw * th)
-        .map(|_| match rng.random_range(0..8) {
-            0 => 0,
-            1 => classify::tile_key([f32::NAN, f32::INFINITY][rng.random_range(0..2)]),
-            _ => classify::tile_key(value(rng).abs() * 1e-3),
-        })
-        .collect();
-    let params = classify::ClassifyParams {
-        width: w,
-        height: h,
-        iterations: rng.random_range(0..6),
-        skip_sigma: [0.0, 0.004, 0.02, 0.3][rng.random_range(0..4)],
-    };
-    Case {
-        name: format!(
-            "classify {w}x{h} sigma {} cap {}",
-            params.skip_sigma, params.iterations
-        ),
-        kernel: &vrrt_core::kernels::CLASSIFY,
-        buffers: vec![
-            BufferSpec::from_pod(&tiles, INTS),
-            BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
-        ],
-        params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::CLASSIFY, tw, th, 1),
-    }
-}
-
 fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     // Two plane groups' requests.
     let requests: Vec<u32> = (0..w * h * 2)
@@ -376,7 +296,7 @@ fn buckets_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 
 /// A random G-buffer whose positions lie on the test camera's rays ([`inputs::test_view`]), so
 /// positions reconstructed from depth match the surfaces'.
-fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
+pub(crate) fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
     let camera = inputs::test_view().camera;
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
@@ -490,39 +410,6 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REPROJECT, w, h, 1),
-    }
-}
-
-fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let n = (w * h * PLANES) as usize;
-    let params = variance::VarianceParams {
-        width: w,
-        height: h,
-        ..Default::default()
-    };
-    let view = inputs::test_view();
-    let g = Images::pack(&surfaces(rng, w, h), w, &view);
-    let (tw, th) = classify::tile_grid(w, h);
-    let tiles: Vec<u32> = (0..tw * th)
-        .map(|_| match rng.random_range(0..8) {
-            0 => classify::tile_key(f32::NAN),
-            _ => 0,
-        })
-        .collect();
-    Case {
-        name: format!("variance {w}x{h}x{PLANES}"),
-        kernel: &vrrt_core::kernels::VARIANCE,
-        buffers: vec![
-            BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
-            g.depth(),
-            g.normal_roughness(),
-            inputs::view(&view),
-            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
-            // Tile words, zeroed as the host does, with a few left high to stay the maximum.
-            BufferSpec::from_pod(&tiles, INTS),
-        ],
-        params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
     }
 }
 

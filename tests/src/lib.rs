@@ -11,6 +11,7 @@
 
 mod balance_cases;
 pub mod cases;
+mod filter_cases;
 pub mod gradient_cases;
 pub mod inputs;
 pub mod reflect_cases;

@@ -1,0 +1,119 @@
+//! Equivalence cases of the spatial filter (`variance`, `classify`, `atrous`), split off to keep
+//! `cases` short.
+
+use crate::cases::{groups, histories, surfaces, value, INTS, PAYLOAD, PLANES, YOUNG_LENGTHS};
+use crate::inputs::{self, Images};
+use crate::{BufferSpec, Case};
+use rand::Rng;
+use rand_pcg::Pcg32;
+use vrrt_core::kernels::{atrous, classify, variance};
+use vrrt_core::payload::{Filtered, PackedFiltered};
+
+pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let params = variance::VarianceParams {
+        width: w,
+        height: h,
+        ..Default::default()
+    };
+    let view = inputs::test_view();
+    let g = Images::pack(&surfaces(rng, w, h), w, &view);
+    let (tw, th) = classify::tile_grid(w, h);
+    let tiles: Vec<u32> = (0..tw * th)
+        .map(|_| match rng.random_range(0..8) {
+            0 => classify::tile_key(f32::NAN),
+            _ => 0,
+        })
+        .collect();
+    Case {
+        name: format!("variance {w}x{h}x{PLANES}"),
+        kernel: &vrrt_core::kernels::VARIANCE,
+        buffers: vec![
+            BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
+            g.depth(),
+            g.normal_roughness(),
+            inputs::view(&view),
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
+            // Tile words, zeroed as the host does, with a few left high to stay the maximum.
+            BufferSpec::from_pod(&tiles, INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
+    }
+}
+
+pub(crate) fn classify_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (tw, th) = classify::tile_grid(w, h);
+    // Tile words as the variance pass leaves them: empty tiles, worst variances, and NaN or
+    // infinite ones (a buggy writer): classify's guard.
+    let tiles: Vec<u32> = (0..tw * th)
+        .map(|_| match rng.random_range(0..8) {
+            0 => 0,
+            1 => classify::tile_key([f32::NAN, f32::INFINITY][rng.random_range(0..2)]),
+            _ => classify::tile_key(value(rng).abs() * 1e-3),
+        })
+        .collect();
+    let params = classify::ClassifyParams {
+        width: w,
+        height: h,
+        iterations: rng.random_range(0..6),
+        skip_sigma: [0.0, 0.004, 0.02, 0.3][rng.random_range(0..4)],
+    };
+    Case {
+        name: format!(
+            "classify {w}x{h} sigma {} cap {}",
+            params.skip_sigma, params.iterations
+        ),
+        kernel: &vrrt_core::kernels::CLASSIFY,
+        buffers: vec![
+            BufferSpec::from_pod(&tiles, INTS),
+            BufferSpec::from_pod(&[0u32; classify::HISTOGRAM_LEN as usize], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::CLASSIFY, tw, th, 1),
+    }
+}
+
+pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let input: Vec<PackedFiltered> = (0..n)
+        .map(|_| {
+            Filtered {
+                value: value(rng),
+                variance: value(rng).abs(),
+            }
+            .pack()
+        })
+        .collect();
+    let view = inputs::test_view();
+    let g = Images::pack(&surfaces(rng, w, h), w, &view);
+    let iteration = rng.random_range(0..5);
+    let params = atrous::AtrousParams {
+        width: w,
+        height: h,
+        step: 1 << iteration,
+        iteration,
+        cap_variance: rng.random_range(0..2),
+        ..atrous::AtrousParams::default()
+    };
+    let (tw, th) = classify::tile_grid(w, h);
+    // Tiles needing 0..=5 iterations: some pass through, some filter.
+    let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
+    Case {
+        name: format!(
+            "atrous {w}x{h}x{PLANES} step {} cap {}",
+            params.step, params.cap_variance
+        ),
+        kernel: &vrrt_core::kernels::ATROUS,
+        buffers: vec![
+            BufferSpec::from_pod(&input, INTS),
+            g.depth(),
+            g.normal_roughness(),
+            inputs::view(&view),
+            BufferSpec::from_pod(&tiles, INTS),
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
+    }
+}
