@@ -202,14 +202,12 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
     // A uniform branch, like the one below.
     if p.use_changes != 0 && p.confirm_sigma > 0.0 && super::plane_in(p.confirm_planes, id.z) {
         lanes::each_lane!(l in N {
-            let c = curr[l];
-            if lambda.0[l] > threshold && c.rays > 0 {
-                let (m, count) = (stored.m1.0[l], stored.count.0[l]);
-                let v = stored.lane(l).variance();
-                let z = detect::pixel_z(c.m1, c.rays, m, count, v, p.min_variance);
-                if z < p.confirm_sigma {
-                    prev.count.0[l] = count;
-                }
+            let (c, m) = (curr[l], stored.lane(l));
+            if lambda.0[l] > threshold
+                && c.rays > 0
+                && detect::pixel_z(c, m, p.min_variance) < p.confirm_sigma
+            {
+                prev.count.0[l] = m.count;
             }
         });
     }
@@ -218,10 +216,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
     if p.use_changes != 0 && p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z) {
         lanes::each_lane!(l in N {
             let c = curr[l];
-            let (m, count) = (stored.m1.0[l], stored.count.0[l]);
-            let v = stored.lane(l).variance();
-            let z = detect::pixel_z(c.m1, c.rays, m, count, v, p.min_variance);
-            if c.rays >= 2 && z >= p.drop_sigma {
+            if c.rays >= 2 && detect::pixel_z(c, stored.lane(l), p.min_variance) >= p.drop_sigma {
                 prev.count.0[l] = 0.0;
             }
         });

@@ -20,7 +20,7 @@ use super::DetectIo;
 use super::{plane_in, plane_index};
 use crate::lanes::{self, Lanes};
 use crate::math;
-use crate::payload::{PackedPayload, PackedSample};
+use crate::payload::{PackedPayload, PackedSample, Payload, Sample};
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
@@ -154,13 +154,14 @@ fn difference_variance(v: f32, min_variance: f32, n: u32, c: f32) -> f32 {
     math::max(v, min_variance) * (1.0 / n as f32 + 1.0 / c)
 }
 
-/// How many standard deviations this frame's `n` rays of mean `s` lie from the history mean
-/// `m` of `c` rays and per-ray variance `v` (at least `min_variance`): the pixel's own test,
-/// which the window sums dilute. 0 without rays or history.
+/// How many standard deviations this frame's rays `s` lie from the pixel's history `m` (its
+/// per-ray variance taken at least `min_variance`): the pixel's own test, which the window sums
+/// dilute. 0 without rays or history.
 #[inline]
-pub fn pixel_z(s: f32, n: u32, m: f32, c: f32, v: f32, min_variance: f32) -> f32 {
-    let var = difference_variance(v, min_variance, n, c);
-    let z = math::abs(s - m) / math::sqrt(var);
+pub fn pixel_z(s: Sample, m: Payload, min_variance: f32) -> f32 {
+    let (n, c) = (s.rays, m.count);
+    let var = difference_variance(m.variance(), min_variance, n, c);
+    let z = math::abs(s.m1 - m.m1) / math::sqrt(var);
     if n > 0 && c > 0.0 && var > 0.0 && math::is_finite(z) {
         z
     } else {
@@ -208,20 +209,38 @@ mod tests {
 
     const W: u32 = 9;
 
+    /// [`pixel_z`] of `n` rays of mean `s` against a history of mean `m`, `c` rays and per-ray
+    /// variance `v`.
+    fn z_of(s: f32, n: u32, m: f32, c: f32, v: f32, min_variance: f32) -> f32 {
+        let rays = Sample {
+            m1: s,
+            m2: s * s,
+            rays: n,
+            first: s,
+        };
+        let history = Payload {
+            m1: m,
+            m2: v + m * m,
+            count: c,
+            rng_index: 0,
+        };
+        pixel_z(rays, history, min_variance)
+    }
+
     #[test]
     fn pixel_z_measures_a_pixel_against_its_history() {
         // Four dark rays under a lit history of 5.7 rays (p = 0.82): 3.27σ.
-        let z = pixel_z(0.0, 4, 0.82, 5.7, 0.82 * 0.18, 1e-4);
+        let z = z_of(0.0, 4, 0.82, 5.7, 0.82 * 0.18, 1e-4);
         assert!((z - 3.27).abs() < 0.01, "{z}");
         // One dark ray is a fifth of the time what that history gives: under 2σ.
-        assert!(pixel_z(0.0, 1, 0.82, 5.7, 0.82 * 0.18, 1e-4) < 2.0);
+        assert!(z_of(0.0, 1, 0.82, 5.7, 0.82 * 0.18, 1e-4) < 2.0);
         // A converged history of variance 0 takes the floor.
-        let floor = pixel_z(0.01, 1, 0.0, 64.0, 0.0, 1e-4);
+        let floor = z_of(0.01, 1, 0.0, 64.0, 0.0, 1e-4);
         assert!((floor - 0.01 / (1e-4f32 * (1.0 + 1.0 / 64.0)).sqrt()).abs() < 1e-4);
         // No rays, no history, or no variance at all: nothing to test.
-        assert_eq!(pixel_z(0.0, 0, 0.82, 5.7, 0.15, 1e-4), 0.0);
-        assert_eq!(pixel_z(0.0, 4, 0.82, 0.0, 0.15, 1e-4), 0.0);
-        assert_eq!(pixel_z(0.5, 4, 0.82, 5.7, 0.0, 0.0), 0.0);
+        assert_eq!(z_of(0.0, 0, 0.82, 5.7, 0.15, 1e-4), 0.0);
+        assert_eq!(z_of(0.0, 4, 0.82, 0.0, 0.15, 1e-4), 0.0);
+        assert_eq!(z_of(0.5, 4, 0.82, 5.7, 0.0, 0.0), 0.0);
     }
 
     /// `λ` at the centre of a `W × W` image whose history has mean `m` (variance `v`, 32 rays)

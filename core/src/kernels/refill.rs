@@ -98,9 +98,7 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
                 fewer = fewer.zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
                 lanes::each_lane!(l in N {
                     let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
-                    let v = m.variance();
-                    let sigmas =
-                        super::detect::pixel_z(s.m1, s.rays, m.m1, m.count, v, p.min_variance);
+                    let sigmas = super::detect::pixel_z(s, m, p.min_variance);
                     surprised.0[l] |= m.count >= p.verify_history && sigmas >= p.verify_sigma;
                 });
             }
