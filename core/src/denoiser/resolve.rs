@@ -83,6 +83,8 @@ impl Denoiser {
         let (w, h, planes) = (self.width, self.height, s.planes);
         let changes = self.changes_buffer();
         let detect = self.detects();
+        // The reflections' plane: its own-surface clamp and its confirmed drops.
+        let reflections = s.parallax_plane.map_or(0, |z| 1 << z);
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,
@@ -103,11 +105,11 @@ impl Denoiser {
             shadow_planes: s.shadow_planes,
             drop_sigma: s.gradient.shadow_drop_sigma,
             min_variance: s.gradient.detect_min_variance,
-            surface_clamp_planes: s.parallax_plane.map_or(0, |z| 1 << z),
+            surface_clamp_planes: reflections,
             surface_clamp_radius: s.temporal.reflection_clamp_radius,
             normal_threshold: s.temporal.normal_threshold,
             depth_tolerance: s.temporal.clamp_depth_tolerance,
-            confirm_planes: s.parallax_plane.map_or(0, |z| 1 << z),
+            confirm_planes: reflections,
             confirm_sigma: s.gradient.reflection_confirm_sigma,
         };
         let accumulate = kernels::AccumulateBindings {
