@@ -146,6 +146,7 @@ mod tests {
                 vrs_mask: true,
                 per_signal: false,
                 signal_floor: 0.6,
+                shift_requests: false,
             },
             gradient: GradientSettings {
                 stratum: 5,

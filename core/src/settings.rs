@@ -133,6 +133,12 @@ pub struct RateSettings {
     /// Spend budget left over by raising low requests, inner rings first (default on); off is the
     /// "save" mode.
     pub spend_saved_rays: bool,
+    /// Over budget, lower every request by the same step, so rays go where history is shortest
+    /// (`kernels::balance::MODE_SHIFT`: water filling on history plus rays), instead of capping the
+    /// largest requests, the seed's, which after a camera cut gives a disoccluded pixel the same
+    /// one ray as its neighbours with ten (default on). The reflections' requests, which their
+    /// tiles' importance scales, keep the cap.
+    pub shift_requests: bool,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
     /// History length (rays) from which a pixel counts as converged and may undersample
@@ -337,6 +343,7 @@ impl Default for RateSettings {
             vrs_mask: false,
             per_signal: true,
             signal_floor: 0.25,
+            shift_requests: true,
         }
     }
 }

@@ -63,6 +63,7 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         planes: PLANES,
         signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
         refill_rays: rng.random_range(1..=16),
+        shift: rng.random_range(0..4),
     }
 }
 

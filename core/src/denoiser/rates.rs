@@ -22,6 +22,14 @@ impl Denoiser {
         } else {
             s.rates.rays_per_pixel
         };
+        // The group whose requests the reflections' tile importance scales: they are no longer
+        // a history's deficit, which the balancer's shift assumes (`balance::MODE_SHIFT`).
+        let importance_group = self
+            .frame
+            .importance_plane
+            .map_or(reproject::NO_GROUP, |z| {
+                kernels::plane_group(s.plane_groups, z)
+            });
         let params = reproject::ReprojectParams {
             width: w,
             height: h,
@@ -58,12 +66,7 @@ impl Denoiser {
             still_history: if still_rule { history } else { 0.0 },
             still_variance: s.rates.still_sigma * s.rates.still_sigma,
             max_history: history,
-            importance_group: self
-                .frame
-                .importance_plane
-                .map_or(reproject::NO_GROUP, |z| {
-                    kernels::plane_group(s.plane_groups, z)
-                }),
+            importance_group,
             parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
             plane_groups: s.plane_groups,
             ..Default::default()
@@ -118,6 +121,11 @@ impl Denoiser {
             planes: s.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.gradient.refill_rays,
+            shift: if s.rates.shift_requests {
+                !(1u32.checked_shl(importance_group).unwrap_or(0))
+            } else {
+                0
+            },
         };
         let balance = kernels::BalanceBindings {
             counts: self.counts,

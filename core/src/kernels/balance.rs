@@ -37,6 +37,9 @@ pub const MODE_OVER: u32 = 1;
 pub const MODE_UNDER: u32 = 2;
 /// Every requesting pixel gets `fixed_rate` rays.
 pub const MODE_FIXED: u32 = 3;
+/// Every request lowered by the same number of buckets (`BUCKET_COUNT - 1 - t`), at least to
+/// the lowest ([`mapped_bucket`]).
+pub const MODE_SHIFT: u32 = 4;
 
 /// Grant every request as asked (supersampling without a budget).
 pub const POLICY_KEEP: u32 = 0;
@@ -72,13 +75,16 @@ pub struct BalanceParams {
     pub signal_floor: f32,
     /// Rays of each entry of last frame's refill lists (`refill`, [`super::refill`]).
     pub refill_rays: u32,
+    /// Bit `g` set: over budget, group `g` lowers every request by the same step
+    /// ([`MODE_SHIFT`]) instead of capping the largest ([`MODE_OVER`], the seed's).
+    pub shift: u32,
 }
 
 /// The balancer's decision (what [`super::apply`] reads) and its bookkeeping.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Balance {
-    /// [`MODE_KEEP`], [`MODE_OVER`], [`MODE_UNDER`] or [`MODE_FIXED`].
+    /// [`MODE_KEEP`], [`MODE_OVER`], [`MODE_UNDER`], [`MODE_FIXED`] or [`MODE_SHIFT`].
     pub mode: u32,
     /// Bucket threshold `t`.
     pub bucket_threshold: u32,
@@ -99,8 +105,26 @@ pub struct Balance {
 /// The bucket a pixel requesting bucket `b` in ring `ring` is granted.
 #[inline]
 pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
-    let t = d.bucket_threshold + (ring >= d.ring_threshold) as u32;
-    match d.mode {
+    mapped_bucket(
+        b,
+        d.bucket_threshold + (ring >= d.ring_threshold) as u32,
+        d.mode,
+    )
+}
+
+/// Request `b` at threshold `t`: capped at `t` ([`MODE_OVER`]), raised to it ([`MODE_UNDER`]),
+/// or lowered by `BUCKET_COUNT - 1 - t` buckets ([`MODE_SHIFT`]); non-decreasing in `t`.
+///
+/// Why the shift: a pixel's error after this frame is about `σ² / (n + g)` for `n` rays of
+/// history and `g` new ones, and the allocation that minimises the sum under a budget gives rays
+/// where `n + g` is smallest (water filling on history plus rays). Requests are
+/// `supersample_target - n` (`reproject::requested_rate`), so lowering them all by one step keeps
+/// that order, while capping them (the seed's) hands a pixel disoccluded this frame the same one
+/// ray as its neighbours with ten, whenever all of them are short of history (the frames after
+/// a camera cut). Below one ray the step goes on through the fractions (1/2, 1/3, … 1/64).
+#[inline]
+pub fn mapped_bucket(b: u32, t: u32, mode: u32) -> u32 {
+    match mode {
         MODE_OVER => {
             if b < t {
                 b
@@ -113,6 +137,15 @@ pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
                 b
             } else {
                 t
+            }
+        }
+        MODE_SHIFT => {
+            let keep = BUCKET_COUNT - 1;
+            let shift = if t < keep { keep - t } else { 0 };
+            if b > shift {
+                b - shift
+            } else {
+                0
             }
         }
         _ => b,
@@ -137,23 +170,35 @@ pub fn granted_rate(b: u32, ring: u32, d: &Balance) -> f32 {
     }
 }
 
-/// Expected rays if every bucket `b` of the histogram at `base` is mapped to `min(b, t)` (`down`)
-/// or `max(b, t)`.
-pub fn rays_at(counts: &[u32], base: usize, t: u32, down: bool) -> f32 {
+/// Expected rays if every bucket `b` of the histogram at `base` is mapped by
+/// [`mapped_bucket`]`(b, t, mode)`.
+pub fn rays_at(counts: &[u32], base: usize, t: u32, mode: u32) -> f32 {
     let mut sum = 0.0f32;
     let mut b = 0;
     while b < BUCKET_COUNT {
-        let g = if down == (b < t) { b } else { t };
-        sum += counts[base + b as usize] as f32 * bucket_to_rate(g);
+        sum += counts[base + b as usize] as f32 * bucket_to_rate(mapped_bucket(b, t, mode));
         b += 1;
     }
     sum
 }
 
-/// Pixels of ring `r` that the extra step of threshold `t` would change (`b > t` over budget,
-/// `b <= t` under).
-fn ring_pixels_moved(counts: &[u32], base: usize, r: u32, t: u32, down: bool) -> f32 {
+/// Rays that the extra step of threshold `t` (`t + 1`) adds to ring `r`'s pixels. Capped or
+/// raised, every pixel it moves goes from `t` to `t + 1`; shifted, each goes up one bucket of
+/// its own.
+fn ring_rays_added(counts: &[u32], base: usize, r: u32, t: u32, mode: u32) -> f32 {
     let base = base + ((1 + r) * BUCKET_COUNT) as usize;
+    if mode == MODE_SHIFT {
+        let mut added = 0.0f32;
+        let mut b = 0;
+        while b < BUCKET_COUNT {
+            let step = bucket_to_rate(mapped_bucket(b, t + 1, mode))
+                - bucket_to_rate(mapped_bucket(b, t, mode));
+            added += counts[base + b as usize] as f32 * step;
+            b += 1;
+        }
+        return added;
+    }
+    let down = mode == MODE_OVER;
     let mut n = 0u32;
     let mut b = 0;
     while b < BUCKET_COUNT {
@@ -162,7 +207,7 @@ fn ring_pixels_moved(counts: &[u32], base: usize, r: u32, t: u32, down: bool) ->
         }
         b += 1;
     }
-    n as f32
+    (bucket_to_rate(t + 1) - bucket_to_rate(t)) * n as f32
 }
 
 /// Rays per pixel of each plane group: one budget of `rays_per_pixel` rays for every plane,
@@ -197,7 +242,7 @@ pub fn group_rates(counts: &[u32], p: &BalanceParams) -> [f32; MAX_GROUPS as usi
     while g < p.groups {
         let i = g as usize;
         cost[i] = super::group_planes(p.plane_groups, p.planes, g) as f32;
-        weight[i] = rays_at(counts, (g * COUNTS_LEN) as usize, 0, false) * cost[i];
+        weight[i] = rays_at(counts, (g * COUNTS_LEN) as usize, 0, MODE_KEEP) * cost[i];
         planes += cost[i];
         total += weight[i];
         g += 1;
@@ -291,7 +336,7 @@ pub fn solve(
     let mut fits = [0.0f32; BUCKET_COUNT as usize];
     let mut cand = 0;
     while cand < BUCKET_COUNT {
-        fits[cand as usize] = rays_at(counts, base as usize, cand, s.down != 0);
+        fits[cand as usize] = rays_at(counts, base as usize, cand, s.mode);
         cand += 1;
     }
     s.pick(&fits, 0);
@@ -315,8 +360,9 @@ pub struct Search {
     pub decision: Balance,
     /// Nonzero: thresholds are searched (the requests do not fit, or may be raised).
     pub searching: u32,
-    /// Nonzero: over budget, requests are clamped down (`min(b, t)`); zero: raised.
-    pub down: u32,
+    /// How requests are mapped: [`MODE_OVER`] or [`MODE_SHIFT`] over budget, [`MODE_UNDER`]
+    /// under it ([`mapped_bucket`]).
+    pub mode: u32,
     /// The threshold picked (largest whose total fits).
     pub t: u32,
     /// Expected rays at `t`.
@@ -335,8 +381,9 @@ impl Search {
         spent: f32,
         p: &BalanceParams,
     ) -> Search {
+        let shift = (p.shift >> (base / COUNTS_LEN)) & 1 != 0;
         let base = base as usize;
-        let requested = rays_at(counts, base, 0, false);
+        let requested = rays_at(counts, base, 0, MODE_KEEP);
         let mut active = 0u32;
         let mut b = 0;
         while b < BUCKET_COUNT {
@@ -368,7 +415,11 @@ impl Search {
             return s;
         }
         let down = requested > budget;
-        s.down = down as u32;
+        s.mode = match (down, shift) {
+            (false, _) => MODE_UNDER,
+            (true, false) => MODE_OVER,
+            (true, true) => MODE_SHIFT,
+        };
         s.searching =
             !(p.policy == POLICY_KEEP || requested == budget || (!down && p.raise == 0)) as u32;
         s
@@ -406,9 +457,9 @@ impl Search {
         }
     }
 
-    /// Pixels of ring `r` that the extra step of the picked threshold would change.
+    /// Rays that the extra step of the picked threshold adds to ring `r`.
     pub fn ring_moved(&self, counts: &[u32], base: u32, r: u32) -> f32 {
-        ring_pixels_moved(counts, base as usize, r, self.t, self.down != 0)
+        ring_rays_added(counts, base as usize, r, self.t, self.mode)
     }
 
     /// The decision, from `moved[base + r]` = [`Self::ring_moved`] of every ring `r` below
@@ -427,9 +478,8 @@ impl Search {
         let rings = self.rings(p);
         if rings > 0 {
             k = rings;
-            let step = bucket_to_rate(self.t + 1) - bucket_to_rate(self.t);
             while k > 0 {
-                let add = step * moved[base + k as usize - 1];
+                let add = moved[base + k as usize - 1];
                 if granted + add > budget {
                     partial = math::clamp((budget - granted) / add, 0.0, 1.0);
                     granted += partial * add;
@@ -440,11 +490,7 @@ impl Search {
             }
         }
         Balance {
-            mode: if self.down != 0 {
-                MODE_OVER
-            } else {
-                MODE_UNDER
-            },
+            mode: self.mode,
             bucket_threshold: self.t,
             ring_threshold: k,
             partial,
@@ -477,7 +523,7 @@ pub struct Shared {
     pub search: [Search; MAX_GROUPS as usize],
     /// `[group][candidate]`: [`rays_at`].
     pub fits: [f32; (MAX_GROUPS * BUCKET_COUNT) as usize],
-    /// `[group][ring]`: [`Search::ring_moved`].
+    /// `[group][ring]`: [`Search::ring_moved`], the rays each ring's extra step adds.
     pub moved: [f32; (MAX_GROUPS * MAX_RINGS) as usize],
 }
 
@@ -504,7 +550,7 @@ pub fn sums(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mut
         let s = local.search[g as usize];
         if s.searching != 0 {
             let base = (g * COUNTS_LEN) as usize;
-            local.fits[i as usize] = rays_at(io.counts, base, cand, s.down != 0);
+            local.fits[i as usize] = rays_at(io.counts, base, cand, s.mode);
         }
         i += THREADS;
     }

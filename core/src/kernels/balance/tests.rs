@@ -14,6 +14,7 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
         planes: 1,
         signal_floor: 1.0,
         refill_rays: 1,
+        shift: 0,
     }
 }
 
@@ -71,6 +72,50 @@ fn over_budget_drops_the_highest_requests_first() {
         "converged pixels keep their ray"
     );
     assert!(bucket_to_rate(granted_bucket(79, 0, &d)) >= 1.0);
+}
+
+#[test]
+fn shifted_requests_give_the_rays_to_the_shortest_history() {
+    // After a camera cut: 90 pixels hold 10 rays and ask for 6, 10 were disoccluded this frame
+    // and ask for 16; budget 1 ray per pixel, in two rings.
+    let c = histogram(&[(69, 0, 45), (69, 1, 45), (79, 0, 5), (79, 1, 5)]);
+    // Capped (the seed's), every pixel gets the same.
+    let capped = solve_one(&c, &params(1.0, 2, 1));
+    assert_eq!(capped.mode, MODE_OVER);
+    assert_eq!(granted_rate(79, 0, &capped), granted_rate(69, 0, &capped));
+    // Shifted, the disoccluded pixels get most of the budget: history plus rays would be level
+    // at 0 new rays for the others and 10 for them, but below one ray a request steps down
+    // through the fractions (1/2, 1/3, …), so the others keep a quarter of a ray.
+    let shifted = solve_one(
+        &c,
+        &BalanceParams {
+            shift: 1,
+            ..params(1.0, 2, 1)
+        },
+    );
+    assert_eq!(shifted.mode, MODE_SHIFT);
+    for ring in 0..2 {
+        let fresh = bucket_to_rate(granted_bucket(79, ring, &shifted));
+        let young = bucket_to_rate(granted_bucket(69, ring, &shifted));
+        assert!(fresh >= 7.0 && young <= 0.25, "{fresh} {young}");
+    }
+    let total = granted(&c, 2, &shifted);
+    assert!((99.0..=100.001).contains(&total), "{total}");
+}
+
+#[test]
+fn the_shift_is_monotone_and_ends_at_the_requests() {
+    for b in 0..BUCKET_COUNT {
+        assert_eq!(mapped_bucket(b, BUCKET_COUNT - 1, MODE_SHIFT), b);
+        assert_eq!(mapped_bucket(b, 0, MODE_SHIFT), 0);
+        for t in 1..BUCKET_COUNT {
+            let (lower, upper) = (
+                mapped_bucket(b, t - 1, MODE_SHIFT),
+                mapped_bucket(b, t, MODE_SHIFT),
+            );
+            assert!(upper == lower || upper == lower + 1, "b {b} t {t}");
+        }
+    }
 }
 
 #[test]
@@ -287,6 +332,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             planes: groups,
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
             refill_rays: 1 + next(8),
+            shift: next(16),
         };
         let rates = group_rates(&c, &p);
         // Last frame's refill lists: their counts times their rays come off each group's budget.
