@@ -133,11 +133,12 @@ pub struct RateSettings {
     /// Spend budget left over by raising low requests, inner rings first (default on); off is the
     /// "save" mode.
     pub spend_saved_rays: bool,
-    /// Over budget, lower every request by the same step, so rays go where history is shortest
-    /// (`kernels::balance::MODE_SHIFT`: water filling on history plus rays), instead of capping the
-    /// largest requests, the seed's, which after a camera cut gives a disoccluded pixel the same
-    /// one ray as its neighbours with ten (default on). The reflections' requests, which their
-    /// tiles' importance scales, keep the cap.
+    /// Move every request by the same step to fit the budget, down over it and up under it, so
+    /// rays go where history is shortest (`kernels::balance::MODE_SHIFT`, `MODE_LIFT`: water
+    /// filling on history plus rays), instead of capping the largest requests or raising the
+    /// smallest, the seed's: capped, a pixel disoccluded after a camera cut gets the same one ray
+    /// as its neighbours with ten (default on). The reflections' requests, which their tiles'
+    /// importance scales, keep the seed's rule.
     pub shift_requests: bool,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,

@@ -40,6 +40,8 @@ pub const MODE_FIXED: u32 = 3;
 /// Every request lowered by the same number of buckets (`BUCKET_COUNT - 1 - t`), at least to
 /// the lowest ([`mapped_bucket`]).
 pub const MODE_SHIFT: u32 = 4;
+/// Every request raised by the same number of buckets (`t`), at most to the highest.
+pub const MODE_LIFT: u32 = 5;
 
 /// Grant every request as asked (supersampling without a budget).
 pub const POLICY_KEEP: u32 = 0;
@@ -75,8 +77,9 @@ pub struct BalanceParams {
     pub signal_floor: f32,
     /// Rays of each entry of last frame's refill lists (`refill`, [`super::refill`]).
     pub refill_rays: u32,
-    /// Bit `g` set: over budget, group `g` lowers every request by the same step
-    /// ([`MODE_SHIFT`]) instead of capping the largest ([`MODE_OVER`], the seed's).
+    /// Bit `g` set: group `g` moves every request by the same step, down over budget
+    /// ([`MODE_SHIFT`]) and up under it ([`MODE_LIFT`]), instead of capping the largest
+    /// ([`MODE_OVER`]) or raising the smallest ([`MODE_UNDER`]), the seed's.
     pub shift: u32,
 }
 
@@ -84,7 +87,8 @@ pub struct BalanceParams {
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Balance {
-    /// [`MODE_KEEP`], [`MODE_OVER`], [`MODE_UNDER`], [`MODE_FIXED`] or [`MODE_SHIFT`].
+    /// [`MODE_KEEP`], [`MODE_OVER`], [`MODE_UNDER`], [`MODE_FIXED`], [`MODE_SHIFT`] or
+    /// [`MODE_LIFT`].
     pub mode: u32,
     /// Bucket threshold `t`.
     pub bucket_threshold: u32,
@@ -113,7 +117,8 @@ pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
 }
 
 /// Request `b` at threshold `t`: capped at `t` ([`MODE_OVER`]), raised to it ([`MODE_UNDER`]),
-/// or lowered by `BUCKET_COUNT - 1 - t` buckets ([`MODE_SHIFT`]); non-decreasing in `t`.
+/// lowered by `BUCKET_COUNT - 1 - t` buckets ([`MODE_SHIFT`]) or raised by `t`
+/// ([`MODE_LIFT`]); non-decreasing in `t`.
 ///
 /// Why the shift: a pixel's error after this frame is about `σ² / (n + g)` for `n` rays of
 /// history and `g` new ones, and the allocation that minimises the sum under a budget gives rays
@@ -122,6 +127,8 @@ pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
 /// that order, while capping them (the seed's) hands a pixel disoccluded this frame the same one
 /// ray as its neighbours with ten, whenever all of them are short of history (the frames after
 /// a camera cut). Below one ray the step goes on through the fractions (1/2, 1/3, … 1/64).
+/// Under budget the same reasoning lifts every request alike, where raising the smallest to
+/// `t` (the seed's) spends the rays left over on converged pixels, whose history is longest.
 #[inline]
 pub fn mapped_bucket(b: u32, t: u32, mode: u32) -> u32 {
     match mode {
@@ -146,6 +153,13 @@ pub fn mapped_bucket(b: u32, t: u32, mode: u32) -> u32 {
                 b - shift
             } else {
                 0
+            }
+        }
+        MODE_LIFT => {
+            if b + t < BUCKET_COUNT {
+                b + t
+            } else {
+                BUCKET_COUNT - 1
             }
         }
         _ => b,
@@ -183,11 +197,11 @@ pub fn rays_at(counts: &[u32], base: usize, t: u32, mode: u32) -> f32 {
 }
 
 /// Rays that the extra step of threshold `t` (`t + 1`) adds to ring `r`'s pixels. Capped or
-/// raised, every pixel it moves goes from `t` to `t + 1`; shifted, each goes up one bucket of
-/// its own.
+/// raised, every pixel it moves goes from `t` to `t + 1`; shifted or lifted, each goes up one
+/// bucket of its own.
 fn ring_rays_added(counts: &[u32], base: usize, r: u32, t: u32, mode: u32) -> f32 {
     let base = base + ((1 + r) * BUCKET_COUNT) as usize;
-    if mode == MODE_SHIFT {
+    if mode == MODE_SHIFT || mode == MODE_LIFT {
         let mut added = 0.0f32;
         let mut b = 0;
         while b < BUCKET_COUNT {
@@ -360,8 +374,8 @@ pub struct Search {
     pub decision: Balance,
     /// Nonzero: thresholds are searched (the requests do not fit, or may be raised).
     pub searching: u32,
-    /// How requests are mapped: [`MODE_OVER`] or [`MODE_SHIFT`] over budget, [`MODE_UNDER`]
-    /// under it ([`mapped_bucket`]).
+    /// How requests are mapped: [`MODE_OVER`] or [`MODE_SHIFT`] over budget, [`MODE_UNDER`] or
+    /// [`MODE_LIFT`] under it ([`mapped_bucket`]).
     pub mode: u32,
     /// The threshold picked (largest whose total fits).
     pub t: u32,
@@ -416,7 +430,8 @@ impl Search {
         }
         let down = requested > budget;
         s.mode = match (down, shift) {
-            (false, _) => MODE_UNDER,
+            (false, false) => MODE_UNDER,
+            (false, true) => MODE_LIFT,
             (true, false) => MODE_OVER,
             (true, true) => MODE_SHIFT,
         };

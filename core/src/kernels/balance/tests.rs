@@ -104,16 +104,37 @@ fn shifted_requests_give_the_rays_to_the_shortest_history() {
 }
 
 #[test]
-fn the_shift_is_monotone_and_ends_at_the_requests() {
+fn lifted_requests_spend_the_rest_on_young_history() {
+    // 90 converged pixels ask for 1/8 ray, 10 young ones for 2; budget 1 ray per pixel.
+    let c = histogram(&[(56, 0, 90), (65, 0, 10)]);
+    let p = |shift| BalanceParams {
+        shift,
+        ..params(1.0, 1, 1)
+    };
+    // Raised to the threshold (the seed's), the converged pixels get the rays left over.
+    let raised = solve_one(&c, &p(0));
+    assert_eq!(raised.mode, MODE_UNDER);
+    assert_eq!(granted_rate(65, 0, &raised), 2.0);
+    // Lifted, the young pixels gain as many buckets as the converged ones: whole rays.
+    let lifted = solve_one(&c, &p(1));
+    assert_eq!(lifted.mode, MODE_LIFT);
+    assert!(granted_rate(65, 0, &lifted) >= 4.0, "{lifted:?}");
+    assert!(granted_rate(56, 0, &lifted) < granted_rate(56, 0, &raised));
+    let total = granted(&c, 1, &lifted);
+    assert!((99.0..=100.001).contains(&total), "{total}");
+}
+
+#[test]
+fn shift_and_lift_are_monotone_and_end_at_the_requests() {
     for b in 0..BUCKET_COUNT {
         assert_eq!(mapped_bucket(b, BUCKET_COUNT - 1, MODE_SHIFT), b);
         assert_eq!(mapped_bucket(b, 0, MODE_SHIFT), 0);
+        assert_eq!(mapped_bucket(b, 0, MODE_LIFT), b);
         for t in 1..BUCKET_COUNT {
-            let (lower, upper) = (
-                mapped_bucket(b, t - 1, MODE_SHIFT),
-                mapped_bucket(b, t, MODE_SHIFT),
-            );
-            assert!(upper == lower || upper == lower + 1, "b {b} t {t}");
+            for mode in [MODE_SHIFT, MODE_LIFT] {
+                let (lower, upper) = (mapped_bucket(b, t - 1, mode), mapped_bucket(b, t, mode));
+                assert!(upper == lower || upper == lower + 1, "b {b} t {t}");
+            }
         }
     }
 }
