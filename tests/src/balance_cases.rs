@@ -72,8 +72,8 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let params = balance_params(rng, w, h);
     Case {
         name: format!(
-            "balance {w}x{h} rpp {} groups {}",
-            params.rays_per_pixel, params.groups
+            "balance {w}x{h} rpp {} groups {} shift {:#b}",
+            params.rays_per_pixel, params.groups, params.shift
         ),
         kernel: &vrrt_core::kernels::BALANCE,
         buffers: vec![
