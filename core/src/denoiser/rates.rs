@@ -4,6 +4,25 @@
 use super::*;
 
 impl Denoiser {
+    /// The plane groups whose requests the balancer shifts (`balance::BalanceParams::shift`): with
+    /// `rates.shift_requests`, every group but the reflections' importance-scaled one and those
+    /// holding a shadow plane. The shadows' detector and verification read every pixel's own
+    /// rays, and young history shifted down to a fraction of a ray let their penumbrae lag (room
+    /// shadows, 160x90: moving relMSE 0.207 → 0.230).
+    fn shifting_groups(&self, importance_group: u32) -> u32 {
+        let s = &self.settings;
+        if !s.rates.shift_requests {
+            return 0;
+        }
+        let mut mask = !(1u32.checked_shl(importance_group).unwrap_or(0));
+        for z in 0..s.planes {
+            if s.shadow_planes >> z & 1 != 0 {
+                mask &= !(1 << kernels::plane_group(s.plane_groups, z));
+            }
+        }
+        mask
+    }
+
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
     /// and apply. Afterwards [`Self::work`] and [`Self::args`] say what to trace.
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
@@ -121,11 +140,7 @@ impl Denoiser {
             planes: s.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.gradient.refill_rays,
-            shift: if s.rates.shift_requests {
-                !(1u32.checked_shl(importance_group).unwrap_or(0))
-            } else {
-                0
-            },
+            shift: self.shifting_groups(importance_group),
         };
         let balance = kernels::BalanceBindings {
             counts: self.counts,
