@@ -138,7 +138,8 @@ pub struct RateSettings {
     /// filling on history plus rays), instead of capping the largest requests or raising the
     /// smallest, the seed's: capped, a pixel disoccluded after a camera cut gets the same one ray
     /// as its neighbours with ten (default on). The reflections' requests, which their tiles'
-    /// importance scales, keep the seed's rule.
+    /// importance scales, and the shadows', whose detection reads every pixel's rays, keep the
+    /// seed's rule.
     pub shift_requests: bool,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
