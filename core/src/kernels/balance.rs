@@ -154,8 +154,9 @@ pub fn mapped_bucket(b: u32, t: u32, mode: u32) -> u32 {
         }
         MODE_SHIFT => {
             let keep = BUCKET_COUNT - 1;
-            let shift = if t < keep { keep - t } else { 0 };
-            let shifted = if b > shift { b - shift } else { 0 };
+            // Saturating subtractions, written out for the shader target.
+            let shift = keep - if t < keep { t } else { keep };
+            let shifted = b - if b > shift { shift } else { b };
             let floor = if b < SHIFT_FLOOR { b } else { SHIFT_FLOOR };
             if shifted > floor {
                 shifted
