@@ -20,6 +20,10 @@
 //! same blue-noise test as fractional rates. This is the seed's "fractional buckets" refinement
 //! without more buckets: the expected rays land on the budget, not up to a ring's step below it.
 //!
+//! Beyond the seed too: where a group's requests are each pixel's history deficit (AO), the
+//! threshold moves every request by the same step instead ([`MODE_SHIFT`] over budget,
+//! [`MODE_LIFT`] under it; [`mapped_bucket`] says why), so the rays go where history is shortest.
+//!
 //! [`POLICY_FIXED`] is the SVGF baseline: every requesting pixel traces `rays_per_pixel`, however
 //! fractional (1.5 is one ray plus a second with probability 1/2), so baselines spend the same
 //! budget as VRRT.
