@@ -170,6 +170,7 @@ mod tests {
                 atrous_iterations: 2,
                 sigma_luminance: 4.0,
                 normal_power: 0.0,
+                ao_normal_power: 3.5,
                 plane_tolerance: 1.0 / 7.0,
                 spatial_radius: 0,
                 spatial_until: 0.0,

@@ -11,9 +11,12 @@ use vrrt_core::payload::{Filtered, PackedFiltered};
 
 pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let n = (w * h * PLANES) as usize;
+    // Some planes take the AO normal exponent: both weights are exercised.
     let params = variance::VarianceParams {
         width: w,
         height: h,
+        ao_planes: rng.random_range(0..1 << PLANES),
+        ao_normal_power: 8.0,
         ..Default::default()
     };
     let view = inputs::test_view();
@@ -26,7 +29,7 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     Case {
-        name: format!("variance {w}x{h}x{PLANES}"),
+        name: format!("variance {w}x{h}x{PLANES} ao {:b}", params.ao_planes),
         kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![
             BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
@@ -94,6 +97,8 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         step: 1 << iteration,
         iteration,
         cap_variance: rng.random_range(0..2),
+        ao_planes: rng.random_range(0..1 << PLANES),
+        ao_normal_power: 8.0,
         ..atrous::AtrousParams::default()
     };
     let (tw, th) = classify::tile_grid(w, h);
@@ -101,8 +106,8 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!(
-            "atrous {w}x{h}x{PLANES} step {} cap {}",
-            params.step, params.cap_variance
+            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b}",
+            params.step, params.cap_variance, params.ao_planes
         ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![

@@ -142,7 +142,8 @@ impl Denoiser {
             spatial_until: s.filter.spatial_until,
             plane_scale,
             normal_power: s.filter.normal_power,
-            ..Default::default()
+            ao_planes: s.ao_planes,
+            ao_normal_power: s.filter.ao_normal_power,
         };
         let variance = kernels::VarianceBindings {
             payload: self.history[self.cur],
@@ -177,6 +178,8 @@ impl Denoiser {
                 plane_scale,
                 normal_power: s.filter.normal_power,
                 cap_variance: s.filter.cap_variance as u32,
+                ao_planes: s.ao_planes,
+                ao_normal_power: s.filter.ao_normal_power,
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],

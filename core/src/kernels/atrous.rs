@@ -10,6 +10,7 @@
 //! (a copy, uniform per workgroup): converged regions skip the wide late iterations.
 
 use super::classify::tile_index;
+use super::detect::per_plane;
 use super::AtrousIo;
 use crate::camera::PixelRays;
 use crate::lanes::{self, Lanes};
@@ -42,6 +43,10 @@ pub struct AtrousParams {
     /// Nonzero: the luminance test's variance (the 3×3-blurred one) is capped at the pixel's
     /// own (VRRT; SVGF as published does not cap it).
     pub cap_variance: u32,
+    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Settings::ao_planes`).
+    pub ao_planes: u32,
+    /// Exponent of the normal weight on the planes in `ao_planes`.
+    pub ao_normal_power: f32,
 }
 
 impl Default for AtrousParams {
@@ -55,6 +60,8 @@ impl Default for AtrousParams {
             plane_scale: 0.01,
             normal_power: 128.0,
             cap_variance: 0,
+            ao_planes: 0,
+            ao_normal_power: 128.0,
         }
     }
 }
@@ -136,6 +143,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         // test lets the bright taps in. Capped, the blur may only lower σ.
         blurred = blurred.zip(variance, math::min);
     }
+    let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
     let mut sum = value;
@@ -161,7 +169,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
                     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w)
                         .map(packing::unpack_normal);
-                    let w_n = surface::normal_weights(n, m, p.normal_power);
+                    let w_n = surface::normal_weights(n, m, normal_power);
                     // Plane and luminance weights are both exponentials: one exp of the summed
                     // exponents (the exp was most of the filter's time on the CPU).
                     let e = Lanes::<f32, N>::from_index(|l| {

@@ -20,6 +20,7 @@
 //! classification reads one word per tile instead of the whole image again.
 
 use super::classify;
+use super::detect::per_plane;
 use super::plane_index;
 use super::VarianceIo;
 use crate::atomic;
@@ -42,16 +43,16 @@ pub struct VarianceParams {
     pub height: u32,
     /// Window radius of the spatial fallback (1 → 3×3).
     pub radius: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Settings::ao_planes`).
+    pub ao_planes: u32,
     /// History length (rays) from which the temporal estimate is used alone (SVGF: 4).
     pub spatial_until: f32,
     /// Plane-distance tolerance, as [`crate::kernels::atrous::AtrousParams::plane_scale`].
     pub plane_scale: f32,
     /// Exponent of the normal weight.
     pub normal_power: f32,
-    /// Padding.
-    pub _pad1: f32,
+    /// Exponent of the normal weight on the planes in `ao_planes`.
+    pub ao_normal_power: f32,
 }
 
 impl Default for VarianceParams {
@@ -60,11 +61,11 @@ impl Default for VarianceParams {
             width: 0,
             height: 0,
             radius: 1,
-            _pad: 0,
+            ao_planes: 0,
             spatial_until: 4.0,
             plane_scale: 0.01,
             normal_power: 128.0,
-            _pad1: 0.0,
+            ao_normal_power: 128.0,
         }
     }
 }
@@ -134,6 +135,7 @@ fn estimate<const N: usize>(
         let x = lanes::clamp_column(x0 + l as i32, w);
         TangentPlane::new(&rays, n.0[l as usize], x, id.y, cd.0[l as usize])
     });
+    let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let r = p.radius as i32;
     let mut s1 = Lanes::<f32, N>::splat(0.0);
     let mut s2 = s1;
@@ -152,7 +154,7 @@ fn estimate<const N: usize>(
                 let m = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
                     .map(packing::unpack_normal);
                 let offset = math::sqrt((dx * dx + dy * dy) as f32);
-                let w_n = surface::normal_weights(n, m, p.normal_power);
+                let w_n = surface::normal_weights(n, m, normal_power);
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
                     let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);

@@ -30,6 +30,10 @@ fn svgf_is_the_default_with_rates_off() {
         !s.filter.cap_variance,
         "SVGF's variance is the textbook blur"
     );
+    assert_eq!(
+        s.filter.ao_normal_power, d.filter.normal_power,
+        "SVGF's AO takes the published normal weight"
+    );
     assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
     assert_eq!(
         s.temporal.reflection_clamp_radius, 0,
@@ -48,6 +52,7 @@ fn svgf_is_the_default_with_rates_off() {
         FilterSettings {
             skip_sigma: d.filter.skip_sigma,
             cap_variance: d.filter.cap_variance,
+            ao_normal_power: d.filter.ao_normal_power,
             ..s.filter
         },
         d.filter

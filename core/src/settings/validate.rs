@@ -295,6 +295,12 @@ impl FilterSettings {
             ">= 0",
         )?;
         check(
+            finite(self.ao_normal_power) && self.ao_normal_power >= 0.0,
+            "filter.ao_normal_power",
+            self.ao_normal_power,
+            ">= 0",
+        )?;
+        check(
             finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
             "filter.plane_tolerance",
             self.plane_tolerance,
