@@ -176,6 +176,7 @@ mod tests {
                 spatial_until: 0.0,
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
+                ao_symmetric_taps: false,
             },
         };
         assert_eq!(parse(&to_toml(&s)), Ok(s));

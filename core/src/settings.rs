@@ -296,6 +296,14 @@ pub struct FilterSettings {
     /// published: off). Next to a noisier surface the 3×3 blur raises a pixel's σ to its
     /// neighbours' and the filter pulls a highlight into the dark line beside it.
     pub cap_variance: bool,
+    /// À-trous on the AO planes takes its taps in point-symmetric pairs, each pair at the
+    /// geometric mean of its two weights (default on; SVGF as published: off). Next to a crease
+    /// or a contact the edge-stopping weights keep only the brighter side of the window, and its
+    /// mean is biased toward it; a symmetric window cancels a linear gradient (AO, 1 rpp, bunny
+    /// whole-sequence relMSE 0.00396 → 0.00296). Shadows and reflections keep one-sided
+    /// windows: their edges are in the signal, not the geometry, and pairs moved their
+    /// whole-sequence relMSE by −4% to +6% and the room's fresh reflections by +55%.
+    pub ao_symmetric_taps: bool,
 }
 
 impl Default for Settings {
@@ -391,6 +399,7 @@ impl Default for FilterSettings {
             spatial_until: 4.0,
             skip_sigma: 0.004,
             cap_variance: true,
+            ao_symmetric_taps: true,
         }
     }
 }
@@ -464,6 +473,7 @@ impl Settings {
                 skip_sigma: 0.0,
                 cap_variance: false,
                 ao_normal_power: self.filter.normal_power,
+                ao_symmetric_taps: false,
                 ..self.filter
             },
             gradient: GradientSettings {

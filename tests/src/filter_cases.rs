@@ -99,6 +99,7 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         cap_variance: rng.random_range(0..2),
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_normal_power: 8.0,
+        symmetric_planes: rng.random_range(0..1 << PLANES),
         ..atrous::AtrousParams::default()
     };
     let (tw, th) = classify::tile_grid(w, h);
@@ -106,8 +107,8 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!(
-            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b}",
-            params.step, params.cap_variance, params.ao_planes
+            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b} pairs {:b}",
+            params.step, params.cap_variance, params.ao_planes, params.symmetric_planes
         ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![

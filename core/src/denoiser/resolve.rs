@@ -180,6 +180,11 @@ impl Denoiser {
                 cap_variance: s.filter.cap_variance as u32,
                 ao_planes: s.ao_planes,
                 ao_normal_power: s.filter.ao_normal_power,
+                symmetric_planes: if s.filter.ao_symmetric_taps {
+                    s.ao_planes
+                } else {
+                    0
+                },
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],

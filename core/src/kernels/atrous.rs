@@ -19,7 +19,7 @@ use crate::packing;
 use crate::payload::{self, PackedFiltered};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
-use glam::UVec3;
+use glam::{UVec3, Vec3};
 
 /// Push constants of [`atrous`].
 #[repr(C)]
@@ -47,6 +47,10 @@ pub struct AtrousParams {
     pub ao_planes: u32,
     /// Exponent of the normal weight on the planes in `ao_planes`.
     pub ao_normal_power: f32,
+    /// Planes (bit per plane) whose taps count in point-symmetric pairs, each pair at the
+    /// geometric mean of its two weights (`FilterSettings::ao_symmetric_taps`): a window the
+    /// edge-stopping weights cut on one side (a crease, a contact) no longer leans to the other.
+    pub symmetric_planes: u32,
 }
 
 impl Default for AtrousParams {
@@ -62,6 +66,7 @@ impl Default for AtrousParams {
             cap_variance: 0,
             ao_planes: 0,
             ao_normal_power: 128.0,
+            symmetric_planes: 0,
         }
     }
 }
@@ -146,54 +151,48 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
+    let c = Centre {
+        value,
+        depth: cd,
+        normal: n,
+        plane,
+        lum_scale,
+        normal_power,
+    };
+    let symmetric = super::plane_in(p.symmetric_planes, id.z);
     let mut sum = value;
     let mut sum_var = variance;
     let mut sum_w = Lanes::<f32, N>::splat(1.0);
-    let step = p.step as i32;
     let mut ty = -2;
     while ty <= 2 {
-        let qy = id.y as i32 + ty * step;
-        if qy >= 0 && qy < h as i32 {
-            let (qrow, qplane_row) = (qy as u32 * w, (id.z * h + qy as u32) * w);
-            let mut tx = -2;
-            while tx <= 2 {
+        let mut tx = -2;
+        while tx <= 2 {
+            if !symmetric {
                 if tx != 0 || ty != 0 {
-                    let qx0 = x0 + tx * step;
-                    let qx = Lanes::<i32, N>::from_index(|l| qx0 + l as i32);
-                    let qd = Lanes::<f32, N>::load_row(depth, qrow, qx0, w);
-                    let valid =
-                        qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
-                    let tap = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
-                    let (tap_value, tap_variance) = payload::unpack_filtered(tap);
-                    let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
-                    let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
-                    let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w)
-                        .map(packing::unpack_normal);
-                    let w_n = surface::normal_weights(n, m, normal_power);
-                    // Plane and luminance weights are both exponentials: one exp of the summed
-                    // exponents (the exp was most of the filter's time on the CPU).
-                    let e = Lanes::<f32, N>::from_index(|l| {
-                        let l = l as usize;
-                        let scale = math::max(p.plane_scale * cd.0[l] * offset_len, 1e-12);
-                        // Columns outside the image are never used (`valid`); clamped, they stay
-                        // the finite values of some pixel.
-                        let x = lanes::clamp_column(qx.0[l], w);
-                        plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
-                            + math::abs(value.0[l] - tap_value.0[l]) / lum_scale.0[l]
-                    });
-                    let tw = TAP_WEIGHT[ay][ax];
-                    let wt = w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e));
+                    let t = tap(input, depth, normal_roughness, &c, p, id, tx, ty);
                     lanes::each_lane!(l in N {
-                        if valid.0[l] {
-                            let w = wt.0[l];
-                            sum.0[l] += w * tap_value.0[l];
-                            sum_var.0[l] += w * w * tap_variance.0[l];
+                        if t.valid.0[l] {
+                            let w = t.weight.0[l];
+                            sum.0[l] += w * t.value.0[l];
+                            sum_var.0[l] += w * w * t.variance.0[l];
                             sum_w.0[l] += w;
                         }
                     });
                 }
-                tx += 1;
+            } else if ty > 0 || (ty == 0 && tx > 0) {
+                // The pair (tx, ty), (-tx, -ty): both or neither, at one weight.
+                let a = tap(input, depth, normal_roughness, &c, p, id, tx, ty);
+                let b = tap(input, depth, normal_roughness, &c, p, id, -tx, -ty);
+                lanes::each_lane!(l in N {
+                    if a.valid.0[l] && b.valid.0[l] {
+                        let w = math::sqrt(a.weight.0[l] * b.weight.0[l]);
+                        sum.0[l] += w * (a.value.0[l] + b.value.0[l]);
+                        sum_var.0[l] += w * w * (a.variance.0[l] + b.variance.0[l]);
+                        sum_w.0[l] += 2.0 * w;
+                    }
+                });
             }
+            tx += 1;
         }
         ty += 1;
     }
@@ -204,6 +203,81 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     filtered
         .select(pass.map(|p| !p), packed)
         .store(out, (plane_row + id.x) as usize, live);
+}
+
+/// What every tap of a pixel compares itself with.
+struct Centre<const N: usize> {
+    value: Lanes<f32, N>,
+    depth: Lanes<f32, N>,
+    normal: Lanes<Vec3, N>,
+    plane: Lanes<TangentPlane, N>,
+    /// Luminance difference per unit of the exponent.
+    lum_scale: Lanes<f32, N>,
+    normal_power: f32,
+}
+
+/// One tap: whether it counts (inside the image, on a surface), its weight, value and variance.
+struct Tap<const N: usize> {
+    valid: Lanes<bool, N>,
+    weight: Lanes<f32, N>,
+    value: Lanes<f32, N>,
+    variance: Lanes<f32, N>,
+}
+
+/// Tap `(tx, ty)` (in steps) of the centre `c`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn tap<const N: usize>(
+    input: &[PackedFiltered],
+    depth: &[f32],
+    normal_roughness: &[u32],
+    c: &Centre<N>,
+    p: &AtrousParams,
+    id: UVec3,
+    tx: i32,
+    ty: i32,
+) -> Tap<N> {
+    let (w, h) = (p.width, p.height);
+    let step = p.step as i32;
+    let qy = id.y as i32 + ty * step;
+    if qy < 0 || qy >= h as i32 {
+        let zero = Lanes::<f32, N>::splat(0.0);
+        return Tap {
+            valid: Lanes::splat(false),
+            weight: zero,
+            value: zero,
+            variance: zero,
+        };
+    }
+    let (qrow, qplane_row) = (qy as u32 * w, (id.z * h + qy as u32) * w);
+    let qx0 = id.x as i32 + tx * step;
+    let qx = Lanes::<i32, N>::from_index(|l| qx0 + l as i32);
+    let qd = Lanes::<f32, N>::load_row(depth, qrow, qx0, w);
+    let valid = qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
+    let packed = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
+    let (value, variance) = payload::unpack_filtered(packed);
+    let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
+    let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
+    let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
+    let w_n = surface::normal_weights(c.normal, m, c.normal_power);
+    // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
+    // exp was most of the filter's time on the CPU).
+    let e = Lanes::<f32, N>::from_index(|l| {
+        let l = l as usize;
+        let scale = math::max(p.plane_scale * c.depth.0[l] * offset_len, 1e-12);
+        // Columns outside the image are never used (`valid`); clamped, they stay the finite
+        // values of some pixel.
+        let x = lanes::clamp_column(qx.0[l], w);
+        c.plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
+            + math::abs(c.value.0[l] - value.0[l]) / c.lum_scale.0[l]
+    });
+    let tw = TAP_WEIGHT[ay][ax];
+    Tap {
+        valid,
+        weight: w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e)),
+        value,
+        variance,
+    }
 }
 
 /// Variance at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for

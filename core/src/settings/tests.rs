@@ -34,6 +34,10 @@ fn svgf_is_the_default_with_rates_off() {
         s.filter.ao_normal_power, d.filter.normal_power,
         "SVGF's AO takes the published normal weight"
     );
+    assert!(
+        !s.filter.ao_symmetric_taps,
+        "SVGF's taps are the published ones"
+    );
     assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
     assert_eq!(
         s.temporal.reflection_clamp_radius, 0,
@@ -53,6 +57,7 @@ fn svgf_is_the_default_with_rates_off() {
             skip_sigma: d.filter.skip_sigma,
             cap_variance: d.filter.cap_variance,
             ao_normal_power: d.filter.ao_normal_power,
+            ao_symmetric_taps: d.filter.ao_symmetric_taps,
             ..s.filter
         },
         d.filter
