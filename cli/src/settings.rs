@@ -138,6 +138,8 @@ mod tests {
                 supersample_target: 7.0,
                 load_balance: false,
                 spend_saved_rays: false,
+                reset_boost: 0.375,
+                reset_payback: 3,
                 undersample: false,
                 undersample_after: 9.5,
                 variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],

@@ -175,6 +175,8 @@ pub struct Denoiser {
     frame: FrameInfo,
     /// Last frame's index: the gradient pass re-creates that frame's rays.
     prev_frame: u32,
+    /// Frames since the last reset (`rates.reset_boost` is paid back over the next ones).
+    since_reset: u32,
 }
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
@@ -261,6 +263,7 @@ impl Denoiser {
                 view: View::default(),
             },
             prev_frame: 0,
+            since_reset: u32::MAX,
         })
     }
 
@@ -523,6 +526,11 @@ impl Denoiser {
     ) -> Result<(), E::Error> {
         self.cur = 1 - self.cur;
         self.prev_frame = self.frame.index;
+        self.since_reset = if frame.reset {
+            0
+        } else {
+            self.since_reset.saturating_add(1)
+        };
         self.frame = frame;
         self.gradient_ran = false;
         self.detected = false;

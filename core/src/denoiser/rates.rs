@@ -24,6 +24,23 @@ impl Denoiser {
         mask
     }
 
+    /// This frame's budget in rays per pixel: a reset frame spends `rates.reset_boost` frames'
+    /// budget ahead, and the next `rates.reset_payback` frames take it off theirs in equal parts
+    /// (balanced rates only).
+    fn frame_budget(&self) -> f32 {
+        let r = &self.settings.rates;
+        let ahead = if !(r.load_balance && r.supersample_target > 0.0) || r.reset_payback == 0 {
+            0.0
+        } else if self.since_reset == 0 {
+            r.reset_boost
+        } else if self.since_reset <= r.reset_payback {
+            -r.reset_boost / r.reset_payback as f32
+        } else {
+            0.0
+        };
+        r.rays_per_pixel * (1.0 + ahead)
+    }
+
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
     /// and apply. Afterwards [`Self::work`] and [`Self::args`] say what to trace.
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
@@ -126,7 +143,7 @@ impl Denoiser {
         exec.dispatch(&buckets.over_grid(&count, w, h, groups))?;
 
         let bal = balance::BalanceParams {
-            rays_per_pixel: s.rates.rays_per_pixel,
+            rays_per_pixel: self.frame_budget(),
             ring_count: buckets::ring_count(w, h),
             raise: s.rates.spend_saved_rays as u32,
             policy: if s.rates.supersample_target <= 0.0 {

@@ -171,6 +171,18 @@ impl RateSettings {
             "rates.signal_floor",
             self.signal_floor,
             "0..=1",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.reset_boost),
+            "rates.reset_boost",
+            self.reset_boost,
+            "0..=1",
+        )?;
+        check(
+            self.reset_payback <= 64,
+            "rates.reset_payback",
+            self.reset_payback as f32,
+            "0..=64",
         )
     }
 }
