@@ -176,6 +176,7 @@ mod tests {
                 plane_tolerance: 1.0 / 7.0,
                 spatial_radius: 0,
                 spatial_until: 0.0,
+                ao_spatial_until: 2.5,
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
                 ao_symmetric_taps: false,

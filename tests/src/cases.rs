@@ -132,7 +132,7 @@ pub(crate) const INTS: &[Word] = &[Word::U32];
 /// History lengths at the extremes: 0, fractional, at and past the clamp.
 pub(crate) const EXTREME_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 63.5, 64.0, 70.0];
 /// History lengths around the young-history rules (`spatial_until` 4, short histories).
-pub(crate) const YOUNG_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 10.0, 64.0];
+pub(crate) const YOUNG_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 2.0, 3.9, 4.0, 7.9, 8.0, 10.0, 64.0];
 
 /// Random history of the given `lengths`.
 pub(crate) fn histories(rng: &mut Pcg32, n: usize, lengths: &[f32]) -> Vec<PackedPayload> {

@@ -17,6 +17,7 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_normal_power: 8.0,
+        ao_spatial_until: 8.0,
         ..Default::default()
     };
     let view = inputs::test_view();

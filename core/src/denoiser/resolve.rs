@@ -144,6 +144,7 @@ impl Denoiser {
             normal_power: s.filter.normal_power,
             ao_planes: s.ao_planes,
             ao_normal_power: s.filter.ao_normal_power,
+            ao_spatial_until: s.filter.ao_spatial_until,
         };
         let variance = kernels::VarianceBindings {
             payload: self.history[self.cur],

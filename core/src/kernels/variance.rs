@@ -53,6 +53,8 @@ pub struct VarianceParams {
     pub normal_power: f32,
     /// Exponent of the normal weight on the planes in `ao_planes`.
     pub ao_normal_power: f32,
+    /// `spatial_until` of the planes in `ao_planes`.
+    pub ao_spatial_until: f32,
 }
 
 impl Default for VarianceParams {
@@ -66,6 +68,7 @@ impl Default for VarianceParams {
             plane_scale: 0.01,
             normal_power: 128.0,
             ao_normal_power: 128.0,
+            ao_spatial_until: 4.0,
         }
     }
 }
@@ -122,8 +125,9 @@ fn estimate<const N: usize>(
         variance: h.variance() * per_estimate,
     });
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, x0, w);
+    let spatial_until = per_plane(p.spatial_until, p.ao_spatial_until, p.ao_planes, id.z);
     let young = hist.zip(cd, |h, cd| {
-        !(h.count >= p.spatial_until) && surface::has_surface(cd)
+        !(h.count >= spatial_until) && surface::has_surface(cd)
     });
     if !young.any() {
         return temporal;
@@ -186,7 +190,7 @@ fn estimate<const N: usize>(
         let per_estimate = per_estimate.0[l];
         let (m1s, m2s) = (s1 / sw, s2 / sw);
         let spatial_var = math::max(m2s - m1s * m1s, 0.0);
-        let t = math::saturate(h.count / p.spatial_until);
+        let t = math::saturate(h.count / spatial_until);
         let spatial = Filtered {
             value: math::lerp(m1s, h.m1, t),
             variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,

@@ -34,6 +34,7 @@ fn svgf_is_the_default_with_rates_off() {
         s.filter.ao_normal_power, d.filter.normal_power,
         "SVGF's AO takes the published normal weight"
     );
+    assert_eq!(s.filter.ao_spatial_until, d.filter.spatial_until);
     assert!(
         !s.filter.ao_symmetric_taps,
         "SVGF's taps are the published ones"
@@ -57,6 +58,7 @@ fn svgf_is_the_default_with_rates_off() {
             skip_sigma: d.filter.skip_sigma,
             cap_variance: d.filter.cap_variance,
             ao_normal_power: d.filter.ao_normal_power,
+            ao_spatial_until: d.filter.ao_spatial_until,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
             ..s.filter
         },

@@ -331,6 +331,12 @@ impl FilterSettings {
             ">= 0",
         )?;
         check(
+            finite(self.ao_spatial_until) && self.ao_spatial_until >= 0.0,
+            "filter.ao_spatial_until",
+            self.ao_spatial_until,
+            ">= 0",
+        )?;
+        check(
             finite(self.skip_sigma) && self.skip_sigma >= 0.0,
             "filter.skip_sigma",
             self.skip_sigma,
