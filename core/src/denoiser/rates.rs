@@ -24,23 +24,6 @@ impl Denoiser {
         mask
     }
 
-    /// This frame's budget in rays per pixel: a reset frame spends `rates.reset_boost` frames'
-    /// budget ahead, and the next `rates.reset_payback` frames take it off theirs in equal parts
-    /// (balanced rates only).
-    fn frame_budget(&self) -> f32 {
-        let r = &self.settings.rates;
-        let ahead = if !(r.load_balance && r.supersample_target > 0.0) || r.reset_payback == 0 {
-            0.0
-        } else if self.since_reset == 0 {
-            r.reset_boost
-        } else if self.since_reset <= r.reset_payback {
-            -r.reset_boost / r.reset_payback as f32
-        } else {
-            0.0
-        };
-        r.rays_per_pixel * (1.0 + ahead)
-    }
-
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
     /// and apply. Afterwards [`Self::work`] and [`Self::args`] say what to trace.
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
@@ -143,7 +126,7 @@ impl Denoiser {
         exec.dispatch(&buckets.over_grid(&count, w, h, groups))?;
 
         let bal = balance::BalanceParams {
-            rays_per_pixel: self.frame_budget(),
+            rays_per_pixel: frame_budget(&s.rates, self.since_reset),
             ring_count: buckets::ring_count(w, h),
             raise: s.rates.spend_saved_rays as u32,
             policy: if s.rates.supersample_target <= 0.0 {
@@ -215,6 +198,72 @@ impl Denoiser {
             planes: self.settings.planes,
             frame_index: self.frame.index,
             plane_groups: self.settings.plane_groups,
+        }
+    }
+}
+
+/// A frame's budget in rays per pixel, `since_reset` frames after the last reset: a reset frame
+/// spends `rates.reset_boost` frames' budget ahead, and the next `rates.reset_payback` frames
+/// take it off theirs in equal parts (balanced rates only, and not under a budget in
+/// milliseconds: a frame over its time is what that budget exists to avoid).
+pub(crate) fn frame_budget(r: &crate::settings::RateSettings, since_reset: u32) -> f32 {
+    let balanced = r.load_balance && r.supersample_target > 0.0;
+    let ahead = if !balanced || r.reset_payback == 0 || r.budget_ms > 0.0 {
+        0.0
+    } else if since_reset == 0 {
+        r.reset_boost
+    } else if since_reset <= r.reset_payback {
+        -r.reset_boost / r.reset_payback as f32
+    } else {
+        0.0
+    };
+    r.rays_per_pixel * (1.0 + ahead)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::settings::RateSettings;
+
+    #[test]
+    fn a_reset_spends_ahead_what_the_next_frames_pay_back() {
+        let r = RateSettings {
+            rays_per_pixel: 1.5,
+            reset_boost: 1.0,
+            reset_payback: 8,
+            ..RateSettings::default()
+        };
+        assert_eq!(frame_budget(&r, 0), 3.0);
+        let budgets: std::vec::Vec<f32> = (0..=9).map(|f| frame_budget(&r, f)).collect();
+        approx::assert_relative_eq!(budgets.iter().sum::<f32>(), 1.5 * 10.0, epsilon = 1e-5);
+        approx::assert_relative_eq!(budgets[1], 1.5 * 7.0 / 8.0);
+        assert_eq!(budgets[9], 1.5, "paid back");
+        assert_eq!(frame_budget(&r, u32::MAX), 1.5, "no reset yet");
+    }
+
+    #[test]
+    fn no_boost_without_balancing_or_under_a_time_budget() {
+        let base = RateSettings::default();
+        for r in [
+            RateSettings {
+                load_balance: false,
+                ..base
+            },
+            RateSettings {
+                supersample_target: 0.0,
+                ..base
+            },
+            RateSettings {
+                budget_ms: 2.0,
+                ..base
+            },
+            RateSettings {
+                reset_payback: 0,
+                ..base
+            },
+        ] {
+            assert_eq!(frame_budget(&r, 0), r.rays_per_pixel);
+            assert_eq!(frame_budget(&r, 1), r.rays_per_pixel);
         }
     }
 }
