@@ -313,39 +313,58 @@ mod tests {
     use crate::payload::Filtered;
     use glam::Vec3;
 
-    /// The first iteration at the middle of a 5×3 patch of one wall facing the camera: a
-    /// highlight along the top row (4.0, variance of the estimate 4.0), a dark, settled surface
-    /// below it (0.1, variance 1e-4).
-    fn below_a_highlight(cap_variance: u32) -> f32 {
-        let (w, h) = (5, 3);
-        let input: std::vec::Vec<PackedFiltered> = (0..w * h)
-            .map(|i| {
-                let (value, variance) = if i < w { (4.0, 4.0) } else { (0.1, 1e-4) };
-                Filtered { value, variance }.pack()
-            })
-            .collect();
+    /// One iteration of `p` at pixel `(x, y)` of a `w`×`h` wall facing the camera, 5 units away
+    /// where `depth` says so (0: no surface), holding `input`; every tile filters.
+    fn filter_wall(
+        input: &[PackedFiltered],
+        depth: &[f32],
+        w: u32,
+        p: AtrousParams,
+        x: u32,
+        y: u32,
+    ) -> f32 {
+        let h = input.len() as u32 / w;
         let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
         let view = [View {
             camera,
             prev_camera: camera,
         }];
-        let mut out = input.clone();
+        let (tw, th) = super::super::classify::tile_grid(w, h);
+        let tiles = std::vec![5; (tw * th) as usize];
+        let normals = std::vec![packing::pack_normal_roughness(Vec3::Z, 0.0); input.len()];
+        let mut out = input.to_vec();
+        let io = AtrousIo {
+            input,
+            depth,
+            normal_roughness: &normals,
+            view: &view,
+            tiles: &tiles,
+            out: &mut out,
+        };
         let p = AtrousParams {
             width: w,
             height: h,
+            ..p
+        };
+        atrous::<1>(UVec3::new(x, y, 0), &p, io);
+        out[(y * w + x) as usize].unpack().value
+    }
+
+    /// The first iteration at the middle of a 5×3 patch of one wall: a highlight along the top
+    /// row (4.0, variance of the estimate 4.0), a dark, settled surface below it (0.1, variance
+    /// 1e-4).
+    fn below_a_highlight(cap_variance: u32) -> f32 {
+        let input: std::vec::Vec<PackedFiltered> = (0..15)
+            .map(|i| {
+                let (value, variance) = if i < 5 { (4.0, 4.0) } else { (0.1, 1e-4) };
+                Filtered { value, variance }.pack()
+            })
+            .collect();
+        let p = AtrousParams {
             cap_variance,
             ..Default::default()
         };
-        let io = AtrousIo {
-            input: &input,
-            depth: &[5.0; 15],
-            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0); 15],
-            view: &view,
-            tiles: &[5],
-            out: &mut out,
-        };
-        atrous::<1>(UVec3::new(2, 1, 0), &p, io);
-        out[(w + 2) as usize].unpack().value
+        filter_wall(&input, &[5.0; 15], 5, p, 2, 1)
     }
 
     #[test]
@@ -360,12 +379,11 @@ mod tests {
         );
     }
 
-    /// Pixel `x` of a row on one wall facing the camera whose value rises linearly (0.1 a
-    /// pixel) and whose surface ends after pixel 5 (a crease seen edge-on), filtered with taps in
-    /// pairs on plane 0 (`symmetric_planes` 1) or one at a time (0).
+    /// Pixel `x` of a row on one wall whose value rises linearly (0.1 a pixel) and whose
+    /// surface ends after pixel 5 (a crease seen edge-on), filtered with taps in pairs on plane 0
+    /// (`symmetric_planes` 1) or one at a time (0).
     fn at_an_edge(x: u32, symmetric_planes: u32) -> f32 {
-        let w = 9;
-        let input: std::vec::Vec<PackedFiltered> = (0..w)
+        let input: std::vec::Vec<PackedFiltered> = (0..9)
             .map(|i| {
                 Filtered {
                     value: 0.1 * i as f32,
@@ -374,29 +392,12 @@ mod tests {
                 .pack()
             })
             .collect();
-        let depth: std::vec::Vec<f32> = (0..w).map(|i| if i <= 5 { 5.0 } else { 0.0 }).collect();
-        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
-        let view = [View {
-            camera,
-            prev_camera: camera,
-        }];
-        let mut out = input.clone();
+        let depth: std::vec::Vec<f32> = (0..9).map(|i| if i <= 5 { 5.0 } else { 0.0 }).collect();
         let p = AtrousParams {
-            width: w,
-            height: 1,
             symmetric_planes,
             ..Default::default()
         };
-        let io = AtrousIo {
-            input: &input,
-            depth: &depth,
-            normal_roughness: &[packing::pack_normal_roughness(Vec3::Z, 0.0); 9],
-            view: &view,
-            tiles: &[5, 5],
-            out: &mut out,
-        };
-        atrous::<1>(UVec3::new(x, 0, 0), &p, io);
-        out[x as usize].unpack().value
+        filter_wall(&input, &depth, 9, p, x, 0)
     }
 
     #[test]
