@@ -152,6 +152,8 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
     let c = Centre {
+        id,
+        p: *p,
         value,
         depth: cd,
         normal: n,
@@ -169,7 +171,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         while tx <= 2 {
             if !symmetric {
                 if tx != 0 || ty != 0 {
-                    let t = tap(input, depth, normal_roughness, &c, p, id, tx, ty);
+                    let t = tap(input, depth, normal_roughness, &c, tx, ty);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
                             let w = t.weight.0[l];
@@ -181,8 +183,8 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 }
             } else if ty > 0 || (ty == 0 && tx > 0) {
                 // The pair (tx, ty), (-tx, -ty): both or neither, at one weight.
-                let a = tap(input, depth, normal_roughness, &c, p, id, tx, ty);
-                let b = tap(input, depth, normal_roughness, &c, p, id, -tx, -ty);
+                let a = tap(input, depth, normal_roughness, &c, tx, ty);
+                let b = tap(input, depth, normal_roughness, &c, -tx, -ty);
                 lanes::each_lane!(l in N {
                     if a.valid.0[l] && b.valid.0[l] {
                         let w = math::sqrt(a.weight.0[l] * b.weight.0[l]);
@@ -205,8 +207,10 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         .store(out, (plane_row + id.x) as usize, live);
 }
 
-/// What every tap of a pixel compares itself with.
+/// What every tap of a pixel compares itself with, and the iteration's parameters.
 struct Centre<const N: usize> {
+    id: UVec3,
+    p: AtrousParams,
     value: Lanes<f32, N>,
     depth: Lanes<f32, N>,
     normal: Lanes<Vec3, N>,
@@ -226,17 +230,15 @@ struct Tap<const N: usize> {
 
 /// Tap `(tx, ty)` (in steps) of the centre `c`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn tap<const N: usize>(
     input: &[PackedFiltered],
     depth: &[f32],
     normal_roughness: &[u32],
     c: &Centre<N>,
-    p: &AtrousParams,
-    id: UVec3,
     tx: i32,
     ty: i32,
 ) -> Tap<N> {
+    let (p, id) = (&c.p, c.id);
     let (w, h) = (p.width, p.height);
     let step = p.step as i32;
     let qy = id.y as i32 + ty * step;
