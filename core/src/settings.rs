@@ -143,10 +143,11 @@ pub struct RateSettings {
     pub shift_requests: bool,
     /// After a reset (first frame, camera cut) the balancer spends this many frames' budget
     /// ahead, and the next `reset_payback` frames spend it less (0..=1; default 1; balanced rates
-    /// only, and none under `budget_ms`, whose frames must keep to their time). Every pixel is fresh then and holds only this frame's rays, which stay in the
-    /// history the next frames add to: spent early they count in every frame, the cut's
-    /// included (bunny AO, first frame: relMSE 0.0122 at 1 ray, 0.0079 at 2). The cost is a
-    /// frame of twice the rays at the cut. Reflections alone take none (`frame::Frame::new`).
+    /// only, and none under `budget_ms`, whose frames must keep to their time). Every pixel is
+    /// fresh then and holds only this frame's rays, which stay in the history the next frames
+    /// add to: spent early they count in every frame, the cut's included (bunny AO, first frame:
+    /// relMSE 0.0122 at 1 ray, 0.0079 at 2). The cost is a frame of twice the rays at the cut.
+    /// Reflections alone take none (`frame::Frame::new`).
     pub reset_boost: f32,
     /// Frames over which a reset's `reset_boost` is paid back (0 = no boost; 0..=64; default 8:
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows

@@ -17,7 +17,7 @@ impl Denoiser {
         }
         let mut mask = !(1u32.checked_shl(importance_group).unwrap_or(0));
         for z in 0..s.planes {
-            if s.shadow_planes >> z & 1 != 0 {
+            if kernels::plane_in(s.shadow_planes, z) {
                 mask &= !(1 << kernels::plane_group(s.plane_groups, z));
             }
         }
@@ -205,7 +205,9 @@ impl Denoiser {
 /// A frame's budget in rays per pixel, `since_reset` frames after the last reset: a reset frame
 /// spends `rates.reset_boost` frames' budget ahead, and the next `rates.reset_payback` frames
 /// take it off theirs in equal parts (balanced rates only, and not under a budget in
-/// milliseconds: a frame over its time is what that budget exists to avoid).
+/// milliseconds: a frame over its time is what that budget exists to avoid). A reset during a
+/// payback starts a new one: what the last had left to pay is forgiven, at most one frame's
+/// budget per reset.
 pub(crate) fn frame_budget(r: &crate::settings::RateSettings, since_reset: u32) -> f32 {
     let balanced = r.load_balance && r.supersample_target > 0.0;
     let ahead = if !balanced || r.reset_payback == 0 || r.budget_ms > 0.0 {

@@ -331,7 +331,7 @@ mod tests {
             camera,
             prev_camera: camera,
         }];
-        let (tw, th) = super::super::classify::tile_grid(w, h);
+        let (tw, th) = crate::kernels::classify::tile_grid(w, h);
         let tiles = std::vec![5; (tw * th) as usize];
         let normals = std::vec![packing::pack_normal_roughness(Vec3::Z, 0.0); input.len()];
         let mut out = input.to_vec();
