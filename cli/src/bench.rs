@@ -70,7 +70,7 @@ pub struct BenchArgs {
     /// first 2 warm-up) on each of `--backends` (default auto), and writes `passes.csv`.
     #[arg(long)]
     pub passes: bool,
-    /// Denoiser settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
+    /// Settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
     /// the defaults). Every cell starts from it instead of the defaults; the cell's
     /// configuration, budget and signal win over it (`rates.rays_per_pixel`, `planes`,
     /// `parallax_plane`, `plane_groups`, `shadow_planes` and `ao_planes` of the file are not
@@ -214,7 +214,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     } else {
         args.signals.clone()
     };
-    let base = load_settings(args.settings.as_deref())?;
+    let file = load_settings(args.settings.as_deref())?;
+    let base = file.denoiser;
     let limits = args.limits.limits();
     let loaded = scenes
         .iter()
@@ -261,7 +262,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         let mut opts = SequenceOptions {
                             size,
                             frames,
-                            signal: kind.signal(args.ao_radius),
+                            signal: kind.signal(args.ao_radius, file.reflections),
                             spp: args.spp,
                             base,
                             config,

@@ -6,7 +6,7 @@ use crate::session::{parse_size, SignalKind};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
 use vrrt_core::plan::Executor;
-use vrrt_core::settings::Settings;
+use vrrt_core::reflections::ReflectionSettings;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
 /// Options of `vrrt info`.
@@ -34,11 +34,14 @@ pub struct InfoArgs {
 /// Runs `vrrt info`.
 pub fn run(args: &InfoArgs) -> Result<()> {
     if args.settings {
-        print!("{}", crate::settings::to_toml(&Settings::default()));
+        print!(
+            "{}",
+            crate::settings::to_toml(&crate::settings::SettingsFile::default())
+        );
         return Ok(());
     }
     if args.memory {
-        let signal = args.signal.signal(1.0);
+        let signal = args.signal.signal(1.0, ReflectionSettings::default());
         let report = crate::memory::report(args.size, args.signal.name(), signal, args.lights)?;
         print!("{report}");
         return Ok(());

@@ -8,6 +8,7 @@ use crate::session::{
     SignalKind,
 };
 use anyhow::Result;
+use vrrt_core::reflections::ReflectionSettings;
 
 /// Options of `vrrt reference`.
 #[derive(Clone, Debug, clap::Args)]
@@ -49,7 +50,9 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     if let Some(dir) = refs.cache_dir() {
         println!("cache: {}", dir.display());
     }
-    let signal = args.signal.signal(args.ao_radius);
+    let signal = args
+        .signal
+        .signal(args.ao_radius, ReflectionSettings::default());
     let parts = parts(signal, scene.scene.lights.len());
     println!("frame  signal       source  mean_stderr");
     let mut total = 0.0;

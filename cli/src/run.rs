@@ -9,12 +9,12 @@ use crate::session::{
     parse_size, plane_names, Config, FrameRecord, FrameView, References, SequenceOptions,
     SignalKind, WARMUP_FRAMES,
 };
+use crate::settings::SettingsFile;
 use crate::{outdir, plot};
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
-use vrrt_core::settings::Settings;
 use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
 
 /// Options of `vrrt run`.
@@ -46,9 +46,9 @@ pub struct RunArgs {
     /// `--rpp`. Wins over the settings file.
     #[arg(long, value_name = "MS", value_parser = parse_budget_ms)]
     pub budget_ms: Option<f32>,
-    /// Denoiser settings file (TOML: `planes`, `parallax_plane`, and the tables `[temporal]`,
-    /// `[rates]`, `[gradient]`, `[filter]`; fields left out keep their defaults, unknown fields
-    /// are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
+    /// Settings file (TOML: `planes`, `parallax_plane`, and the tables `[temporal]`, `[rates]`,
+    /// `[gradient]`, `[filter]` and `[reflections]`; fields left out keep their defaults, unknown
+    /// fields are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
     /// the other options start from, and they win over it: `--denoiser` applies its changes on
     /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
     /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
@@ -108,7 +108,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.every == 0 {
         bail!("--every must be at least 1");
     }
-    let mut base = load_settings(args.settings.as_deref())?;
+    let file = load_settings(args.settings.as_deref())?;
+    let mut base = file.denoiser;
     if let Some(ms) = args.budget_ms {
         base.rates.budget_ms = ms;
     }
@@ -122,7 +123,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let opts = SequenceOptions {
         size: args.size,
         frames,
-        signal: args.signal.signal(args.ao_radius),
+        signal: args.signal.signal(args.ao_radius, file.reflections),
         spp: args.spp,
         base,
         config: args.denoiser,
@@ -342,8 +343,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
 }
 
 /// The settings file at `path` (see [`crate::settings`]), or the defaults without one.
-pub fn load_settings(path: Option<&Path>) -> Result<Settings> {
-    path.map_or(Ok(Settings::default()), crate::settings::load)
+pub fn load_settings(path: Option<&Path>) -> Result<SettingsFile> {
+    path.map_or(Ok(SettingsFile::default()), crate::settings::load)
 }
 
 /// Frames beyond the scene's animation are not rendered.

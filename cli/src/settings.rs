@@ -1,41 +1,129 @@
 //! Settings files: the denoiser's [`Settings`] as TOML, `planes` and `parallax_plane` at the top
-//! and one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`). Fields left out
-//! keep their defaults, unknown fields are errors, and the result is validated, so a bad file
-//! fails before anything runs with the file, the line and the problem in one line.
+//! and one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`), and the
+//! reflection passes' [`ReflectionSettings`] as `[reflections]`. Fields left out keep their
+//! defaults, unknown fields are errors, and the result is validated, so a bad file fails before
+//! anything runs with the file, the line and the problem in one line.
 
 use anyhow::{anyhow, Result};
 use std::path::Path;
-use vrrt_core::settings::Settings;
+use vrrt_core::reflections::ReflectionSettings;
+use vrrt_core::settings::{
+    FilterSettings, GradientSettings, RateSettings, Settings, TemporalSettings,
+};
 
 /// First lines of [`to_toml`]'s output.
 const HEADER: &str = "\
-# VRRT-rs denoiser settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
+# VRRT-rs settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
-# Units and ranges: vrrt_core::settings (one struct per table). `parallax_plane` (a plane index)
-# is absent by default; `vrrt run` and `vrrt bench` set it, `planes`, `plane_groups`,
-# `shadow_planes` and `ao_planes` from the signal.
+# Units and ranges: vrrt_core::settings (one struct per table) and, for [reflections],
+# vrrt_core::reflections::ReflectionSettings. `parallax_plane` (a plane index) is absent by
+# default; `vrrt run` and `vrrt bench` set it, `planes`, `plane_groups`, `shadow_planes` and
+# `ao_planes` from the signal.
 ";
+
+/// What a settings file holds: the denoiser's settings and the reflection passes'.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct SettingsFile {
+    /// Everything but `[reflections]`.
+    pub denoiser: Settings,
+    /// `[reflections]`: used wherever the signal has reflections.
+    pub reflections: ReflectionSettings,
+}
+
+/// The file's layout: [`Settings`]' fields, then `[reflections]` (a struct literal of both ways,
+/// so a field added to `Settings` fails to compile here until it is added).
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct Layout {
+    planes: u32,
+    parallax_plane: Option<u32>,
+    plane_groups: u32,
+    shadow_planes: u32,
+    ao_planes: u32,
+    temporal: TemporalSettings,
+    rates: RateSettings,
+    gradient: GradientSettings,
+    filter: FilterSettings,
+    reflections: ReflectionSettings,
+}
+
+impl From<SettingsFile> for Layout {
+    fn from(f: SettingsFile) -> Self {
+        let Settings {
+            planes,
+            parallax_plane,
+            plane_groups,
+            shadow_planes,
+            ao_planes,
+            temporal,
+            rates,
+            gradient,
+            filter,
+        } = f.denoiser;
+        Layout {
+            planes,
+            parallax_plane,
+            plane_groups,
+            shadow_planes,
+            ao_planes,
+            temporal,
+            rates,
+            gradient,
+            filter,
+            reflections: f.reflections,
+        }
+    }
+}
+
+impl From<Layout> for SettingsFile {
+    fn from(l: Layout) -> Self {
+        SettingsFile {
+            denoiser: Settings {
+                planes: l.planes,
+                parallax_plane: l.parallax_plane,
+                plane_groups: l.plane_groups,
+                shadow_planes: l.shadow_planes,
+                ao_planes: l.ao_planes,
+                temporal: l.temporal,
+                rates: l.rates,
+                gradient: l.gradient,
+                filter: l.filter,
+            },
+            reflections: l.reflections,
+        }
+    }
+}
+
+impl Default for Layout {
+    fn default() -> Self {
+        SettingsFile::default().into()
+    }
+}
 
 /// Parses the text of a settings file and validates it. The error is one line: where (line and
 /// column, for a TOML or type error) and what.
-pub fn parse(text: &str) -> Result<Settings, String> {
-    let settings: Settings = toml::from_str(text).map_err(|e| describe(text, &e))?;
-    settings.validate().map_err(|e| e.to_string())?;
-    Ok(settings)
+pub fn parse(text: &str) -> Result<SettingsFile, String> {
+    let layout: Layout = toml::from_str(text).map_err(|e| describe(text, &e))?;
+    let file = SettingsFile::from(layout);
+    file.denoiser.validate().map_err(|e| e.to_string())?;
+    file.reflections
+        .validate()
+        .map_err(|e| e.to_string().replacen('`', "`reflections.", 1))?;
+    Ok(file)
 }
 
 /// Reads and parses the settings file at `path`; errors name the file.
-pub fn load(path: &Path) -> Result<Settings> {
+pub fn load(path: &Path) -> Result<SettingsFile> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| anyhow!("cannot read settings file {}: {e}", path.display()))?;
     parse(&text).map_err(|e| anyhow!("settings file {}: {e}", path.display()))
 }
 
-/// `settings` as the text of a settings file (with a comment header). Every float is written as
+/// `file` as the text of a settings file (with a comment header). Every float is written as
 /// the shortest decimal that reads back to the same `f32` (`0.9`, not `0.8999999761581421`), so
-/// [`parse`] gives `settings` back exactly.
-pub fn to_toml(settings: &Settings) -> String {
-    let mut value = toml::Value::try_from(settings).expect("settings serialize to TOML");
+/// [`parse`] gives `file` back exactly.
+pub fn to_toml(file: &SettingsFile) -> String {
+    let mut value = toml::Value::try_from(Layout::from(*file)).expect("settings serialize to TOML");
     shorten_floats(&mut value);
     let body = toml::to_string(&value).expect("a TOML table serializes");
     format!("{HEADER}\n{body}")
@@ -83,14 +171,11 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vrrt_core::settings::{
-        FilterSettings, GradientSettings, RateSettings, SamplePattern, StoragePrecision,
-        TemporalSettings,
-    };
+    use vrrt_core::settings::{SamplePattern, StoragePrecision};
 
     #[test]
     fn defaults_round_trip() {
-        let d = Settings::default();
+        let d = SettingsFile::default();
         let text = to_toml(&d);
         assert_eq!(parse(&text), Ok(d), "{text}");
         // Readable floats, the stages as tables.
@@ -99,6 +184,8 @@ mod tests {
             "[rates]",
             "[gradient]",
             "[filter]",
+            "[reflections]",
+            "light_probes = 7\n",
             "normal_threshold = 0.9\n",
             "variance_threshold = [0.0001, 0.001, 0.01, 0.0]\n",
             "storage = \"f16\"\n",
@@ -110,7 +197,7 @@ mod tests {
     #[test]
     fn every_field_round_trips() {
         // Non-default values everywhere, awkward floats included.
-        let s = Settings {
+        let denoiser = Settings {
             planes: 3,
             parallax_plane: Some(2),
             plane_groups: 0x110,
@@ -182,6 +269,25 @@ mod tests {
                 ao_symmetric_taps: false,
             },
         };
+        let reflections = ReflectionSettings {
+            max_roughness: 0.25,
+            min_rate: 0.3,
+            max_rate: 3.5,
+            tile_sigma: 0.1 + 0.2,
+            reuse_radius: 2,
+            parallax: false,
+            motion_radius: 0,
+            plane_threshold: 1.0e-7,
+            light_radiance: 12.5,
+            albedo: 0.33333334,
+            sky: 0.0,
+            ambient: 0.7,
+            light_probes: 15,
+        };
+        let s = SettingsFile {
+            denoiser,
+            reflections,
+        };
         assert_eq!(parse(&to_toml(&s)), Ok(s));
     }
 
@@ -217,7 +323,7 @@ storage = \"f16\"
 ";
         let s = parse(text).unwrap();
         let d = Settings::default();
-        let expected = Settings {
+        let denoiser = Settings {
             planes: 2,
             filter: FilterSettings {
                 sigma_luminance: 2.5,
@@ -231,8 +337,15 @@ storage = \"f16\"
             },
             ..d
         };
-        assert_eq!(s, expected);
-        assert_eq!(parse(""), Ok(d));
+        assert_eq!(s.denoiser, denoiser);
+        assert_eq!(s.reflections, ReflectionSettings::default());
+        assert_eq!(parse(""), Ok(SettingsFile::default()));
+        let r = parse("[reflections]\nlight_probes = 0\n").unwrap();
+        let expected = ReflectionSettings {
+            light_probes: 0,
+            ..ReflectionSettings::default()
+        };
+        assert_eq!((r.denoiser, r.reflections), (d, expected));
     }
 
     #[test]
@@ -242,7 +355,7 @@ storage = \"f16\"
             ("screen-blue", SamplePattern::ScreenBlue),
         ] {
             let s = parse(&format!("[temporal]\nsampling = \"{name}\"\n")).unwrap();
-            assert_eq!(s.temporal.sampling, pattern);
+            assert_eq!(s.denoiser.temporal.sampling, pattern);
         }
         assert!(parse("[temporal]\nsampling = \"blue\"\n").is_err());
     }
@@ -272,6 +385,13 @@ storage = \"f16\"
         assert!(e.contains("`rates.supersample_target`"), "{e}");
         let e = parse("[gradient]\nstratum = -1\n").unwrap_err();
         assert!(e.starts_with("line 2, column 11: "), "{e}");
+        let e = parse("[reflections]\nlight_probes = 16\n").unwrap_err();
+        assert_eq!(
+            e,
+            "setting `reflections.light_probes` = 16 is out of range (0..=15)"
+        );
+        let e = parse("[reflections]\nreuse = 1\n").unwrap_err();
+        assert!(e.contains("unknown field `reuse`"), "{e}");
         let e = parse("[temporal]\nstorage = \"f64\"\n").unwrap_err();
         assert!(e.contains("unknown variant `f64`"), "{e}");
         let e = parse("planes = ").unwrap_err();

@@ -49,6 +49,7 @@ fn shading(rng: &mut Pcg32, frame: &FrameGeometry) -> Shading {
         eye_y: eye.y,
         eye_z: eye.z,
         max_roughness: [0.3, 0.5, 1.0][rng.random_range(0..3)],
+        light_probes: [0, 1, 7][rng.random_range(0..3)],
         ..Shading::default()
     }
 }

@@ -28,17 +28,17 @@ impl SignalKind {
         }
     }
 
-    /// The renderer's signal, with the AO distance `ao_radius`.
-    pub fn signal(self, ao_radius: f32) -> Signal {
+    /// The renderer's signal, with the AO distance `ao_radius` and the reflections' settings.
+    pub fn signal(self, ao_radius: f32, reflections: ReflectionSettings) -> Signal {
         match self {
             SignalKind::Ao => Signal::Ao {
                 max_distance: ao_radius,
             },
             SignalKind::Shadows => Signal::Shadows,
-            SignalKind::Reflections => Signal::Reflections(ReflectionSettings::default()),
+            SignalKind::Reflections => Signal::Reflections(reflections),
             SignalKind::All => Signal::All {
                 max_distance: ao_radius,
-                reflections: ReflectionSettings::default(),
+                reflections,
             },
         }
     }
@@ -112,12 +112,15 @@ mod tests {
 
     #[test]
     fn planes_are_named_by_what_they_hold() {
-        let all = SignalKind::All.signal(1.0);
+        let all = SignalKind::All.signal(1.0, ReflectionSettings::default());
         assert_eq!(
             plane_names(all, 2),
             ["ao", "shadow0", "shadow1", "reflections"]
         );
-        assert_eq!(plane_names(SignalKind::Ao.signal(1.0), 2), ["ao"]);
+        assert_eq!(
+            plane_names(SignalKind::Ao.signal(1.0, ReflectionSettings::default()), 2),
+            ["ao"]
+        );
         assert_eq!(plane_names(Signal::Shadows, 0), ["shadow0"]);
     }
 }

@@ -28,12 +28,12 @@
 //!
 //! **Light probes.** Lights are small and bright (radiance 5 against surfaces near 0.3), so one
 //! lobe direction in seventy that finds one carries nearly all of a 1-rpp frame's variance. Each
-//! ray therefore also draws [`LIGHT_PROBES`] more lobe directions (hash dimensions
+//! ray therefore also draws [`Shading::light_probes`] more lobe directions (hash dimensions
 //! `16 + 8j + 2k, 17 + 8j + 2k`, the same tries as the ray) that only ask whether they reach a
 //! light: an analytic test per light, and a shadow ray only for the few that do. The ray's value
 //! is what its own direction hits *other than* a light, plus `light_radiance` times the fraction
 //! of all its directions (its own included) that reach one. Both parts have the ray's own
-//! expectation, so the estimate stays unbiased; the lights' part averages `1 + LIGHT_PROBES`
+//! expectation, so the estimate stays unbiased; the lights' part averages `1 + light_probes`
 //! draws for the price of a few shadow rays.
 //!
 //! A ray is a pure function of `(stream, index, Surface, eye)`, so converged references are traced
@@ -62,8 +62,8 @@ pub const MAX_TRIES: u32 = 4;
 /// Hit distance given to rays that leave the scene: far enough that their parallax is the sky's.
 pub const MISS_DISTANCE: f32 = 1.0e4;
 
-/// Extra lobe directions per reflection ray that only look for lights (module docs).
-pub const LIGHT_PROBES: u32 = 7;
+/// Most light probes per ray: a bound on the work of one ray, whatever the settings say.
+pub const MAX_LIGHT_PROBES: u32 = 15;
 
 /// First hash dimension of the light probes: after the ray's tries (2..8) and the hit's light
 /// samples (`8 + 2l`, at most four lights).
@@ -80,7 +80,7 @@ pub const TRACERS: u32 = 4;
 /// repeat the rays they classify for.
 pub const TRACER_PLANE: u32 = 0xffff;
 
-/// What the reflection passes share: where the eye is and how hits are lit (32 bytes).
+/// What the reflection passes share: where the eye is and how hits are lit (48 bytes).
 #[repr(C)]
 #[derive(Copy, Clone, Debug, PartialEq, Pod, Zeroable)]
 pub struct Shading {
@@ -100,6 +100,11 @@ pub struct Shading {
     pub sky: f32,
     /// Constant ambient irradiance term at hits (times `albedo`).
     pub ambient: f32,
+    /// Extra lobe directions per ray that only look for lights (module docs; at most
+    /// [`MAX_LIGHT_PROBES`]; 0: the lights' part from the ray's own direction alone).
+    pub light_probes: u32,
+    /// Reserved.
+    pub _pad: [u32; 3],
 }
 
 impl Default for Shading {
@@ -113,6 +118,8 @@ impl Default for Shading {
             albedo: 0.7,
             sky: 0.3,
             ambient: 0.1,
+            light_probes: 7,
+            _pad: [0; 3],
         }
     }
 }
@@ -227,7 +234,10 @@ fn nearest_light(ray: &Ray, scene: HitScene<'_>) -> f32 {
     let mut t_light = MISS_DISTANCE;
     let mut l = 0;
     while l < scene.light_count && (l as usize) < scene.lights.len() {
-        t_light = math::min(t_light, light_distance(&scene.lights[l as usize], ray, t_light));
+        t_light = math::min(
+            t_light,
+            light_distance(&scene.lights[l as usize], ray, t_light),
+        );
         l += 1;
     }
     t_light
@@ -307,7 +317,12 @@ pub fn radiance(
 fn reaches_light(ray: &Ray, scene: HitScene<'_>) -> bool {
     let t_light = nearest_light(ray, scene);
     t_light < MISS_DISTANCE
-        && !trace::occluded(scene.nodes, scene.tris, ray, t_light * (1.0 - SHADOW_T_SHRINK))
+        && !trace::occluded(
+            scene.nodes,
+            scene.tris,
+            ray,
+            t_light * (1.0 - SHADOW_T_SHRINK),
+        )
 }
 
 /// Direction of reflection ray `index` of a lobe and its pdf, or `None` after [`MAX_TRIES`]
@@ -384,20 +399,6 @@ pub fn reflection_ray(
     index: u32,
     scene: HitScene<'_>,
 ) -> RayHit {
-    ray_with_probes(s, sh, stream, index, scene, LIGHT_PROBES)
-}
-
-/// [`reflection_ray`] with `probes` light probes (0: the lights' part from the ray's own
-/// direction alone).
-#[inline]
-fn ray_with_probes(
-    s: &Surface,
-    sh: &Shading,
-    stream: Stream,
-    index: u32,
-    scene: HitScene<'_>,
-    probes: u32,
-) -> RayHit {
     let Some((n, wo, alpha)) = lobe(s, sh) else {
         return RayHit::default();
     };
@@ -410,6 +411,11 @@ fn ray_with_probes(
     let (value, t, lit) = radiance(&ray, sh, stream.seed, index, scene);
     let mut reached = if lit { 1.0 } else { 0.0 };
     let mut j = 0;
+    let probes = if sh.light_probes < MAX_LIGHT_PROBES {
+        sh.light_probes
+    } else {
+        MAX_LIGHT_PROBES
+    };
     while j < probes {
         let probe = probe_direction(n, s.geometric_normal(), wo, alpha, stream.seed, index, j);
         if let Some(dir) = probe {
@@ -561,6 +567,7 @@ mod tests {
             eye_x: 0.0,
             eye_y: 1.0,
             eye_z: 1.0,
+            light_probes: probes,
             ..Shading::default()
         };
         // The mirror direction from (0,1,1) off the origin is (0,1,−1)/√2: the light's near
@@ -571,7 +578,7 @@ mod tests {
         let stream = Stream::per_pixel(pixel_seed(3, 5, 0));
         let (mut s1, mut s2) = (0.0f64, 0.0f64);
         for i in 0..n {
-            let r = ray_with_probes(&s, &sh, stream, i, empty_scene(&lights, 1), probes);
+            let r = reflection_ray(&s, &sh, stream, i, empty_scene(&lights, 1));
             let v = r.radiance as f64;
             s1 += v;
             s2 += v * v;
@@ -584,13 +591,16 @@ mod tests {
     fn light_probes_keep_the_mean_and_cut_the_variance() {
         let n = 20_000;
         let (mean0, var0) = floor_under_light(0, n);
-        let (mean, var) = floor_under_light(LIGHT_PROBES, n);
+        let (mean, var) = floor_under_light(Shading::default().light_probes, n);
         // Part of the lobe on the light, the rest on the sky: a mean well inside (sky, light).
         let sh = Shading::default();
         assert!(mean0 > sh.sky as f64 + 0.5 && mean0 < sh.light_radiance as f64 - 0.5);
         // Same expectation: within four standard errors of the difference.
         let se = ((var0 + var) / n as f64).sqrt();
-        assert!((mean - mean0).abs() < 4.0 * se, "{mean} vs {mean0} (se {se})");
+        assert!(
+            (mean - mean0).abs() < 4.0 * se,
+            "{mean} vs {mean0} (se {se})"
+        );
         // Eight draws of the light term per ray: most of its variance goes.
         assert!(var < 0.3 * var0, "variance {var} vs {var0} without probes");
     }
