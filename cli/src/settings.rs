@@ -106,9 +106,7 @@ pub fn parse(text: &str) -> Result<SettingsFile, String> {
     let layout: Layout = toml::from_str(text).map_err(|e| describe(text, &e))?;
     let file = SettingsFile::from(layout);
     file.denoiser.validate().map_err(|e| e.to_string())?;
-    file.reflections
-        .validate()
-        .map_err(|e| e.to_string().replacen('`', "`reflections.", 1))?;
+    file.reflections.validate().map_err(|e| e.to_string())?;
     Ok(file)
 }
 

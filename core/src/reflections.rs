@@ -86,67 +86,68 @@ impl Default for ReflectionSettings {
 }
 
 impl ReflectionSettings {
-    /// Checks every field against its documented range.
+    /// Checks every field against its documented range; errors name the field by its path in a
+    /// settings file (`reflections.reuse_radius`), as [`SettingsError::OutOfRange`] asks.
     pub fn validate(&self) -> Result<(), SettingsError> {
         let f = |v: f32| v.is_finite();
         check(
             f(self.max_roughness) && (0.0..=1.0).contains(&self.max_roughness),
-            "max_roughness",
+            "reflections.max_roughness",
             self.max_roughness,
             "0..=1",
         )?;
         check(
             f(self.min_rate) && self.min_rate > 0.0 && self.min_rate <= self.max_rate,
-            "min_rate",
+            "reflections.min_rate",
             self.min_rate,
             "0 < min_rate <= max_rate",
         )?;
         check(
             f(self.max_rate) && self.max_rate <= 4.0,
-            "max_rate",
+            "reflections.max_rate",
             self.max_rate,
             "min_rate..=4",
         )?;
         check(
             f(self.tile_sigma) && self.tile_sigma > 0.0,
-            "tile_sigma",
+            "reflections.tile_sigma",
             self.tile_sigma,
             "> 0",
         )?;
         check(
             self.reuse_radius <= 3,
-            "reuse_radius",
+            "reflections.reuse_radius",
             self.reuse_radius as f32,
             "0..=3",
         )?;
         check(
             self.light_probes <= reflect::MAX_LIGHT_PROBES,
-            "light_probes",
+            "reflections.light_probes",
             self.light_probes as f32,
             "0..=15",
         )?;
         check(
             self.motion_radius <= 3,
-            "motion_radius",
+            "reflections.motion_radius",
             self.motion_radius as f32,
             "0..=3",
         )?;
         check(
             f(self.plane_threshold) && self.plane_threshold > 0.0,
-            "plane_threshold",
+            "reflections.plane_threshold",
             self.plane_threshold,
             "> 0",
         )?;
         for (field, v) in [
-            ("light_radiance", self.light_radiance),
-            ("sky", self.sky),
-            ("ambient", self.ambient),
+            ("reflections.light_radiance", self.light_radiance),
+            ("reflections.sky", self.sky),
+            ("reflections.ambient", self.ambient),
         ] {
             check(f(v) && v >= 0.0, field, v, ">= 0")?;
         }
         check(
             f(self.albedo) && (0.0..=1.0).contains(&self.albedo),
-            "albedo",
+            "reflections.albedo",
             self.albedo,
             "0..=1",
         )
@@ -398,10 +399,12 @@ mod tests {
                 ..Default::default()
             },
         ];
-        for (s, field) in bad
-            .iter()
-            .zip(["max_roughness", "min_rate", "reuse_radius", "sky"])
-        {
+        for (s, field) in bad.iter().zip([
+            "reflections.max_roughness",
+            "reflections.min_rate",
+            "reflections.reuse_radius",
+            "reflections.sky",
+        ]) {
             match s.validate() {
                 Err(SettingsError::OutOfRange { field: f, .. }) => assert_eq!(f, field),
                 other => panic!("{field}: {other:?}"),
