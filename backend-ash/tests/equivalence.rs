@@ -19,6 +19,7 @@ use vrrt_core::kernels::accumulate::AccumulateParams;
 use vrrt_core::kernels::atrous::AtrousParams;
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN, NO_RAYS};
 use vrrt_core::kernels::classify;
+use vrrt_core::kernels::reflect::NO_GUIDE;
 use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::payload::{Filtered, PackedFiltered};
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
@@ -181,12 +182,15 @@ fn atrous_matches_cpu() {
             iteration: i as u32,
             ..AtrousParams::default()
         };
-        let inputs: [&[u8]; 6] = [
+        // No guide plane: the guide binding holds one unread element, as a denoiser without
+        // reflections binds it.
+        let inputs: [&[u8]; 7] = [
             bytemuck::cast_slice(&input),
             bytemuck::cast_slice(&depth),
             bytemuck::cast_slice(&normal_roughness),
             bytemuck::bytes_of(&v),
             bytemuck::cast_slice(&tiles),
+            bytemuck::bytes_of(&NO_GUIDE),
             &out,
         ];
         let p = bytemuck::bytes_of(&params);
@@ -197,7 +201,7 @@ fn atrous_matches_cpu() {
                 inputs: &inputs,
                 params: p,
                 grid: [W, H, PLANES],
-                out: 5,
+                out: 6,
                 out_len: n,
             },
         );
@@ -279,6 +283,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[PackedFiltered], surf: &[Surface]) ->
             bytemuck::cast_slice(&tile_levels()),
             bytemuck::cast_slice(&normal_roughness),
             bytemuck::bytes_of(&v),
+            bytemuck::bytes_of(&NO_GUIDE),
         ],
     );
     let (s, ind) = (b[1], b[4]);
@@ -292,7 +297,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[PackedFiltered], surf: &[Surface]) ->
             ..AtrousParams::default()
         };
         let out = b[2 + i % 2];
-        let bufs = [prev, s, b[6], b[7], b[5], out];
+        let bufs = [prev, s, b[6], b[7], b[5], b[8], out];
         let mut pass = Pass::over_grid(
             &vrrt_core::kernels::ATROUS,
             &bufs,

@@ -46,13 +46,14 @@ pub struct RunArgs {
     /// `--rpp`. Wins over the settings file.
     #[arg(long, value_name = "MS", value_parser = parse_budget_ms)]
     pub budget_ms: Option<f32>,
-    /// Settings file (TOML: `planes`, `parallax_plane`, and the tables `[temporal]`, `[rates]`,
+    /// Settings file (TOML: `planes`, the plane indices, and the tables `[temporal]`, `[rates]`,
     /// `[gradient]`, `[filter]` and `[reflections]`; fields left out keep their defaults, unknown
     /// fields are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
     /// the other options start from, and they win over it: `--denoiser` applies its changes on
     /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
     /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
-    /// `plane_groups`, `shadow_planes` and `ao_planes`.
+    /// `guide_plane`, `plane_groups`, `shadow_planes` and `ao_planes` (and, for reflections
+    /// alone, `rates.reset_payback` 64).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.

@@ -1,4 +1,4 @@
-//! Settings files: the denoiser's [`Settings`] as TOML, `planes` and `parallax_plane` at the top
+//! Settings files: the denoiser's [`Settings`] as TOML, `planes` and the plane indices at the top
 //! and one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`), and the
 //! reflection passes' [`ReflectionSettings`] as `[reflections]`. Fields left out keep their
 //! defaults, unknown fields are errors, and the result is validated, so a bad file fails before
@@ -16,9 +16,9 @@ const HEADER: &str = "\
 # VRRT-rs settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
 # Units and ranges: vrrt_core::settings (one struct per table) and, for [reflections],
-# vrrt_core::reflections::ReflectionSettings. `parallax_plane` (a plane index) is absent by
-# default; `vrrt run` and `vrrt bench` set it, `planes`, `plane_groups`, `shadow_planes` and
-# `ao_planes` from the signal.
+# vrrt_core::reflections::ReflectionSettings. `parallax_plane` and `guide_plane` (plane indices)
+# are absent by default; `vrrt run` and `vrrt bench` set them, `planes`, `plane_groups`,
+# `shadow_planes` and `ao_planes` from the signal.
 ";
 
 /// What a settings file holds: the denoiser's settings and the reflection passes'.
@@ -37,6 +37,7 @@ pub struct SettingsFile {
 struct Layout {
     planes: u32,
     parallax_plane: Option<u32>,
+    guide_plane: Option<u32>,
     plane_groups: u32,
     shadow_planes: u32,
     ao_planes: u32,
@@ -52,6 +53,7 @@ impl From<SettingsFile> for Layout {
         let Settings {
             planes,
             parallax_plane,
+            guide_plane,
             plane_groups,
             shadow_planes,
             ao_planes,
@@ -63,6 +65,7 @@ impl From<SettingsFile> for Layout {
         Layout {
             planes,
             parallax_plane,
+            guide_plane,
             plane_groups,
             shadow_planes,
             ao_planes,
@@ -81,6 +84,7 @@ impl From<Layout> for SettingsFile {
             denoiser: Settings {
                 planes: l.planes,
                 parallax_plane: l.parallax_plane,
+                guide_plane: l.guide_plane,
                 plane_groups: l.plane_groups,
                 shadow_planes: l.shadow_planes,
                 ao_planes: l.ao_planes,
@@ -198,6 +202,7 @@ mod tests {
         let denoiser = Settings {
             planes: 3,
             parallax_plane: Some(2),
+            guide_plane: Some(1),
             plane_groups: 0x110,
             shadow_planes: 0b010,
             ao_planes: 0b001,
@@ -265,6 +270,8 @@ mod tests {
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
                 ao_symmetric_taps: false,
+                guide_sigma: 0.1 + 0.7,
+                guided_sigma_luminance: 2.75,
             },
         };
         let reflections = ReflectionSettings {
@@ -281,6 +288,7 @@ mod tests {
             sky: 0.0,
             ambient: 0.7,
             light_probes: 15,
+            guide_radius: 3,
         };
         let s = SettingsFile {
             denoiser,

@@ -35,7 +35,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 22;
+pub const DENOISER_BUFFERS: usize = 23;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -54,6 +54,12 @@ pub fn denoiser_buffers(
     let bytes = |n: u64, elem: usize| n * elem as u64;
     // Reflection parallax positions exist only with a parallax plane (one element otherwise).
     let parallax = if settings.parallax_plane.is_some() {
+        pixels
+    } else {
+        1
+    };
+    // The hit-distance guide exists only with a guide plane (one element otherwise).
+    let guide = if settings.guide_plane.is_some() {
         pixels
     } else {
         1
@@ -127,6 +133,7 @@ pub fn denoiser_buffers(
         ),
         size("importance", 1, bytes(rw as u64 * rh as u64, 4), "f32"),
         size("parallax", 1, bytes(parallax, 8), "[f32; 2]"),
+        size("guide", 1, bytes(guide, 4), "f32"),
     ]
 }
 

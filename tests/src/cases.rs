@@ -42,6 +42,7 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("reflect_tiles", crate::reflect_cases::tiles_case),
     ("reflect_motion", crate::reflect_cases::motion_case),
     ("reflect_reuse", crate::reflect_cases::reuse_case),
+    ("reflect_guide", crate::reflect_cases::guide_case),
 ];
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.

@@ -1,12 +1,14 @@
 //! Equivalence cases of the spatial filter (`variance`, `classify`, `atrous`), split off to keep
 //! `cases` short.
 
-use crate::cases::{groups, histories, surfaces, value, INTS, PAYLOAD, PLANES, YOUNG_LENGTHS};
+use crate::cases::{
+    groups, histories, surfaces, value, FLOATS, INTS, PAYLOAD, PLANES, YOUNG_LENGTHS,
+};
 use crate::inputs::{self, Images};
 use crate::{BufferSpec, Case};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::kernels::{atrous, classify, variance};
+use vrrt_core::kernels::{atrous, classify, reflect, reproject, variance};
 use vrrt_core::payload::{Filtered, PackedFiltered};
 
 pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
@@ -18,10 +20,13 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_normal_power: 8.0,
         ao_spatial_until: 8.0,
+        guide_plane: guide_plane(rng),
+        guide_scale: 0.44,
         ..Default::default()
     };
     let view = inputs::test_view();
     let g = Images::pack(&surfaces(rng, w, h), w, &view);
+    let guide = guide(rng, w, h);
     let (tw, th) = classify::tile_grid(w, h);
     let tiles: Vec<u32> = (0..tw * th)
         .map(|_| match rng.random_range(0..8) {
@@ -30,13 +35,17 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     Case {
-        name: format!("variance {w}x{h}x{PLANES} ao {:b}", params.ao_planes),
+        name: format!(
+            "variance {w}x{h}x{PLANES} ao {:b} guide {}",
+            params.ao_planes, params.guide_plane as i32
+        ),
         kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![
             BufferSpec::from_pod(&histories(rng, n, YOUNG_LENGTHS), PAYLOAD),
             g.depth(),
             g.normal_roughness(),
             inputs::view(&view),
+            BufferSpec::from_pod(&guide, FLOATS),
             BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
             // Tile words, zeroed as the host does, with a few left high to stay the maximum.
             BufferSpec::from_pod(&tiles, INTS),
@@ -101,15 +110,23 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_normal_power: 8.0,
         symmetric_planes: rng.random_range(0..1 << PLANES),
+        guide_plane: guide_plane(rng),
+        guide_scale: 0.44,
+        guided_sigma_luminance: 3.0,
         ..atrous::AtrousParams::default()
     };
+    let guide = guide(rng, w, h);
     let (tw, th) = classify::tile_grid(w, h);
     // Tiles needing 0..=5 iterations: some pass through, some filter.
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!(
-            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b} pairs {:b}",
-            params.step, params.cap_variance, params.ao_planes, params.symmetric_planes
+            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b} pairs {:b} guide {}",
+            params.step,
+            params.cap_variance,
+            params.ao_planes,
+            params.symmetric_planes,
+            params.guide_plane as i32
         ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
@@ -118,9 +135,26 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             g.normal_roughness(),
             inputs::view(&view),
             BufferSpec::from_pod(&tiles, INTS),
+            BufferSpec::from_pod(&guide, FLOATS),
             BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),
     }
+}
+
+/// A guided plane, or none (`NO_PLANE`): both paths of the filters are exercised.
+fn guide_plane(rng: &mut Pcg32) -> u32 {
+    [0, 1, reproject::NO_PLANE][rng.random_range(0..3)]
+}
+
+/// A hit-distance guide per pixel: `log2` distances of hits and misses, and pixels without one.
+fn guide(rng: &mut Pcg32, w: u32, h: u32) -> Vec<f32> {
+    (0..w * h)
+        .map(|_| match rng.random_range(0..6) {
+            0 => reflect::NO_GUIDE,
+            1 => reflect::MISS_DISTANCE.log2(),
+            _ => rng.random_range(-13.0..13.0),
+        })
+        .collect()
 }

@@ -17,8 +17,8 @@ use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;
 const U: Word = Word::U32;
-/// `RayHit`: six floats, the frame stamp, padding.
-const HIT: &[Word] = &[F, F, F, F, F, F, U, U];
+/// `RayHit`: six floats, the frame stamp, the mean log hit distance.
+const HIT: &[Word] = &[F, F, F, F, F, F, U, F];
 
 /// The room's G-buffer with roughness redrawn per pixel.
 fn glossy_surfaces(rng: &mut Pcg32, frame: &FrameGeometry, w: u32, h: u32) -> Vec<Surface> {
@@ -91,7 +91,7 @@ fn hits(rng: &mut Pcg32, surfaces: &[Surface], frame: u32) -> Vec<RayHit> {
                 } else {
                     frame
                 },
-                _pad: 0,
+                log_distance: rng.random_range(-14.0..14.0),
             }
         })
         .collect()
@@ -261,5 +261,29 @@ pub fn reuse_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_REUSE, w, h, 1),
+    }
+}
+
+/// `reflect_guide`: the mean log hit distance of this frame's records (some stale, some without
+/// a ray) around each pixel.
+pub fn guide_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let frame = room_frame(rng);
+    let surfaces = glossy_surfaces(rng, &frame, w, h);
+    let stamp: u32 = rng.random();
+    let params = reflect::GuideParams {
+        width: w,
+        height: h,
+        frame: stamp,
+        radius: rng.random_range(0..=3),
+    };
+    Case {
+        name: format!("reflect_guide {w}x{h} radius {}", params.radius),
+        kernel: &vrrt_core::kernels::REFLECT_GUIDE,
+        buffers: vec![
+            BufferSpec::from_pod(&hits(rng, &surfaces, stamp), HIT),
+            BufferSpec::from_pod(&vec![0.0f32; (w * h) as usize], FLOATS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: crate::trace_cases::groups(&vrrt_core::kernels::REFLECT_GUIDE, w, h, 1),
     }
 }

@@ -170,6 +170,7 @@ pub struct Denoiser {
     tile_histogram: BufferId,
     importance: BufferId,
     parallax: BufferId,
+    guide: BufferId,
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -252,6 +253,7 @@ impl Denoiser {
             tile_histogram: id("tile_histogram")[0],
             importance: id("importance")[0],
             parallax: id("parallax")[0],
+            guide: id("guide")[0],
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -339,6 +341,13 @@ impl Denoiser {
     /// pixels); the caller writes it (`reflect::reflect_motion`) before [`Self::plan_rays`].
     pub fn parallax(&self) -> BufferId {
         self.parallax
+    }
+
+    /// The hit-distance guide of [`Settings::guide_plane`] (`f32` per pixel, or
+    /// `kernels::reflect::NO_GUIDE`); the caller writes it (`reflect::reflect_guide`) before
+    /// [`Self::resolve`].
+    pub fn guide(&self) -> BufferId {
+        self.guide
     }
 
     /// Per pixel and plane group (after [`Self::plan_rays`]; group-stacked like planes): the

@@ -145,12 +145,15 @@ impl Denoiser {
             ao_planes: s.ao_planes,
             ao_normal_power: s.filter.ao_normal_power,
             ao_spatial_until: s.filter.ao_spatial_until,
+            guide_plane: s.guide_plane.unwrap_or(reproject::NO_PLANE),
+            guide_scale: guide_scale(s.filter.guide_sigma),
         };
         let variance = kernels::VarianceBindings {
             payload: self.history[self.cur],
             depth: self.depth[self.cur],
             normal_roughness: self.normal_roughness[self.cur],
             view: self.view,
+            guide: self.guide,
             out: self.filtered[0],
             tiles: self.tiles,
         };
@@ -186,6 +189,9 @@ impl Denoiser {
                 } else {
                     0
                 },
+                guide_plane: s.guide_plane.unwrap_or(reproject::NO_PLANE),
+                guide_scale: guide_scale(s.filter.guide_sigma),
+                guided_sigma_luminance: s.filter.guided_sigma_luminance,
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],
@@ -193,11 +199,21 @@ impl Denoiser {
                 normal_roughness: self.normal_roughness[self.cur],
                 view: self.view,
                 tiles: self.tiles,
+                guide: self.guide,
                 out: self.filtered[1 - self.out],
             };
             exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
             self.out = 1 - self.out;
         }
         Ok(())
+    }
+}
+
+/// `AtrousParams::guide_scale` of σ: `1 / (σ √2)`, and 0 (the guide never stops a tap) for σ = 0.
+fn guide_scale(sigma: f32) -> f32 {
+    if sigma > 0.0 {
+        core::f32::consts::FRAC_1_SQRT_2 / sigma
+    } else {
+        0.0
     }
 }

@@ -152,8 +152,9 @@ pub struct Frame {
 
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
-    /// plane count, the parallax plane and the shadow planes (which take the detector's
-    /// `gradient.shadow_*` window) of `settings` are set from the layout. Reflections
+    /// plane count, the parallax and guide planes and the shadow planes (which take the
+    /// detector's `gradient.shadow_*` window) of `settings` are set from the layout, and for
+    /// reflections alone `rates.reset_payback` is the longest. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
@@ -171,11 +172,15 @@ impl Frame {
         settings.parallax_plane = layout
             .reflections
             .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
+        settings.guide_plane = layout
+            .reflections
+            .filter(|_| settings.filter.guide_sigma > 0.0);
         if matches!(signal, Signal::Reflections(_)) {
-            // Alone, reflections lose more to the payback than they gain at the cut: their
-            // moving highlights starve in the frames after it (dragon, 128x72, moving relMSE
-            // 0.0992 → 0.1139, whole +1%).
-            settings.rates.reset_boost = 0.0;
+            // Alone, reflections pay the cut's extra rays back over the longest window: over 8
+            // frames their moving highlights starve after it (dragon, 128x72, 1 rpp: moving
+            // relMSE 0.0931 without the boost, 0.1065 over 8, 0.0995 over 64), while the fresh
+            // pixels gain from it either way (bunny 0.00457 → 0.00388, dragon 0.0234 → 0.0174).
+            settings.rates.reset_payback = crate::settings::MAX_RESET_PAYBACK;
         }
         settings.plane_groups = if settings.rates.per_signal {
             layout.plane_groups()
@@ -283,6 +288,9 @@ impl Frame {
         if self.denoiser.detect_changes(exec)? {
             let refill = RaygenTarget::refill(&self.denoiser, gb.geometry);
             trace_planes(exec, self.signal, &self.layout, scene, reflections, &refill)?;
+        }
+        if let Some(r) = reflections {
+            r.guide(exec, &self.denoiser)?;
         }
         self.denoiser.resolve(exec)?;
         Ok(FrameReport {

@@ -11,6 +11,8 @@
 
 use super::classify::tile_index;
 use super::detect::per_plane;
+use super::reflect::NO_GUIDE;
+use super::reproject::NO_PLANE;
 use super::AtrousIo;
 use crate::camera::PixelRays;
 use crate::lanes::{self, Lanes};
@@ -51,6 +53,14 @@ pub struct AtrousParams {
     /// geometric mean of its two weights (`FilterSettings::ao_symmetric_taps`): a window the
     /// edge-stopping weights cut on one side (a crease, a contact) no longer leans to the other.
     pub symmetric_planes: u32,
+    /// The plane whose taps also compare the hit-distance guide (`guide`,
+    /// [`crate::kernels::reflect::reflect_guide`]); [`NO_PLANE`] for none (`guide` is not read).
+    pub guide_plane: u32,
+    /// `1 / (σ_g √2)`: a tap whose guide differs by `Δ` is weighted by `exp(−(Δ · guide_scale)²)`
+    /// (`FilterSettings::guide_sigma`).
+    pub guide_scale: f32,
+    /// `sigma_luminance` of `guide_plane` (`FilterSettings::guided_sigma_luminance`).
+    pub guided_sigma_luminance: f32,
 }
 
 impl Default for AtrousParams {
@@ -67,6 +77,9 @@ impl Default for AtrousParams {
             ao_planes: 0,
             ao_normal_power: 128.0,
             symmetric_planes: 0,
+            guide_plane: NO_PLANE,
+            guide_scale: 0.0,
+            guided_sigma_luminance: 4.0,
         }
     }
 }
@@ -110,6 +123,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         normal_roughness,
         view,
         tiles,
+        guide,
         out,
     } = io;
     let (w, h) = (p.width, p.height);
@@ -149,11 +163,23 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         blurred = blurred.zip(variance, math::min);
     }
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
-    let lum_scale = blurred.map(|b| p.sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
+    let guided = id.z == p.guide_plane;
+    let sigma_luminance = if guided {
+        p.guided_sigma_luminance
+    } else {
+        p.sigma_luminance
+    };
+    let lum_scale = blurred.map(|b| sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
 
     let c = Centre {
         id,
         p: *p,
+        guided,
+        guide: if guided {
+            Lanes::<f32, N>::load_row(guide, row, x0, w)
+        } else {
+            Lanes::splat(NO_GUIDE)
+        },
         value,
         depth: cd,
         normal: n,
@@ -171,7 +197,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         while tx <= 2 {
             if !symmetric {
                 if tx != 0 || ty != 0 {
-                    let t = tap(input, depth, normal_roughness, &c, tx, ty);
+                    let t = tap(input, depth, normal_roughness, guide, &c, tx, ty);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
                             let w = t.weight.0[l];
@@ -183,8 +209,8 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 }
             } else if ty > 0 || (ty == 0 && tx > 0) {
                 // The pair (tx, ty), (-tx, -ty): both or neither, at one weight.
-                let a = tap(input, depth, normal_roughness, &c, tx, ty);
-                let b = tap(input, depth, normal_roughness, &c, -tx, -ty);
+                let a = tap(input, depth, normal_roughness, guide, &c, tx, ty);
+                let b = tap(input, depth, normal_roughness, guide, &c, -tx, -ty);
                 lanes::each_lane!(l in N {
                     if a.valid.0[l] && b.valid.0[l] {
                         let w = math::sqrt(a.weight.0[l] * b.weight.0[l]);
@@ -211,6 +237,9 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
 struct Centre<const N: usize> {
     id: UVec3,
     p: AtrousParams,
+    /// This plane compares the hit-distance guide, the centre's is `guide`.
+    guided: bool,
+    guide: Lanes<f32, N>,
     value: Lanes<f32, N>,
     depth: Lanes<f32, N>,
     normal: Lanes<Vec3, N>,
@@ -234,6 +263,7 @@ fn tap<const N: usize>(
     input: &[PackedFiltered],
     depth: &[f32],
     normal_roughness: &[u32],
+    guide: &[f32],
     c: &Centre<N>,
     tx: i32,
     ty: i32,
@@ -262,6 +292,11 @@ fn tap<const N: usize>(
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
     let w_n = surface::normal_weights(c.normal, m, c.normal_power);
+    let qg = if c.guided {
+        Lanes::<f32, N>::load_row(guide, qrow, qx0, w)
+    } else {
+        Lanes::splat(NO_GUIDE)
+    };
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let e = Lanes::<f32, N>::from_index(|l| {
@@ -272,6 +307,7 @@ fn tap<const N: usize>(
         let x = lanes::clamp_column(qx.0[l], w);
         c.plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
             + math::abs(c.value.0[l] - value.0[l]) / c.lum_scale.0[l]
+            + guide_exponent(c.guide.0[l], qg.0[l], p.guide_scale)
     });
     let tw = TAP_WEIGHT[ay][ax];
     Tap {
@@ -280,6 +316,16 @@ fn tap<const N: usize>(
         value,
         variance,
     }
+}
+
+/// The guide's part of a tap's exponent: `(Δ · scale)²`, or 0 when either pixel has no guide.
+#[inline(always)]
+pub fn guide_exponent(centre: f32, tap: f32, scale: f32) -> f32 {
+    if centre == NO_GUIDE || tap == NO_GUIDE {
+        return 0.0;
+    }
+    let d = (centre - tap) * scale;
+    d * d
 }
 
 /// Variance at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for
@@ -316,10 +362,12 @@ mod tests {
     use glam::Vec3;
 
     /// One iteration of `p` at pixel `(x, y)` of a `w`×`h` wall facing the camera, 5 units away
-    /// where `depth` says so (0: no surface), holding `input`; every tile filters.
+    /// where `depth` says so (0: no surface), holding `input` and the hit-distance `guide` (read
+    /// when `p.guide_plane` is 0); every tile filters.
     fn filter_wall(
         input: &[PackedFiltered],
         depth: &[f32],
+        guide: &[f32],
         w: u32,
         p: AtrousParams,
         x: u32,
@@ -341,6 +389,7 @@ mod tests {
             normal_roughness: &normals,
             view: &view,
             tiles: &tiles,
+            guide,
             out: &mut out,
         };
         let p = AtrousParams {
@@ -366,7 +415,7 @@ mod tests {
             cap_variance,
             ..Default::default()
         };
-        filter_wall(&input, &[5.0; 15], 5, p, 2, 1)
+        filter_wall(&input, &[5.0; 15], &[NO_GUIDE], 5, p, 2, 1)
     }
 
     #[test]
@@ -399,7 +448,7 @@ mod tests {
             symmetric_planes,
             ..Default::default()
         };
-        filter_wall(&input, &depth, 9, p, x, 0)
+        filter_wall(&input, &depth, &[NO_GUIDE], 9, p, x, 0)
     }
 
     #[test]
@@ -421,6 +470,42 @@ mod tests {
             // In pairs a linear ramp cancels.
             approx::assert_abs_diff_eq!(at_an_edge(x, 1), centre, epsilon = 2e-3);
         }
+    }
+
+    /// Pixel 3 of a 9-pixel row of one flat wall at 1 rpp (variance 1): a dark reflection
+    /// (0.1) in pixels 0..=3 whose rays hit at 4 units, a bright one (1.0) from pixel 4 on
+    /// whose rays hit at 1000, filtered with or without the guide.
+    fn beside_a_reflected_edge(guided: bool) -> f32 {
+        let input: std::vec::Vec<PackedFiltered> = (0..9)
+            .map(|i| {
+                let value = if i <= 3 { 0.1 } else { 1.0 };
+                Filtered {
+                    value,
+                    variance: 1.0,
+                }
+                .pack()
+            })
+            .collect();
+        let guide: std::vec::Vec<f32> = (0..9).map(|i| if i <= 3 { 2.0 } else { 10.0 }).collect();
+        let p = AtrousParams {
+            guide_plane: if guided { 0 } else { NO_PLANE },
+            guide_scale: core::f32::consts::FRAC_1_SQRT_2 / 1.6,
+            ..Default::default()
+        };
+        filter_wall(&input, &[5.0; 9], &guide, 9, p, 3, 0)
+    }
+
+    #[test]
+    fn the_guide_keeps_a_reflected_edge_the_g_buffer_does_not_see() {
+        // One flat wall: the normal and plane weights see nothing, and σ = 1 lets the bright
+        // taps in.
+        assert!(
+            beside_a_reflected_edge(false) > 0.3,
+            "{}",
+            beside_a_reflected_edge(false)
+        );
+        let guided = beside_a_reflected_edge(true);
+        assert!((guided - 0.1).abs() < 1e-3, "{guided}");
     }
 
     #[test]

@@ -32,7 +32,8 @@ crate::kernel_table! {
         changes: write f32,
     }
 
-    /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs.
+    /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs,
+    /// `guide` the hit-distance guide of plane `guide_plane` (one element when none).
     atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32, avx512 128) atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
@@ -40,6 +41,7 @@ crate::kernel_table! {
         normal_roughness: read NormalRoughness,
         view: read View,
         tiles: read TileWord,
+        guide: read f32,
         out: write PackedFiltered,
     }
 
@@ -134,6 +136,7 @@ crate::kernel_table! {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
         view: read View,
+        guide: read f32,
         out: write PackedFiltered,
         tiles: atomic TileWord,
     }
@@ -294,5 +297,12 @@ crate::kernel_table! {
         view: read View,
         hits: read RayHit,
         samples: update PackedSample,
+    }
+
+    /// [`reflect::reflect_guide`]: the hit-distance guide of the à-trous reflection plane.
+    reflect_guide => REFLECT_GUIDE, ReflectGuideBindings, ReflectGuideIo: fn reflect::reflect_guide,
+    threads(8, 8, 1), params reflect::GuideParams {
+        hits: read RayHit,
+        guide: write f32,
     }
 }

@@ -19,9 +19,12 @@
 //! variance it stored into its tile's word with an atomic max ([`classify::tile_key`]), so the
 //! classification reads one word per tile instead of the whole image again.
 
+use super::atrous::guide_exponent;
 use super::classify;
 use super::detect::per_plane;
 use super::plane_index;
+use super::reflect::NO_GUIDE;
+use super::reproject::NO_PLANE;
 use super::VarianceIo;
 use crate::atomic;
 use crate::camera::{PixelRays, View};
@@ -55,6 +58,11 @@ pub struct VarianceParams {
     pub ao_normal_power: f32,
     /// `spatial_until` of the planes in `ao_planes`.
     pub ao_spatial_until: f32,
+    /// The plane whose spatial estimate also compares the hit-distance guide, as
+    /// [`crate::kernels::atrous::AtrousParams::guide_plane`]; [`NO_PLANE`] for none.
+    pub guide_plane: u32,
+    /// As [`crate::kernels::atrous::AtrousParams::guide_scale`].
+    pub guide_scale: f32,
 }
 
 impl Default for VarianceParams {
@@ -69,6 +77,8 @@ impl Default for VarianceParams {
             normal_power: 128.0,
             ao_normal_power: 128.0,
             ao_spatial_until: 4.0,
+            guide_plane: NO_PLANE,
+            guide_scale: 0.0,
         }
     }
 }
@@ -83,6 +93,7 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
         depth,
         normal_roughness,
         view,
+        guide,
         out,
         tiles,
     } = io;
@@ -90,7 +101,7 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     if id.x >= w || id.y >= h {
         return;
     }
-    let f = estimate::<N>(id, p, payload, depth, normal_roughness, &view[0]);
+    let f = estimate::<N>(id, p, payload, depth, normal_roughness, guide, &view[0]);
     let f = pack_filtered(f.map(|f| f.value), f.map(|f| f.variance));
     // The variance as stored, which is what the filter will read.
     let (_, stored_variance) = unpack_filtered(f);
@@ -113,6 +124,7 @@ fn estimate<const N: usize>(
     payload: &[PackedPayload],
     depth: &[f32],
     normal_roughness: &[u32],
+    guide: &[f32],
     view: &View,
 ) -> Lanes<Filtered, N> {
     let (w, h) = (p.width, p.height);
@@ -140,6 +152,12 @@ fn estimate<const N: usize>(
         TangentPlane::new(&rays, n.0[l as usize], x, id.y, cd.0[l as usize])
     });
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
+    let guided = id.z == p.guide_plane;
+    let cg = if guided {
+        Lanes::<f32, N>::load_row(guide, id.y * w, x0, w)
+    } else {
+        Lanes::splat(NO_GUIDE)
+    };
     let r = p.radius as i32;
     let mut s1 = Lanes::<f32, N>::splat(0.0);
     let mut s2 = s1;
@@ -159,13 +177,20 @@ fn estimate<const N: usize>(
                     .map(packing::unpack_normal);
                 let offset = math::sqrt((dx * dx + dy * dy) as f32);
                 let w_n = surface::normal_weights(n, m, normal_power);
+                let qg = if guided {
+                    Lanes::<f32, N>::load_row(guide, row, qx0, w)
+                } else {
+                    Lanes::splat(NO_GUIDE)
+                };
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
                     let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);
                     // Columns outside the image are never used below; clamped, they stay the
                     // finite values of some pixel.
                     let x = lanes::clamp_column(qx0 + l as i32, w);
-                    w_n.0[l] * math::exp(-plane.0[l].distance(x, qy as u32, qd.0[l]) / scale)
+                    let e = plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
+                        + guide_exponent(cg.0[l], qg.0[l], p.guide_scale);
+                    w_n.0[l] * math::exp(-e)
                 });
                 let valid = Lanes::<bool, N>::from_index(|l| {
                     let (q, qx) = (q.0[l as usize], qx0 + l as i32);

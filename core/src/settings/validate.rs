@@ -179,7 +179,7 @@ impl RateSettings {
             "0..=1",
         )?;
         check(
-            self.reset_payback <= 64,
+            self.reset_payback <= super::MAX_RESET_PAYBACK,
             "rates.reset_payback",
             self.reset_payback as f32,
             "0..=64",
@@ -341,6 +341,18 @@ impl FilterSettings {
             "filter.skip_sigma",
             self.skip_sigma,
             ">= 0",
+        )?;
+        check(
+            finite(self.guide_sigma) && self.guide_sigma >= 0.0,
+            "filter.guide_sigma",
+            self.guide_sigma,
+            ">= 0",
+        )?;
+        check(
+            finite(self.guided_sigma_luminance) && self.guided_sigma_luminance > 0.0,
+            "filter.guided_sigma_luminance",
+            self.guided_sigma_luminance,
+            "> 0",
         )
     }
 }

@@ -42,6 +42,7 @@
 use super::pixel_index;
 use super::raygen::{ray_origin, AreaLight, SHADOW_T_SHRINK};
 use super::RaygenReflectIo;
+use super::ReflectGuideIo;
 use super::ReflectMotionIo;
 use super::ReflectReuseIo;
 use super::ReflectTilesIo;
@@ -151,8 +152,10 @@ pub struct RayHit {
     pub distance: f32,
     /// Frame index the ray was traced in: records of other frames are stale.
     pub frame: u32,
-    /// Reserved.
-    pub _pad: u32,
+    /// `log2` of the hit distance (clamped to `[1e-4, MISS_DISTANCE]`), averaged over all the
+    /// pixel's rays of the pass that drew a direction: [`reflect_guide`]'s input, steadier where
+    /// a pixel traced several.
+    pub log_distance: f32,
 }
 
 impl RayHit {
@@ -435,15 +438,17 @@ pub fn reflection_ray(
         pdf,
         distance: t,
         frame: 0,
-        _pad: 0,
+        log_distance: math::log2(math::clamp(t, 1e-4, MISS_DISTANCE)),
     }
 }
 
+mod guide;
 mod motion;
 mod rays;
 mod reuse;
 mod tiles;
 
+pub use guide::{reflect_guide, GuideParams, NO_GUIDE};
 pub use motion::{reflect_motion, MotionParams};
 pub use rays::{raygen_reflect, RaygenParams};
 pub use reuse::{reflect_reuse, ReuseParams};

@@ -28,7 +28,7 @@ pub struct RaygenParams {
 
 /// One invocation per work-list entry (like `raygen::raygen_ao`): the entry's reflection rays
 /// from the rng index the reprojected history carries, their [`Sample`] in plane `plane`, and the
-/// 0th ray's record in `hits` (stamped with `frame`). A surface that reflects nothing gets value 0
+/// 0th ray's record in `hits` (stamped with `frame`, with the mean `log_distance` of all of them). A surface that reflects nothing gets value 0
 /// for its rays without tracing, so its history fills like any other plane's.
 pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     let RaygenReflectIo {
@@ -71,6 +71,7 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, first_index);
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut record = RayHit::default();
+    let (mut log_sum, mut drawn) = (0.0f32, 0.0f32);
     let mut k = 0u32;
     while k < n && s.is_valid() {
         let r = reflection_ray(&s, &p.shading, stream, first_index.wrapping_add(k), scene);
@@ -79,11 +80,18 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
             first = v;
             record = r;
         }
+        if r.pdf > 0.0 {
+            log_sum += r.log_distance;
+            drawn += 1.0;
+        }
         sum += v;
         sum_sq += v * v;
         k += 1;
     }
     record.frame = p.frame;
+    if drawn > 0.0 {
+        record.log_distance = log_sum / drawn;
+    }
     hits[pix] = record;
     out[i] = if n == 0 || !s.is_valid() {
         Sample::default()

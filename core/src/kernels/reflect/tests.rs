@@ -1,5 +1,5 @@
-//! Tests of the reflection rays: light geometry, the lobe sampler, the hit radiance and the
-//! light probes.
+//! Tests of the reflection rays: light geometry, the lobe sampler, the hit radiance, the
+//! light probes and the hit-distance guide.
 
 use super::*;
 
@@ -153,4 +153,36 @@ fn light_probes_keep_the_mean_and_cut_the_variance() {
     );
     // Eight draws of the light term per ray: most of its variance goes.
     assert!(var < 0.3 * var0, "variance {var} vs {var0} without probes");
+}
+
+#[test]
+fn the_guide_averages_this_frames_records_only() {
+    // A 3×1 row: this frame's records at log2 distances 1 and 3, and a stale one (frame 6).
+    let record = |frame, log_distance| RayHit {
+        pdf: 1.0,
+        frame,
+        log_distance,
+        ..RayHit::default()
+    };
+    let hits = [record(7, 1.0), record(6, 100.0), record(7, 3.0)];
+    let guide_of = |radius, frame| {
+        let mut guide = [0.0f32; 3];
+        let p = GuideParams {
+            width: 3,
+            height: 1,
+            frame,
+            radius,
+        };
+        for x in 0..3 {
+            let io = ReflectGuideIo {
+                hits: &hits,
+                guide: &mut guide,
+            };
+            reflect_guide(UVec3::new(x, 0, 0), &p, io);
+        }
+        guide
+    };
+    assert_eq!(guide_of(1, 7), [1.0, 2.0, 3.0]);
+    assert_eq!(guide_of(0, 7), [1.0, NO_GUIDE, 3.0]);
+    assert_eq!(guide_of(1, 8), [NO_GUIDE; 3]);
 }
