@@ -35,23 +35,47 @@ pub fn reflect_guide(id: UVec3, p: &GuideParams, io: ReflectGuideIo<'_>) {
     if id.x >= p.width || id.y >= p.height {
         return;
     }
-    let r = p.radius as i32;
+    let (sum, n) = window_sum(
+        hits,
+        (p.width, p.height),
+        (id.x as i32, id.y as i32),
+        p.radius,
+        p.frame,
+        |h| Some(h.log_distance),
+    );
+    guide[pixel_index(id.x, id.y, p.width)] = if n > 0.0 { sum / n } else { NO_GUIDE };
+}
+
+/// The sum of `value(record)` over the records of frame `frame` within `radius` of pixel
+/// `centre` (which may lie outside the image) that `value` accepts, and how many it accepted.
+#[inline]
+pub(super) fn window_sum(
+    hits: &[RayHit],
+    (width, height): (u32, u32),
+    (cx, cy): (i32, i32),
+    radius: u32,
+    frame: u32,
+    value: impl Fn(&RayHit) -> Option<f32>,
+) -> (f32, f32) {
+    let r = radius as i32;
     let (mut sum, mut n) = (0.0f32, 0.0f32);
     let mut dy = -r;
     while dy <= r {
         let mut dx = -r;
         while dx <= r {
-            let (qx, qy) = (id.x as i32 + dx, id.y as i32 + dy);
-            if qx >= 0 && qy >= 0 && qx < p.width as i32 && qy < p.height as i32 {
-                let h = hits[pixel_index(qx as u32, qy as u32, p.width)];
-                if h.is_from(p.frame) {
-                    sum += h.log_distance;
-                    n += 1.0;
+            let (qx, qy) = (cx + dx, cy + dy);
+            if qx >= 0 && qy >= 0 && qx < width as i32 && qy < height as i32 {
+                let h = hits[pixel_index(qx as u32, qy as u32, width)];
+                if h.is_from(frame) {
+                    if let Some(v) = value(&h) {
+                        sum += v;
+                        n += 1.0;
+                    }
                 }
             }
             dx += 1;
         }
         dy += 1;
     }
-    guide[pixel_index(id.x, id.y, p.width)] = if n > 0.0 { sum / n } else { NO_GUIDE };
+    (sum, n)
 }

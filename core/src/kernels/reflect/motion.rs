@@ -1,5 +1,6 @@
 //! Parallax motion of the reflected image: where last frame saw the reflected point.
 
+use super::guide::window_sum;
 use super::*;
 
 /// Push constants of [`reflect_motion`].
@@ -63,24 +64,14 @@ pub fn reflect_motion(id: UVec3, p: &MotionParams, io: ReflectMotionIo<'_>) {
     let moved = (s.prev_position() - s.position()).length();
     let reflective = s.is_valid() && s.roughness <= p.max_roughness && moved <= 1e-3 * s.depth;
     if reflective && math::is_finite(cx) && math::is_finite(cy) {
-        let r = p.radius as i32;
-        let (mut sum, mut n) = (0.0f32, 0.0f32);
-        let mut dy = -r;
-        while dy <= r {
-            let mut dx = -r;
-            while dx <= r {
-                let (qx, qy) = (cx + dx as f32, cy + dy as f32);
-                if qx >= 0.0 && qy >= 0.0 && qx < p.width as f32 && qy < p.height as f32 {
-                    let h = hits[pixel_index(qx as u32, qy as u32, p.width)];
-                    if h.is_from(p.frame) && h.distance < MISS_DISTANCE {
-                        sum += h.distance;
-                        n += 1.0;
-                    }
-                }
-                dx += 1;
-            }
-            dy += 1;
-        }
+        // Far outside the image every tap misses; clamped, the window's offsets cannot overflow.
+        let centre = (
+            math::clamp(cx, -1.0e6, 1.0e6) as i32,
+            math::clamp(cy, -1.0e6, 1.0e6) as i32,
+        );
+        let (sum, n) = window_sum(hits, (p.width, p.height), centre, p.radius, p.frame, |h| {
+            (h.distance < MISS_DISTANCE).then_some(h.distance)
+        });
         if n > 0.0 {
             let eye = Vec3::new(p.eye_x, p.eye_y, p.eye_z);
             let dir = normalize(s.position() - eye);
