@@ -4,11 +4,12 @@
 //! Per frame, with the reflections in plane `plane` of a [`Denoiser`]:
 //!
 //! ```text
-//! begin_frame(use_importance) ─► Reflections::prepare ─► Denoiser::plan_rays ─► Reflections::raygen ─► Reflections::reuse ─► Denoiser::resolve
-//!                                 tiles → importance                            → samples, hits         → samples
+//! begin_frame(use_importance) ─► Reflections::prepare ─► Denoiser::plan_rays ─► Reflections::raygen ─► Reflections::reuse ─► Reflections::guide ─► Denoiser::resolve
+//!                                 tiles → importance                            → samples, hits         → samples             hits → guide
 //!                                 motion → parallax
 //! ```
 //!
+//! (`guide` after the refill lists' rays too, when the detector runs: `Denoiser::detect_changes`.)
 //! `crate::frame` runs this order; the other planes (AO, shadows) are traced by their own raygen
 //! between `plan_rays` and `resolve`: all planes share the reprojection, the one ray request per pixel and the one load
 //! balancer, so the ray budget is spent across signals.
