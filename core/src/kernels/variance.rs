@@ -5,7 +5,8 @@
 //! if there's no temporal information yet") and vrrt-call-of-duty-2026 ("Spatial temporal variance
 //! estimate? … good as emergency fallback only"). With a long history the temporal variance of
 //! the moments is used as is. While the history is shorter than `spatial_until` rays, a bilateral
-//! (normal + plane) estimate over a `(2r+1)²` window is blended in:
+//! (normal + plane, and on the reflections' guided plane the hit-distance guide,
+//! [`super::reflect::reflect_guide`]) estimate over a `(2r+1)²` window is blended in:
 //! `t = count / spatial_until`, `value = lerp(spatial_mean, m1, t)`,
 //! `variance = lerp(spatial_variance, temporal_variance, t)`. Both are variances of single rays;
 //! the output is the variance of the pixel's *estimate*, divided by the rays it holds
