@@ -10,10 +10,11 @@
 
 pub use crate::quantize::StoragePrecision;
 pub use crate::sampling::SamplePattern;
-use core::fmt;
 
+mod error;
 mod validate;
 
+pub use error::SettingsError;
 pub(crate) use validate::check;
 
 /// Largest [`RateSettings::reset_payback`].
@@ -444,51 +445,6 @@ impl Default for FilterSettings {
         }
     }
 }
-
-/// A setting out of its range.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SettingsError {
-    /// Width or height is zero, or the image has more than 2^28 pixels (the work list's pixel
-    /// index, `kernels::apply::MAX_PIXELS`).
-    Resolution {
-        /// Width asked for.
-        width: u32,
-        /// Height asked for.
-        height: u32,
-    },
-    /// A field outside its documented range.
-    OutOfRange {
-        /// Field path, stage first (`filter.sigma_luminance`).
-        field: &'static str,
-        /// Value given.
-        value: f32,
-        /// The range, in words.
-        range: &'static str,
-    },
-}
-
-impl fmt::Display for SettingsError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SettingsError::Resolution { width, height } => {
-                write!(
-                    f,
-                    "resolution {width}x{height}: width and height must be at least 1 and the \
-                     image at most 2^28 pixels (16384x16384)"
-                )
-            }
-            SettingsError::OutOfRange {
-                field,
-                value,
-                range,
-            } => {
-                write!(f, "setting `{field}` = {value} is out of range ({range})")
-            }
-        }
-    }
-}
-
-impl core::error::Error for SettingsError {}
 
 impl Settings {
     /// The SVGF baseline VRRT is measured against (every tile filtered fully, as published): every
