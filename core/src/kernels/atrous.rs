@@ -175,11 +175,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         id,
         p: *p,
         guided,
-        guide: if guided {
-            Lanes::<f32, N>::load_row(guide, row, x0, w)
-        } else {
-            Lanes::splat(NO_GUIDE)
-        },
+        guide: guide_row(guide, guided, row, x0, w),
         value,
         depth: cd,
         normal: n,
@@ -292,11 +288,7 @@ fn tap<const N: usize>(
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
     let w_n = surface::normal_weights(c.normal, m, c.normal_power);
-    let qg = if c.guided {
-        Lanes::<f32, N>::load_row(guide, qrow, qx0, w)
-    } else {
-        Lanes::splat(NO_GUIDE)
-    };
+    let qg = guide_row::<N>(guide, c.guided, qrow, qx0, w);
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let e = Lanes::<f32, N>::from_index(|l| {
@@ -315,6 +307,23 @@ fn tap<const N: usize>(
         weight: w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e)),
         value,
         variance,
+    }
+}
+
+/// The guide of `N` pixels of a row (`Lanes::load_row`) on a guided plane, or [`NO_GUIDE`]
+/// without reading `guide` (one element when no plane is guided).
+#[inline(always)]
+pub fn guide_row<const N: usize>(
+    guide: &[f32],
+    guided: bool,
+    row_start: u32,
+    x0: i32,
+    width: u32,
+) -> Lanes<f32, N> {
+    if guided {
+        Lanes::load_row(guide, row_start, x0, width)
+    } else {
+        Lanes::splat(NO_GUIDE)
     }
 }
 

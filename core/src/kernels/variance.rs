@@ -20,11 +20,10 @@
 //! variance it stored into its tile's word with an atomic max ([`classify::tile_key`]), so the
 //! classification reads one word per tile instead of the whole image again.
 
-use super::atrous::guide_exponent;
+use super::atrous::{guide_exponent, guide_row};
 use super::classify;
 use super::detect::per_plane;
 use super::plane_index;
-use super::reflect::NO_GUIDE;
 use super::reproject::NO_PLANE;
 use super::VarianceIo;
 use crate::atomic;
@@ -154,11 +153,7 @@ fn estimate<const N: usize>(
     });
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let guided = id.z == p.guide_plane;
-    let cg = if guided {
-        Lanes::<f32, N>::load_row(guide, id.y * w, x0, w)
-    } else {
-        Lanes::splat(NO_GUIDE)
-    };
+    let cg = guide_row::<N>(guide, guided, id.y * w, x0, w);
     let r = p.radius as i32;
     let mut s1 = Lanes::<f32, N>::splat(0.0);
     let mut s2 = s1;
@@ -178,11 +173,7 @@ fn estimate<const N: usize>(
                     .map(packing::unpack_normal);
                 let offset = math::sqrt((dx * dx + dy * dy) as f32);
                 let w_n = surface::normal_weights(n, m, normal_power);
-                let qg = if guided {
-                    Lanes::<f32, N>::load_row(guide, row, qx0, w)
-                } else {
-                    Lanes::splat(NO_GUIDE)
-                };
+                let qg = guide_row::<N>(guide, guided, row, qx0, w);
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
                     let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);

@@ -28,8 +28,9 @@ pub struct RaygenParams {
 
 /// One invocation per work-list entry (like `raygen::raygen_ao`): the entry's reflection rays
 /// from the rng index the reprojected history carries, their [`Sample`] in plane `plane`, and the
-/// 0th ray's record in `hits` (stamped with `frame`, with the mean `log_distance` of all of them). A surface that reflects nothing gets value 0
-/// for its rays without tracing, so its history fills like any other plane's.
+/// 0th ray's record in `hits` (stamped with `frame`, with the mean `log_distance` of all of
+/// them). A surface that reflects nothing gets value 0 for its rays without tracing, so its
+/// history fills like any other plane's.
 pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     let RaygenReflectIo {
         work,
