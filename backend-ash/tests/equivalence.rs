@@ -182,14 +182,15 @@ fn atrous_matches_cpu() {
             iteration: i as u32,
             ..AtrousParams::default()
         };
-        // No guide plane: the guide binding holds one unread element, as a denoiser without
-        // reflections binds it.
-        let inputs: [&[u8]; 7] = [
+        // No guide or penumbra plane: each binding holds one unread element, as a denoiser
+        // without reflections or shadows binds it.
+        let inputs: [&[u8]; 8] = [
             bytemuck::cast_slice(&input),
             bytemuck::cast_slice(&depth),
             bytemuck::cast_slice(&normal_roughness),
             bytemuck::bytes_of(&v),
             bytemuck::cast_slice(&tiles),
+            bytemuck::bytes_of(&NO_GUIDE),
             bytemuck::bytes_of(&NO_GUIDE),
             &out,
         ];

@@ -77,7 +77,7 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
     let normal_roughness = b.buffer(bytemuck::cast_slice(&normal_roughness));
     let view = b.buffer(bytemuck::bytes_of(&view));
     let tiles = b.buffer(bytemuck::cast_slice(&tile_levels()));
-    // No guide plane: one unread element.
+    // No guide or penumbra plane: one unread element, bound to both.
     let guide = b.buffer(bytemuck::bytes_of(&vrrt_core::kernels::reflect::NO_GUIDE));
     let out = [
         b.buffer(&vec![0u8; n as usize * 8]),
@@ -92,7 +92,16 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
             ..Default::default()
         };
         let src = if i == 0 { input } else { out[0] };
-        let buffers = [src, depth, normal_roughness, view, tiles, guide, out[i]];
+        let buffers = [
+            src,
+            depth,
+            normal_roughness,
+            view,
+            tiles,
+            guide,
+            guide,
+            out[i],
+        ];
         b.dispatch(&Pass::over_grid(
             &vrrt_core::kernels::ATROUS,
             &buffers,

@@ -16,8 +16,8 @@ const HEADER: &str = "\
 # VRRT-rs settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
 # Units and ranges: vrrt_core::settings (one struct per table) and, for [reflections],
-# vrrt_core::reflections::ReflectionSettings. `parallax_plane` and `guide_plane` (plane indices)
-# are absent by default; `vrrt run` and `vrrt bench` set them, `planes`, `plane_groups`,
+# vrrt_core::reflections::ReflectionSettings. `parallax_plane`, `guide_plane` and `penumbra_plane`
+# (plane indices) are absent by default; `vrrt run` and `vrrt bench` set them, `planes`, `plane_groups`,
 # `shadow_planes` and `ao_planes` from the signal.
 ";
 
@@ -38,6 +38,7 @@ struct Layout {
     planes: u32,
     parallax_plane: Option<u32>,
     guide_plane: Option<u32>,
+    penumbra_plane: Option<u32>,
     plane_groups: u32,
     shadow_planes: u32,
     ao_planes: u32,
@@ -54,6 +55,7 @@ impl From<SettingsFile> for Layout {
             planes,
             parallax_plane,
             guide_plane,
+            penumbra_plane,
             plane_groups,
             shadow_planes,
             ao_planes,
@@ -66,6 +68,7 @@ impl From<SettingsFile> for Layout {
             planes,
             parallax_plane,
             guide_plane,
+            penumbra_plane,
             plane_groups,
             shadow_planes,
             ao_planes,
@@ -85,6 +88,7 @@ impl From<Layout> for SettingsFile {
                 planes: l.planes,
                 parallax_plane: l.parallax_plane,
                 guide_plane: l.guide_plane,
+                penumbra_plane: l.penumbra_plane,
                 plane_groups: l.plane_groups,
                 shadow_planes: l.shadow_planes,
                 ao_planes: l.ao_planes,
@@ -203,6 +207,7 @@ mod tests {
             planes: 3,
             parallax_plane: Some(2),
             guide_plane: Some(1),
+            penumbra_plane: Some(1),
             plane_groups: 0x110,
             shadow_planes: 0b010,
             ao_planes: 0b001,
@@ -272,6 +277,9 @@ mod tests {
                 ao_symmetric_taps: false,
                 guide_sigma: 0.1 + 0.7,
                 guided_sigma_luminance: 2.75,
+                penumbra_reach: 0.1 + 0.2,
+                penumbra_sigma_luminance: 1.25,
+                penumbra_radius: 1,
             },
         };
         let reflections = ReflectionSettings {

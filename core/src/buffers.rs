@@ -35,7 +35,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 23;
+pub const DENOISER_BUFFERS: usize = 25;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -60,6 +60,12 @@ pub fn denoiser_buffers(
     };
     // The hit-distance guide exists only with a guide plane (one element otherwise).
     let guide = if settings.guide_plane.is_some() {
+        pixels
+    } else {
+        1
+    };
+    // So do the shadow raygen's blocker records and the penumbra guide, with a penumbra plane.
+    let penumbra = if settings.penumbra_plane.is_some() {
         pixels
     } else {
         1
@@ -134,6 +140,8 @@ pub fn denoiser_buffers(
         size("importance", 1, bytes(rw as u64 * rh as u64, 4), "f32"),
         size("parallax", 1, bytes(parallax, 8), "[f32; 2]"),
         size("guide", 1, bytes(guide, 4), "f32"),
+        size("blockers", 1, bytes(penumbra, 4), "f32"),
+        size("penumbra", 1, bytes(penumbra, 4), "f32"),
     ]
 }
 

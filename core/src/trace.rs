@@ -494,9 +494,15 @@ pub fn closest_hit(nodes: &[BvhNode], tris: &[Triangle], ray: &Ray, t_max: f32) 
     traverse::<false>(nodes, tris, ray, t_max)
 }
 
-/// True if any triangle is hit with `0 < t < t_max` (shadow and AO rays).
+/// True if any triangle is hit with `0 < t < t_max` (AO rays).
 pub fn occluded(nodes: &[BvhNode], tris: &[Triangle], ray: &Ray, t_max: f32) -> bool {
-    traverse::<true>(nodes, tris, ray, t_max).is_hit()
+    any_hit(nodes, tris, ray, t_max).is_hit()
+}
+
+/// The first hit found with `0 < t < t_max`, not necessarily the closest (shadow rays: whether,
+/// and roughly how far away, something blocks the light).
+pub fn any_hit(nodes: &[BvhNode], tris: &[Triangle], ray: &Ray, t_max: f32) -> Hit {
+    traverse::<true>(nodes, tris, ray, t_max)
 }
 
 /// Closest hit by testing every triangle: the reference the BVH traversal must equal exactly.

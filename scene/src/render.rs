@@ -522,6 +522,8 @@ pub fn reference<E: Executor>(
     )?;
     let history = exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?;
     let out = exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?;
+    // References record no blockers: one element, never written.
+    let blockers = exec.create_buffer(4)?;
     let layout = signal.layout(f.lights.len());
     let reflections = match (layout.reflections, signal.reflections()) {
         (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
@@ -551,6 +553,8 @@ pub fn reference<E: Executor>(
             gbuffer,
             history,
             out,
+            blockers,
+            blocker_plane: reproject::NO_PLANE,
             frame: 0,
             plane_groups: 0,
             // References keep the per-pixel sequences: the pattern under test never judges itself.

@@ -191,7 +191,7 @@ fn ao_and_shadow_conventions() {
             &g.nodes,
             &g.triangles,
         );
-        assert!((0.0..=1.0).contains(&sh.m1));
+        assert!((0.0..=1.0).contains(&sh.0.m1));
     }
     let mean = ao_sum / n as f32;
     assert!(mean > 0.5 && mean < 0.999, "mean AO {mean}");
@@ -236,6 +236,7 @@ fn ao_and_shadow_conventions() {
                 &fg.nodes,
                 &fg.triangles
             )
+            .0
             .m1,
             1.0
         );
@@ -250,6 +251,7 @@ fn ao_and_shadow_conventions() {
                 &fg.nodes,
                 &fg.triangles
             )
+            .0
             .m1,
             0.0
         );

@@ -34,6 +34,7 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("gbuffer", crate::trace_cases::gbuffer_case),
     ("raygen_ao", crate::trace_cases::raygen_ao_case),
     ("raygen_shadow", crate::trace_cases::raygen_shadow_case),
+    ("penumbra_guide", crate::trace_cases::penumbra_guide_case),
     ("gradient_project", crate::gradient_cases::project_case),
     ("gradient_ao", crate::gradient_cases::ao_case),
     ("gradient_shadow", crate::gradient_cases::shadow_case),

@@ -113,20 +113,25 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         guide_plane: guide_plane(rng),
         guide_scale: 0.44,
         guided_sigma_luminance: 3.0,
+        penumbra_plane: guide_plane(rng),
+        penumbra_scale: 2.0,
+        penumbra_sigma_luminance: 2.0,
         ..atrous::AtrousParams::default()
     };
     let guide = guide(rng, w, h);
+    let penumbra = penumbra(rng, w, h);
     let (tw, th) = classify::tile_grid(w, h);
     // Tiles needing 0..=5 iterations: some pass through, some filter.
     let tiles: Vec<u32> = (0..tw * th).map(|_| rng.random_range(0..6)).collect();
     Case {
         name: format!(
-            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b} pairs {:b} guide {}",
+            "atrous {w}x{h}x{PLANES} step {} cap {} ao {:b} pairs {:b} guide {} penumbra {}",
             params.step,
             params.cap_variance,
             params.ao_planes,
             params.symmetric_planes,
-            params.guide_plane as i32
+            params.guide_plane as i32,
+            params.penumbra_plane as i32
         ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
@@ -136,6 +141,7 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             inputs::view(&view),
             BufferSpec::from_pod(&tiles, INTS),
             BufferSpec::from_pod(&guide, FLOATS),
+            BufferSpec::from_pod(&penumbra, FLOATS),
             BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
@@ -155,6 +161,17 @@ fn guide(rng: &mut Pcg32, w: u32, h: u32) -> Vec<f32> {
             0 => reflect::NO_GUIDE,
             1 => reflect::MISS_DISTANCE.log2(),
             _ => rng.random_range(-13.0..13.0),
+        })
+        .collect()
+}
+
+/// A penumbra guide per pixel: widths in pixels below and above the floor of 1, and pixels
+/// without a blocker nearby.
+fn penumbra(rng: &mut Pcg32, w: u32, h: u32) -> Vec<f32> {
+    (0..w * h)
+        .map(|_| match rng.random_range(0..4) {
+            0 => reflect::NO_GUIDE,
+            _ => rng.random_range(0.0..40.0),
         })
         .collect()
 }

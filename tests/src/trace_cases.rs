@@ -8,10 +8,10 @@ use rand::Rng;
 use rand_pcg::Pcg32;
 use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
-use vrrt_core::kernels::apply;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
-use vrrt_core::payload::{PackedPayload, PackedSample, Payload};
+use vrrt_core::kernels::{apply, penumbra};
+use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
 
@@ -260,15 +260,21 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         frame: rng.random(),
         // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
         sampling: w & 1,
-        _pad: 0,
+        // The blocker records of one shadow plane (some without a light), or of none (1×1).
+        blocker_plane: if w == 1 {
+            vrrt_core::kernels::reproject::NO_PLANE
+        } else {
+            rng.random_range(first_plane..planes)
+        },
     };
     let [work, args] = list.buffers();
     let [depth, normal_roughness, geometry, view] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
-            "raygen_shadow {w}x{h}x{planes} frame {} list {}",
+            "raygen_shadow {w}x{h}x{planes} frame {} list {} blockers {}",
             frame.index,
-            list.count()
+            list.count(),
+            params.blocker_plane as i32
         ),
         kernel: &vrrt_core::kernels::RAYGEN_SHADOW,
         buffers: vec![
@@ -283,8 +289,59 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             tris,
             BufferSpec::from_pod(&lights, FLOATS),
             BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE),
+            BufferSpec::from_pod(&vec![0.0f32; (w * h) as usize], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: list.groups,
+    }
+}
+
+/// `penumbra_guide`: the window mean of blocker records (lit, blocked, behind the surface) of
+/// pixels that traced this frame or not, over the room's depth (sky included).
+pub fn penumbra_guide_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let frame = room_frame(rng);
+    let planes = crate::cases::PLANES;
+    let samples: Vec<PackedSample> = (0..w * h * planes)
+        .map(|_| {
+            let rays = rng.random_range(0..3);
+            let m1 = rng.random_range(0.0..=1.0);
+            Sample {
+                m1,
+                m2: m1,
+                rays,
+                first: 0.0,
+            }
+            .pack()
+        })
+        .collect();
+    let blockers: Vec<f32> = (0..w * h)
+        .map(|_| match rng.random_range(0..4) {
+            0 => raygen::NO_BLOCKER,
+            1 => 0.0,
+            _ => rng.random_range(0.0..2.0),
+        })
+        .collect();
+    let params = penumbra::PenumbraParams {
+        width: w,
+        height: h,
+        plane: rng.random_range(0..planes),
+        radius: rng.random_range(0..=3),
+    };
+    let [depth, _, _, view] = raygen_inputs(&images(&frame, w, h), &frame);
+    Case {
+        name: format!(
+            "penumbra_guide {w}x{h} plane {} radius {}",
+            params.plane, params.radius
+        ),
+        kernel: &vrrt_core::kernels::PENUMBRA_GUIDE,
+        buffers: vec![
+            BufferSpec::from_pod(&samples, SAMPLE),
+            BufferSpec::from_pod(&blockers, FLOATS),
+            depth,
+            view,
+            BufferSpec::from_pod(&vec![0.0f32; (w * h) as usize], FLOATS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::PENUMBRA_GUIDE, w, h, 1),
     }
 }

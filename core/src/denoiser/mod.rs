@@ -36,8 +36,8 @@ use crate::buffers::{self, TooLarge};
 use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
-    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, refill, reproject,
-    variance,
+    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
+    reproject, variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -171,6 +171,8 @@ pub struct Denoiser {
     importance: BufferId,
     parallax: BufferId,
     guide: BufferId,
+    blockers: BufferId,
+    penumbra: BufferId,
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -254,6 +256,8 @@ impl Denoiser {
             importance: id("importance")[0],
             parallax: id("parallax")[0],
             guide: id("guide")[0],
+            blockers: id("blockers")[0],
+            penumbra: id("penumbra")[0],
             cur: 0,
             out: 0,
             frame: FrameInfo {
@@ -348,6 +352,14 @@ impl Denoiser {
     /// [`Self::resolve`].
     pub fn guide(&self) -> BufferId {
         self.guide
+    }
+
+    /// The shadow raygen's blocker records of [`Settings::penumbra_plane`] (`f32` per pixel:
+    /// the mean penumbra width of a traced pixel's blocked rays, `raygen::NO_BLOCKER` when
+    /// none was); raygen writes it between [`Self::plan_rays`] and [`Self::resolve`], which
+    /// builds the penumbra guide from it.
+    pub fn blockers(&self) -> BufferId {
+        self.blockers
     }
 
     /// Per pixel and plane group (after [`Self::plan_rays`]; group-stacked like planes): the

@@ -171,6 +171,23 @@ impl Denoiser {
         };
         exec.dispatch(&classify.over_grid(&cls, tw, th, 1))?;
 
+        if let Some(plane) = s.penumbra_plane {
+            let p = penumbra::PenumbraParams {
+                width: w,
+                height: h,
+                plane,
+                radius: s.filter.penumbra_radius,
+            };
+            let guide = kernels::PenumbraGuideBindings {
+                samples: self.samples,
+                blockers: self.blockers,
+                depth: self.depth[self.cur],
+                view: self.view,
+                guide: self.penumbra,
+            };
+            exec.dispatch(&guide.over_grid(&p, w, h, 1))?;
+        }
+
         self.out = 0;
         for i in 0..s.filter.atrous_iterations {
             let params = atrous::AtrousParams {
@@ -192,6 +209,13 @@ impl Denoiser {
                 guide_plane: s.guide_plane.unwrap_or(reproject::NO_PLANE),
                 guide_scale: guide_scale(s.filter.guide_sigma),
                 guided_sigma_luminance: s.filter.guided_sigma_luminance,
+                penumbra_plane: s.penumbra_plane.unwrap_or(reproject::NO_PLANE),
+                penumbra_scale: if s.filter.penumbra_reach > 0.0 {
+                    1.0 / s.filter.penumbra_reach
+                } else {
+                    0.0
+                },
+                penumbra_sigma_luminance: s.filter.penumbra_sigma_luminance,
             };
             let atrous = kernels::AtrousBindings {
                 input: self.filtered[self.out],
@@ -200,6 +224,7 @@ impl Denoiser {
                 view: self.view,
                 tiles: self.tiles,
                 guide: self.guide,
+                penumbra: self.penumbra,
                 out: self.filtered[1 - self.out],
             };
             exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;

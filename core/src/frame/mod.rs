@@ -175,6 +175,10 @@ impl Frame {
         settings.guide_plane = layout
             .reflections
             .filter(|_| settings.filter.guide_sigma > 0.0);
+        settings.penumbra_plane = layout
+            .shadows
+            .map(|(first, _)| first)
+            .filter(|_| settings.filter.penumbra_reach > 0.0);
         if matches!(signal, Signal::Reflections(_)) {
             // Alone, reflections pay the cut's extra rays back over the longest window: over 8
             // frames their moving highlights starve after it (dragon, 128x72, 1 rpp: moving

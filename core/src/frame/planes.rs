@@ -61,6 +61,11 @@ pub struct RaygenTarget {
     pub history: BufferId,
     /// Samples written.
     pub out: BufferId,
+    /// The shadow raygen's blocker records (`f32` per pixel, `Denoiser::blockers`) of plane
+    /// `blocker_plane`, or `NO_PLANE` and a buffer of one element for none.
+    pub blockers: BufferId,
+    /// The plane whose blocker records raygen writes.
+    pub blocker_plane: u32,
     /// Frame index: the reflection ray records' stamp and the screen-blue pattern's shift.
     pub frame: u32,
     /// Which plane group (work list) traces each plane (`Settings::plane_groups`).
@@ -80,6 +85,11 @@ impl RaygenTarget {
             gbuffer: GBuffer::of(denoiser, geometry),
             history: denoiser.history(),
             out: denoiser.samples(),
+            blockers: denoiser.blockers(),
+            blocker_plane: denoiser
+                .settings()
+                .penumbra_plane
+                .unwrap_or(kernels::reproject::NO_PLANE),
             frame: denoiser.frame().index,
             plane_groups: denoiser.settings().plane_groups,
             sampling: denoiser.settings().temporal.sampling.code(),
@@ -154,7 +164,7 @@ pub fn trace_planes<E: Executor>(
             list: target.list(first_plane),
             frame: target.frame,
             sampling: target.sampling,
-            _pad: 0,
+            blocker_plane: target.blocker_plane,
         };
         let shadow = kernels::RaygenShadowBindings {
             work: ao.work,
@@ -168,6 +178,7 @@ pub fn trace_planes<E: Executor>(
             tris: ao.tris,
             lights: scene.lights,
             out: ao.out,
+            blockers: target.blockers,
         };
         exec.dispatch(&shadow.pass(&p, target.groups(p.list)))?;
     }

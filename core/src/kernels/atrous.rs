@@ -11,6 +11,7 @@
 
 use super::classify::tile_index;
 use super::detect::per_plane;
+use super::penumbra;
 use super::reflect::NO_GUIDE;
 use super::reproject::NO_PLANE;
 use super::AtrousIo;
@@ -61,6 +62,14 @@ pub struct AtrousParams {
     pub guide_scale: f32,
     /// `sigma_luminance` of `guide_plane` (`FilterSettings::guided_sigma_luminance`).
     pub guided_sigma_luminance: f32,
+    /// The plane whose taps stay within the centre's penumbra (`penumbra`, from
+    /// [`crate::kernels::penumbra`]); [`NO_PLANE`] for none (`penumbra` is not read).
+    pub penumbra_plane: u32,
+    /// `1 / k`: a tap `r` pixels away from a centre whose penumbra is `W` pixels wide is weighted
+    /// by `exp(−(r / (k · max(W, 1)))²)` (`FilterSettings::penumbra_reach`).
+    pub penumbra_scale: f32,
+    /// `sigma_luminance` of `penumbra_plane` (`FilterSettings::penumbra_sigma_luminance`).
+    pub penumbra_sigma_luminance: f32,
 }
 
 impl Default for AtrousParams {
@@ -80,6 +89,9 @@ impl Default for AtrousParams {
             guide_plane: NO_PLANE,
             guide_scale: 0.0,
             guided_sigma_luminance: 4.0,
+            penumbra_plane: NO_PLANE,
+            penumbra_scale: 0.0,
+            penumbra_sigma_luminance: 4.0,
         }
     }
 }
@@ -124,6 +136,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         view,
         tiles,
         guide,
+        penumbra,
         out,
     } = io;
     let (w, h) = (p.width, p.height);
@@ -164,8 +177,11 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     }
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let guided = id.z == p.guide_plane;
+    let penumbral = id.z == p.penumbra_plane;
     let sigma_luminance = if guided {
         p.guided_sigma_luminance
+    } else if penumbral {
+        p.penumbra_sigma_luminance
     } else {
         p.sigma_luminance
     };
@@ -176,6 +192,8 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         p: *p,
         guided,
         guide: guide_row(guide, guided, row, x0, w),
+        reach: guide_row::<N>(penumbra, penumbral, row, x0, w)
+            .map(|pw| penumbra::reach(pw, p.penumbra_scale)),
         value,
         depth: cd,
         normal: n,
@@ -236,6 +254,8 @@ struct Centre<const N: usize> {
     /// This plane compares the hit-distance guide, the centre's is `guide`.
     guided: bool,
     guide: Lanes<f32, N>,
+    /// `1 / (k · W)` of the centre's penumbra `W` ([`penumbra::reach`]), 0 for no limit.
+    reach: Lanes<f32, N>,
     value: Lanes<f32, N>,
     depth: Lanes<f32, N>,
     normal: Lanes<Vec3, N>,
@@ -300,6 +320,7 @@ fn tap<const N: usize>(
         c.plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
             + math::abs(c.value.0[l] - value.0[l]) / c.lum_scale.0[l]
             + guide_exponent(c.guide.0[l], qg.0[l], p.guide_scale)
+            + (offset_len * c.reach.0[l]) * (offset_len * c.reach.0[l])
     });
     let tw = TAP_WEIGHT[ay][ax];
     Tap {
@@ -371,8 +392,9 @@ mod tests {
     use glam::Vec3;
 
     /// One iteration of `p` at pixel `(x, y)` of a `w`×`h` wall facing the camera, 5 units away
-    /// where `depth` says so (0: no surface), holding `input` and the hit-distance `guide` (read
-    /// when `p.guide_plane` is 0); every tile filters.
+    /// where `depth` says so (0: no surface), holding `input` and `guide`: the hit-distance guide
+    /// when `p.guide_plane` is 0, the penumbra guide when `p.penumbra_plane` is; every tile
+    /// filters.
     fn filter_wall(
         input: &[PackedFiltered],
         depth: &[f32],
@@ -399,6 +421,7 @@ mod tests {
             view: &view,
             tiles: &tiles,
             guide,
+            penumbra: guide,
             out: &mut out,
         };
         let p = AtrousParams {
@@ -515,6 +538,50 @@ mod tests {
         );
         let guided = beside_a_reflected_edge(true);
         assert!((guided - 0.1).abs() < 1e-3, "{guided}");
+    }
+
+    /// Pixel 3 of a 9-pixel row of one flat wall at 1 rpp (variance 1): an umbra (0) in pixels
+    /// 0..=3 beside a lit floor (1), whose penumbra is `width` pixels wide (`None`: no blocker
+    /// nearby), at the default reach (0.5) and the penumbra plane's σ_l.
+    fn beside_a_shadow_edge(width: Option<f32>) -> f32 {
+        let input: std::vec::Vec<PackedFiltered> = (0..9)
+            .map(|i| {
+                let value = if i <= 3 { 0.0 } else { 1.0 };
+                Filtered {
+                    value,
+                    variance: 1.0,
+                }
+                .pack()
+            })
+            .collect();
+        let p = AtrousParams {
+            penumbra_plane: 0,
+            penumbra_scale: 2.0,
+            penumbra_sigma_luminance: 2.0,
+            ..Default::default()
+        };
+        filter_wall(
+            &input,
+            &[5.0; 9],
+            &[width.unwrap_or(NO_GUIDE); 9],
+            9,
+            p,
+            3,
+            0,
+        )
+    }
+
+    #[test]
+    fn the_penumbra_keeps_a_contact_shadows_edge_and_lets_a_wide_one_blur() {
+        // A contact shadow (1 pixel): the lit taps are out of reach.
+        let sharp = beside_a_shadow_edge(Some(1.0));
+        assert!(sharp < 0.01, "{sharp}");
+        // A wide penumbra (20 pixels): the first iteration's taps are all within it, and the
+        // luminance test at σ_l 2 lets them in, as it does with no blocker nearby.
+        let wide = beside_a_shadow_edge(Some(20.0));
+        assert!(wide > 0.15, "{wide}");
+        let unlimited = beside_a_shadow_edge(None);
+        assert!((wide - unlimited).abs() < 0.005, "{wide} {unlimited}");
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod detect;
 pub mod fill;
 pub mod gbuffer;
 pub mod gradient;
+pub mod penumbra;
 pub mod raygen;
 pub mod refill;
 pub mod reflect;

@@ -161,8 +161,9 @@ pub struct ShadowParams {
     pub frame: u32,
     /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
     pub sampling: u32,
-    /// Reserved.
-    pub _pad: u32,
+    /// The plane whose pixels' mean penumbra widths go to `blockers` (`NO_PLANE` for none):
+    /// [`crate::kernels::penumbra`].
+    pub blocker_plane: u32,
 }
 
 /// Origin of the secondary rays of `s`: its position pushed off the surface along `g`.
@@ -212,6 +213,20 @@ pub fn shadow_ray(
     nodes: &[BvhNode],
     tris: &[Triangle],
 ) -> f32 {
+    shadow_ray_penumbra(s, light, stream, index, nodes, tris).0
+}
+
+/// Shadow ray `index` towards `light`: its value, and for a blocked ray the width of the
+/// penumbra its blocker casts at the surface ([`penumbra_width`]; 0 for a light behind the
+/// surface, [`NO_BLOCKER`] for a visible one).
+pub fn shadow_ray_penumbra(
+    s: &Surface,
+    light: &AreaLight,
+    stream: Stream,
+    index: u32,
+    nodes: &[BvhNode],
+    tris: &[Triangle],
+) -> (f32, f32) {
     let g = s.geometric_normal();
     let origin = ray_origin(s);
     let (u1, u2) = stream.point(index);
@@ -219,18 +234,33 @@ pub fn shadow_ray(
     let d = q - origin;
     let dist = math::sqrt(d.dot(d));
     if !(dist > 0.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let dir = normalize(d);
     if !(dir.dot(g) > 0.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let ray = Ray { origin, dir };
-    if trace::occluded(nodes, tris, &ray, dist * (1.0 - SHADOW_T_SHRINK)) {
-        0.0
+    let hit = trace::any_hit(nodes, tris, &ray, dist * (1.0 - SHADOW_T_SHRINK));
+    if hit.is_hit() {
+        (0.0, penumbra_width(light, hit.t, dist))
     } else {
-        1.0
+        (1.0, NO_BLOCKER)
     }
+}
+
+/// The penumbra record of a pixel none of whose rays was blocked.
+pub const NO_BLOCKER: f32 = -1.0;
+
+/// Width (world units) of the penumbra a blocker `t` from the surface casts there, for a light
+/// point `dist` away: `2R · t / (dist − t)`, `R` the radius of a disc of the light's area. What
+/// the filter may blur across at this point without smearing the shadow's edge (SIGMA's
+/// penumbra size).
+#[inline]
+pub fn penumbra_width(light: &AreaLight, t: f32, dist: f32) -> f32 {
+    let area = light.edge_u().cross(light.edge_v()).length();
+    let radius = math::sqrt(area * core::f32::consts::FRAC_1_PI);
+    2.0 * radius * t / math::max(dist - t, 1e-3 * dist)
 }
 
 /// Folds ray values into a [`Sample`]: running sums of `v` and `v²`, divided by the count, and
@@ -283,7 +313,8 @@ pub fn ao_pixel(
     finish(sum, sum_sq, first, rays)
 }
 
-/// Shadow of one pixel towards `light`: `rays` rays with indices `first_index ..`.
+/// Shadow of one pixel towards `light`: `rays` rays with indices `first_index ..`, and the mean
+/// penumbra width of its blocked rays ([`NO_BLOCKER`] when none was).
 pub fn shadow_pixel(
     s: &Surface,
     light: &AreaLight,
@@ -292,22 +323,33 @@ pub fn shadow_pixel(
     rays: u32,
     nodes: &[BvhNode],
     tris: &[Triangle],
-) -> Sample {
+) -> (Sample, f32) {
     if s.instance == NO_INSTANCE {
-        return Sample::default();
+        return (Sample::default(), NO_BLOCKER);
     }
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
+    let (mut width, mut blocked) = (0.0f32, 0.0f32);
     let mut i = 0u32;
     while i < rays {
-        let v = shadow_ray(s, light, stream, first_index.wrapping_add(i), nodes, tris);
+        let (v, w) =
+            shadow_ray_penumbra(s, light, stream, first_index.wrapping_add(i), nodes, tris);
         if i == 0 {
             first = v;
         }
         sum += v;
         sum_sq += v * v;
+        if w != NO_BLOCKER {
+            width += w;
+            blocked += 1.0;
+        }
         i += 1;
     }
-    finish(sum, sum_sq, first, rays)
+    let penumbra = if blocked > 0.0 {
+        width / blocked
+    } else {
+        NO_BLOCKER
+    };
+    (finish(sum, sum_sq, first, rays), penumbra)
 }
 
 /// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]).
@@ -376,6 +418,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
         tris,
         lights,
         out,
+        blockers,
     } = io;
     let Some((pix, n)) = work_item(id, p.list, p.width * p.height, work, args) else {
         return;
@@ -394,7 +437,7 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
     while z < p.planes {
         let plane = p.first_plane + z;
         let i = (plane * p.width * p.height) as usize + pix;
-        out[i] = if (z as usize) < lights.len() {
+        let (sample, width) = if (z as usize) < lights.len() {
             shadow_pixel(
                 &s,
                 &lights[z as usize],
@@ -405,16 +448,36 @@ pub fn raygen_shadow(id: UVec3, p: &ShadowParams, io: RaygenShadowIo<'_>) {
                 tris,
             )
         } else if n > 0 && s.instance != NO_INSTANCE {
-            Sample {
+            let lit = Sample {
                 m1: 1.0,
                 m2: 1.0,
                 rays: n,
                 first: 1.0,
-            }
+            };
+            (lit, NO_BLOCKER)
         } else {
-            Sample::default()
+            (Sample::default(), NO_BLOCKER)
+        };
+        out[i] = sample.pack();
+        if plane == p.blocker_plane {
+            blockers[pix] = width;
         }
-        .pack();
         z += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_blocker_halfway_casts_a_penumbra_as_wide_as_the_light() {
+        // A 2×2 light: a disc of its area has radius 2/√π.
+        let light = AreaLight::new(Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 2.0);
+        let diameter = 4.0 / core::f32::consts::PI.sqrt();
+        assert!((penumbra_width(&light, 3.0, 6.0) - diameter).abs() < 1e-5);
+        // A blocker on the surface casts a sharp edge; one near the light a wide penumbra.
+        assert_eq!(penumbra_width(&light, 0.0, 6.0), 0.0);
+        assert!(penumbra_width(&light, 5.9, 6.0) > 50.0 * diameter);
     }
 }

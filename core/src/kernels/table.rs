@@ -42,6 +42,7 @@ crate::kernel_table! {
         view: read View,
         tiles: read TileWord,
         guide: read f32,
+        penumbra: read f32,
         out: write PackedFiltered,
     }
 
@@ -107,6 +108,7 @@ crate::kernel_table! {
         tris: read Triangle,
         lights: read AreaLight,
         out: write PackedSample,
+        blockers: write f32,
     }
 
     /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
@@ -303,6 +305,17 @@ crate::kernel_table! {
     reflect_guide => REFLECT_GUIDE, ReflectGuideBindings, ReflectGuideIo: fn reflect::reflect_guide,
     threads(8, 8, 1), params reflect::GuideParams {
         hits: read RayHit,
+        guide: write f32,
+    }
+
+    /// [`penumbra::penumbra_guide`]: the penumbra guide of the à-trous shadow plane, from the
+    /// shadow raygen's blocker records.
+    penumbra_guide => PENUMBRA_GUIDE, PenumbraGuideBindings, PenumbraGuideIo: fn penumbra::penumbra_guide,
+    threads(8, 8, 1), params penumbra::PenumbraParams {
+        samples: read PackedSample,
+        blockers: read f32,
+        depth: read Depth,
+        view: read View,
         guide: write f32,
     }
 }

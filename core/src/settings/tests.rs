@@ -40,6 +40,7 @@ fn svgf_is_the_default_with_rates_off() {
         "SVGF's taps are the published ones"
     );
     assert_eq!(s.filter.guide_sigma, 0.0, "SVGF has no hit-distance guide");
+    assert_eq!(s.filter.penumbra_reach, 0.0, "SVGF has no penumbra guide");
     assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
     assert_eq!(
         s.temporal.reflection_clamp_radius, 0,
@@ -62,6 +63,7 @@ fn svgf_is_the_default_with_rates_off() {
             ao_spatial_until: d.filter.ao_spatial_until,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
             guide_sigma: d.filter.guide_sigma,
+            penumbra_reach: d.filter.penumbra_reach,
             ..s.filter
         },
         d.filter

@@ -353,6 +353,24 @@ impl FilterSettings {
             "filter.guided_sigma_luminance",
             self.guided_sigma_luminance,
             "> 0",
+        )?;
+        check(
+            finite(self.penumbra_reach) && self.penumbra_reach >= 0.0,
+            "filter.penumbra_reach",
+            self.penumbra_reach,
+            ">= 0",
+        )?;
+        check(
+            finite(self.penumbra_sigma_luminance) && self.penumbra_sigma_luminance > 0.0,
+            "filter.penumbra_sigma_luminance",
+            self.penumbra_sigma_luminance,
+            "> 0",
+        )?;
+        check(
+            self.penumbra_radius <= 3,
+            "filter.penumbra_radius",
+            self.penumbra_radius as f32,
+            "0..=3",
         )
     }
 }
