@@ -235,6 +235,7 @@ mod tests {
                 spend_saved_rays: false,
                 reset_boost: 0.375,
                 reset_payback: 3,
+                reset_refill: 0.1 + 0.2,
                 undersample: false,
                 undersample_after: 9.5,
                 variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],

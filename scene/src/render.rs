@@ -410,13 +410,15 @@ impl Renderer {
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         // The readbacks waited for the frame, so its timings are in.
         let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
-        // The refill lists' rays (`Denoiser::detect_changes`), `refill_rays` per entry and plane
-        // of their group: the detector's, so counted with the prepass's and in the total.
+        // The refill lists' rays (`Denoiser::detect_changes`), `refill_list_rays` per entry and
+        // plane of their group: the detector's (or a reset frame's), so counted with the
+        // prepass's and in the total.
         let refill: Vec<u32> = read(exec, d.refill_args(), (groups * ARGS_LEN) as usize)?;
         let refill_rays: u64 = (0..groups)
             .map(|g| {
-                refill[(g * ARGS_LEN) as usize] as u64
-                    * settings.gradient.refill_rays as u64
+                let count = refill[(g * ARGS_LEN) as usize];
+                count as u64
+                    * d.refill_list_rays(count, &decisions[g as usize]) as u64
                     * group_planes(settings.plane_groups, planes, g) as u64
             })
             .sum();

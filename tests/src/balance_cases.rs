@@ -63,8 +63,24 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         planes: PLANES,
         signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
         refill_rays: rng.random_range(1..=16),
+        // Last frame's lists were a reset frame's, but at 1×1.
+        reset_share: if w == 1 {
+            0.0
+        } else {
+            [0.5, 1.0][rng.random_range(0..2)]
+        },
+        reset_least: rng.random_range(0..=3),
         shift: rng.random_range(0..4),
     }
+}
+
+/// Last frame's decisions, which the balancer reads for a reset frame's reserve.
+fn last_decisions(rng: &mut Pcg32) -> [balance::Balance; 2] {
+    [0; 2].map(|_| balance::Balance {
+        budget: rng.random_range(0.0..20000.0),
+        mode: rng.random_range(0..4),
+        ..Default::default()
+    })
 }
 
 pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
@@ -72,13 +88,13 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let params = balance_params(rng, w, h);
     Case {
         name: format!(
-            "balance {w}x{h} rpp {} groups {} shift {:#b}",
-            params.rays_per_pixel, params.groups, params.shift
+            "balance {w}x{h} rpp {} groups {} shift {:#b} reset share {}",
+            params.rays_per_pixel, params.groups, params.shift, params.reset_share
         ),
         kernel: &vrrt_core::kernels::BALANCE,
         buffers: vec![
             BufferSpec::from_pod(&counts, INTS),
-            BufferSpec::from_pod(&[balance::Balance::default(); 2], BALANCE),
+            BufferSpec::from_pod(&last_decisions(rng), BALANCE),
             BufferSpec::from_pod(&[7u32; 8], INTS),
             BufferSpec::from_pod(&[rng.random_range(0..300), 7, 7, 7, 40, 7, 7, 7], INTS),
         ],
@@ -163,12 +179,12 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         verify_sigma: [0.0, 1.0, 1.5][rng.random_range(0..3)],
         verify_history: [1.0, 4.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
-        _pad: 0,
+        reset: rng.random_range(0..2),
     };
     Case {
         name: format!(
-            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} verify {}",
-            params.shadow_planes, params.verify_sigma
+            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} verify {} reset {}",
+            params.shadow_planes, params.verify_sigma, params.reset
         ),
         kernel: &vrrt_core::kernels::REFILL,
         buffers: vec![
@@ -181,5 +197,46 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),
+    }
+}
+
+/// `refill_cap`: a reset frame's refill lists (two groups, some entries already at 16 rays),
+/// their reserve from the decisions, one list capped.
+pub(crate) fn refill_cap_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let pixels = w * h;
+    let counts = [0, 1].map(|_| rng.random_range(0..=pixels));
+    let work: Vec<u32> = (0..2 * pixels)
+        .map(|i| apply::work_entry(rng.random_range(0..pixels), 1 + (i % 16)))
+        .collect();
+    let args = [
+        counts[0],
+        counts[0].div_ceil(64),
+        1,
+        1,
+        counts[1],
+        counts[1].div_ceil(64),
+        1,
+        1,
+    ];
+    let params = refill::CapParams {
+        pixels,
+        list: rng.random_range(0..2),
+        share: [0.0, 0.4, 1.0, 3.0][rng.random_range(0..4)],
+        least: [0, 1, 2, 17][rng.random_range(0..4)],
+    };
+    let list = params.list as usize;
+    Case {
+        name: format!(
+            "refill_cap {w}x{h} list {} of {} share {} least {}",
+            params.list, counts[list], params.share, params.least
+        ),
+        kernel: &vrrt_core::kernels::REFILL_CAP,
+        buffers: vec![
+            BufferSpec::from_pod(&last_decisions(rng), BALANCE),
+            BufferSpec::from_pod(&args, INTS),
+            BufferSpec::from_pod(&work, INTS),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [counts[list].div_ceil(64), 1, 1],
     }
 }

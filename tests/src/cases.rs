@@ -29,6 +29,7 @@ pub static TABLE: &[(&str, Generator)] = &[
     ("balance", crate::balance_cases::balance_case),
     ("apply", crate::balance_cases::apply_case),
     ("refill", crate::balance_cases::refill_case),
+    ("refill_cap", crate::balance_cases::refill_cap_case),
     ("fill", fill_case),
     ("copy", copy_case),
     ("gbuffer", crate::trace_cases::gbuffer_case),

@@ -532,6 +532,42 @@ impl Denoiser {
         self.settings.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved
     }
 
+    /// Whether this frame lists the shadows' mixed windows for more rays: a reset frame that
+    /// sets rays aside for them ([`rates::reset_reserve`]).
+    pub(super) fn reset_refills(&self) -> bool {
+        self.frame.reset && self.reset_share() > 0.0
+    }
+
+    /// Whether reset frames make refill lists (`rates.reset_refill`, shadow planes, and a host
+    /// that traces refill lists: `gradient.refill`).
+    pub(super) fn reset_refill_on(&self) -> bool {
+        let s = &self.settings;
+        s.rates.reset_refill > 0.0 && s.shadow_planes != 0 && s.gradient.refill
+    }
+
+    /// A reset frame's refill reserve as a share of its main pass's budget
+    /// ([`refill::reserve`]); 0 without.
+    pub(super) fn reset_share(&self) -> f32 {
+        rates::reset_share(&self.settings.rates, self.reset_refill_on())
+    }
+
+    /// The fewest rays of a reset frame's refill entry ([`refill::CapParams::least`]).
+    pub(super) fn reset_least(&self) -> u32 {
+        rates::reset_least(&self.settings.rates, self.reset_refill_on())
+    }
+
+    /// Rays of each entry of this frame's refill lists ([`Self::refill_args`]) when a group's
+    /// list has `count` and its decision was `decision`: a reset frame's share its reserve
+    /// ([`refill::reset_rays`]).
+    pub fn refill_list_rays(&self, count: u32, decision: &balance::Balance) -> u32 {
+        if self.reset_refills() {
+            let reserve = refill::reserve(decision, self.reset_share());
+            refill::reset_rays(count, reserve, self.reset_least())
+        } else {
+            self.settings.gradient.refill_rays
+        }
+    }
+
     /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera
     /// cut, or nothing moved).
     pub fn gradient_ran(&self) -> bool {

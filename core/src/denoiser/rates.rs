@@ -126,7 +126,7 @@ impl Denoiser {
         exec.dispatch(&buckets.over_grid(&count, w, h, groups))?;
 
         let bal = balance::BalanceParams {
-            rays_per_pixel: frame_budget(&s.rates, self.since_reset),
+            rays_per_pixel: frame_budget(&s.rates, self.since_reset, self.reset_refill_on()),
             ring_count: buckets::ring_count(w, h),
             raise: s.rates.spend_saved_rays as u32,
             policy: if s.rates.supersample_target <= 0.0 {
@@ -141,6 +141,13 @@ impl Denoiser {
             planes: s.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.gradient.refill_rays,
+            // Last frame's lists were a reset frame's: their rays came from its reserve.
+            reset_share: if self.since_reset == 1 {
+                self.reset_share()
+            } else {
+                0.0
+            },
+            reset_least: self.reset_least(),
             shift: self.shifting_groups(importance_group),
         };
         let balance = kernels::BalanceBindings {
@@ -207,19 +214,57 @@ impl Denoiser {
 /// take it off theirs in equal parts (balanced rates only, and not under a budget in
 /// milliseconds: a frame over its time is what that budget exists to avoid). A reset during a
 /// payback starts a new one: what the last had left to pay is forgiven, at most one frame's
-/// budget per reset.
-pub(crate) fn frame_budget(r: &crate::settings::RateSettings, since_reset: u32) -> f32 {
-    let balanced = r.load_balance && r.supersample_target > 0.0;
-    let ahead = if !balanced || r.reset_payback == 0 || r.budget_ms > 0.0 {
+/// budget per reset. With `refill` (the shadows' reset refill lists), the reset frame's own
+/// pass leaves out the `rates.reset_refill` share of the boost, which the lists spend
+/// ([`reset_reserve`]).
+pub(crate) fn frame_budget(
+    r: &crate::settings::RateSettings,
+    since_reset: u32,
+    refill: bool,
+) -> f32 {
+    let ahead = if !boosts(r) {
         0.0
     } else if since_reset == 0 {
-        r.reset_boost
+        r.reset_boost - reset_reserve(r, refill) / r.rays_per_pixel
     } else if since_reset <= r.reset_payback {
         -r.reset_boost / r.reset_payback as f32
     } else {
         0.0
     };
     r.rays_per_pixel * (1.0 + ahead)
+}
+
+/// Whether a reset frame spends ahead: balanced rates, a payback, and no budget in milliseconds.
+fn boosts(r: &crate::settings::RateSettings) -> bool {
+    r.load_balance && r.supersample_target > 0.0 && r.reset_payback != 0 && r.budget_ms <= 0.0
+}
+
+/// Rays per pixel a reset frame sets aside for the shadows' refill lists (with `refill`): the
+/// `reset_refill` share of its boost.
+pub(crate) fn reset_reserve(r: &crate::settings::RateSettings, refill: bool) -> f32 {
+    if refill && boosts(r) {
+        r.rays_per_pixel * r.reset_boost * r.reset_refill
+    } else {
+        0.0
+    }
+}
+
+/// The reserve as a share of what the reset frame's own pass gets ([`frame_budget`]): the
+/// lists' rays are `share` times the main pass's granted budget ([`refill::reserve`]).
+pub(crate) fn reset_share(r: &crate::settings::RateSettings, refill: bool) -> f32 {
+    reset_reserve(r, refill) / frame_budget(r, 0, refill)
+}
+
+/// The most rays a pixel traces in a reset frame's own pass (all pixels ask alike then), the
+/// fewest its refill entry gets.
+pub(crate) fn reset_least(r: &crate::settings::RateSettings, refill: bool) -> u32 {
+    let b = frame_budget(r, 0, refill);
+    let t = b as u32;
+    if (t as f32) < b {
+        t + 1
+    } else {
+        t
+    }
 }
 
 #[cfg(test)]
@@ -235,12 +280,31 @@ mod tests {
             reset_payback: 8,
             ..RateSettings::default()
         };
-        assert_eq!(frame_budget(&r, 0), 3.0);
-        let budgets: std::vec::Vec<f32> = (0..=9).map(|f| frame_budget(&r, f)).collect();
+        assert_eq!(frame_budget(&r, 0, false), 3.0);
+        let budgets: std::vec::Vec<f32> = (0..=9).map(|f| frame_budget(&r, f, false)).collect();
         approx::assert_relative_eq!(budgets.iter().sum::<f32>(), 1.5 * 10.0, epsilon = 1e-5);
         approx::assert_relative_eq!(budgets[1], 1.5 * 7.0 / 8.0);
         assert_eq!(budgets[9], 1.5, "paid back");
-        assert_eq!(frame_budget(&r, u32::MAX), 1.5, "no reset yet");
+        assert_eq!(frame_budget(&r, u32::MAX, false), 1.5, "no reset yet");
+    }
+
+    #[test]
+    fn a_reset_refill_spends_its_share_of_the_boost_on_the_lists() {
+        let r = RateSettings {
+            rays_per_pixel: 1.5,
+            reset_boost: 1.0,
+            reset_refill: 0.5,
+            ..RateSettings::default()
+        };
+        // The main pass gets 1.5 · (1 + 0.5), the lists 0.75: the boosted 3 rays in all.
+        assert_eq!(frame_budget(&r, 0, true), 2.25);
+        assert_eq!(reset_reserve(&r, true), 0.75);
+        approx::assert_relative_eq!(reset_share(&r, true), 1.0 / 3.0);
+        assert_eq!(reset_least(&r, true), 3);
+        // The payback is the boost's, lists or not.
+        assert_eq!(frame_budget(&r, 1, true), frame_budget(&r, 1, false));
+        assert_eq!(frame_budget(&r, 0, false), 3.0);
+        assert_eq!(reset_reserve(&r, false), 0.0);
     }
 
     #[test]
@@ -264,8 +328,8 @@ mod tests {
                 ..base
             },
         ] {
-            assert_eq!(frame_budget(&r, 0), r.rays_per_pixel);
-            assert_eq!(frame_budget(&r, 1), r.rays_per_pixel);
+            assert_eq!(frame_budget(&r, 0, false), r.rays_per_pixel);
+            assert_eq!(frame_budget(&r, 1, false), r.rays_per_pixel);
         }
     }
 }

@@ -15,6 +15,11 @@ impl Denoiser {
     /// The detector, and the refill lists when `refill` (a host that does not trace them must
     /// not make them: the next frame's balancer would take their rays off its budget).
     fn detect<E: Executor>(&mut self, exec: &mut E, refill: bool) -> Result<bool, E::Error> {
+        if refill && !self.detected && self.reset_refills() {
+            self.detected = true;
+            self.dispatch_refill(exec, true)?;
+            return Ok(true);
+        }
         if self.detected || !self.detects() {
             return Ok(false);
         }
@@ -41,6 +46,15 @@ impl Denoiser {
         if !refill {
             return Ok(false);
         }
+        self.dispatch_refill(exec, false)?;
+        Ok(true)
+    }
+
+    /// The refill lists: the pixels the detector drops (and, on the shadow planes, those to
+    /// verify), or on a reset frame (`reset`) the pixels of the shadows' mixed windows.
+    fn dispatch_refill<E: Executor>(&mut self, exec: &mut E, reset: bool) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
         let p = refill::RefillParams {
             width: w,
             height: h,
@@ -49,11 +63,15 @@ impl Denoiser {
             threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
             shadow_planes: s.shadow_planes,
-            rays: s.gradient.refill_rays,
+            rays: if reset {
+                buckets::MAX_RATE
+            } else {
+                s.gradient.refill_rays
+            },
             verify_sigma: s.gradient.shadow_verify_sigma,
             verify_history: s.gradient.shadow_verify_history,
             min_variance: s.gradient.detect_min_variance,
-            _pad: 0,
+            reset: reset as u32,
         };
         let pass = kernels::RefillBindings {
             requests: self.requests,
@@ -64,7 +82,27 @@ impl Denoiser {
             args: self.refill_args,
         };
         exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
-        Ok(true)
+        if reset {
+            for list in 0..s.groups() {
+                let p = refill::CapParams {
+                    pixels: w * h,
+                    list,
+                    share: self.reset_share(),
+                    least: self.reset_least(),
+                };
+                let pass = kernels::RefillCapBindings {
+                    decision: self.decision,
+                    args: self.refill_args,
+                    work: self.refill_work(),
+                };
+                let groups = Groups::Indirect {
+                    buffer: self.refill_args,
+                    offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
+                };
+                exec.dispatch(&pass.pass(&p, groups))?;
+            }
+        }
+        Ok(())
     }
 
     /// Where the detector's `λ` goes: the kept buffer, or a filter buffer the filter writes only

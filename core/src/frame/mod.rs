@@ -186,6 +186,11 @@ impl Frame {
             // pixels gain from it either way (bunny 0.00457 → 0.00388, dragon 0.0234 → 0.0174).
             settings.rates.reset_payback = crate::settings::MAX_RESET_PAYBACK;
         }
+        if !matches!(signal, Signal::Shadows) {
+            // The reserve is the whole frame's boost share; in a shared frame the other
+            // signals would pay for the shadows' penumbrae.
+            settings.rates.reset_refill = 0.0;
+        }
         settings.plane_groups = if settings.rates.per_signal {
             layout.plane_groups()
         } else {

@@ -87,6 +87,12 @@ pub struct BalanceParams {
     pub signal_floor: f32,
     /// Rays of each entry of last frame's refill lists (`refill`, [`super::refill`]).
     pub refill_rays: u32,
+    /// Nonzero: last frame's lists were a reset frame's, whose entries traced
+    /// [`super::refill::reset_rays`] of the reserve [`super::refill::reserve`] of last frame's
+    /// decision (`out`, read before it is rewritten) at this share.
+    pub reset_share: f32,
+    /// The least rays of those entries ([`super::refill::CapParams::least`]).
+    pub reset_least: u32,
     /// Bit `g` set: group `g` moves every request by the same step, down over budget
     /// ([`MODE_SHIFT`]) and up under it ([`MODE_LIFT`]), instead of capping the largest
     /// ([`MODE_OVER`]) or raising the smallest ([`MODE_UNDER`]), the seed's.
@@ -459,9 +465,26 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     let g = ids.local_index;
     if g < groups(p) {
         let rates = group_rates(io.counts, p);
-        let spent = (io.refill[(g * super::apply::ARGS_LEN) as usize] * p.refill_rays) as f32;
+        let count = io.refill[(g * super::apply::ARGS_LEN) as usize];
+        let spent = refill_spent(count, &io.out[g as usize], p);
         let base = g * COUNTS_LEN;
         local.search[g as usize] = Search::new(io.counts, base, rates[g as usize], spent, p);
+    }
+}
+
+/// Rays of last frame's `count` refill entries this frame's budget pays: all of them, or what a
+/// reset frame's lists spent beyond the reserve its decision `last` held.
+#[inline]
+pub fn refill_spent(count: u32, last: &Balance, p: &BalanceParams) -> f32 {
+    if p.reset_share == 0.0 {
+        return (count * p.refill_rays) as f32;
+    }
+    let reserve = super::refill::reserve(last, p.reset_share);
+    let used = count * super::refill::reset_rays(count, reserve, p.reset_least);
+    if used > reserve {
+        (used - reserve) as f32
+    } else {
+        0.0
     }
 }
 

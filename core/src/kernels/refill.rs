@@ -17,9 +17,10 @@
 //! pixel from the same rng index (its first ray again, three new), and accumulation
 //! ([`super::accumulate`]) drops the history if the rays together still disagree.
 
-use super::apply::append;
-use super::buckets::BUCKET_COUNT;
-use super::RefillIo;
+use super::apply::{self, append, ARGS_LEN};
+use super::balance::Balance;
+use super::buckets::{BUCKET_COUNT, MAX_RATE};
+use super::{RefillCapIo, RefillIo};
 use crate::lanes::{self, Lanes};
 use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
@@ -53,8 +54,10 @@ pub struct RefillParams {
     pub verify_history: f32,
     /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
     pub min_variance: f32,
-    /// Padding.
-    pub _pad: u32,
+    /// Nonzero on a reset frame (no history, no detector): list instead the pixels of the
+    /// shadow planes whose 3×3 window of this frame's rays is mixed ([`reset_listed`]), whose
+    /// rays [`cap`] then sets.
+    pub reset: u32,
 }
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]): appends
@@ -106,11 +109,17 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         z += 1;
     }
     let mut refills = Lanes::<bool, N>::splat(false);
+    let mixed = if p.reset != 0 {
+        reset_listed::<N>(id, p, samples)
+    } else {
+        Lanes::splat(false)
+    };
     lanes::each_lane!(l in N {
         let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
         let verify = fewer.0[l] && surprised.0[l] && !dropped.0[l];
         let refill = !traced.0[l] && dropped.0[l];
-        refills.0[l] = id.x + (l as u32) < w && asked && (refill || verify);
+        let listed = if p.reset != 0 { mixed.0[l] } else { refill || verify };
+        refills.0[l] = id.x + (l as u32) < w && asked && listed;
     });
     append(
         work,
@@ -121,6 +130,122 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         refills,
         Lanes::splat(p.rays),
     );
+}
+
+/// On a reset frame: whether each lane's pixel traced fewer than `p.rays` on a shadow plane of
+/// group `id.z` whose 3×3 window holds traced samples that differ: a penumbra or a shadow's
+/// edge, where one or two binary rays are the noisiest and the filter has no history to lean
+/// on. Lit and umbra windows (all 1, all 0) need no more. On the bunny's first frame at 1 rpp
+/// a fifth of the pixels; re-traced with the boost's rays, its relMSE falls 0.0155 → 0.0083.
+#[inline(always)]
+fn reset_listed<const N: usize>(
+    id: UVec3,
+    p: &RefillParams,
+    samples: &[PackedSample],
+) -> Lanes<bool, N> {
+    let (w, h) = (p.width, p.height);
+    let pixels = w * h;
+    let x0 = id.x as i32;
+    let mut listed = Lanes::<bool, N>::splat(false);
+    let mut z = 0;
+    while z < p.planes {
+        if super::plane_group(p.plane_groups, z) == id.z && super::plane_in(p.shadow_planes, z) {
+            let own = Lanes::<PackedSample, N>::load_row(samples, z * pixels + id.y * w, x0, w);
+            let mut lo = Lanes::<f32, N>::splat(f32::MAX);
+            let mut hi = Lanes::<f32, N>::splat(-f32::MAX);
+            let mut dy: i32 = -1;
+            while dy <= 1 {
+                let qy = lanes::clamp_column(id.y as i32 + dy, h);
+                let mut dx: i32 = -1;
+                while dx <= 1 {
+                    let q = Lanes::<PackedSample, N>::load_row(
+                        samples,
+                        z * pixels + qy * w,
+                        x0 + dx,
+                        w,
+                    );
+                    lanes::each_lane!(l in N {
+                        if q.0[l].rays() > 0 {
+                            let m1 = q.0[l].unpack().m1;
+                            lo.0[l] = crate::math::min(lo.0[l], m1);
+                            hi.0[l] = crate::math::max(hi.0[l], m1);
+                        }
+                    });
+                    dx += 1;
+                }
+                dy += 1;
+            }
+            lanes::each_lane!(l in N {
+                let n = own.0[l].rays();
+                listed.0[l] |= n > 0 && n < p.rays && hi.0[l] > lo.0[l];
+            });
+        }
+        z += 1;
+    }
+    listed
+}
+
+/// Push constants of [`cap`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CapParams {
+    /// Pixels of the image (the stride of the groups' lists).
+    pub pixels: u32,
+    /// The refill list capped (a plane group's).
+    pub list: u32,
+    /// The share of the list's group's decision budget set aside for it ([`reserve`]).
+    pub share: f32,
+    /// Fewest rays of an entry: what a pixel may have traced in the main pass (so a re-trace
+    /// never holds fewer).
+    pub least: u32,
+}
+
+/// Rays a reset frame set aside for a group's refill list: `share` of what its main pass was
+/// granted (`decision.budget`, rays over the pixels that asked, sky excluded), so the two add up
+/// to the frame's boosted budget.
+#[inline]
+pub fn reserve(decision: &Balance, share: f32) -> u32 {
+    (decision.budget * share) as u32
+}
+
+/// Rays of each of the `count` entries of a reset frame's refill list: its `reserve` shared
+/// equally, `least` to [`MAX_RATE`] (integer division, so every backend and the balancer
+/// agree).
+#[inline]
+pub fn reset_rays(count: u32, reserve: u32, least: u32) -> u32 {
+    let r = reserve.checked_div(count).unwrap_or(0);
+    let least = if least < 1 { 1 } else { least };
+    if r > MAX_RATE {
+        MAX_RATE
+    } else if r < least {
+        if least < MAX_RATE {
+            least
+        } else {
+            MAX_RATE
+        }
+    } else {
+        r
+    }
+}
+
+/// One invocation per entry of a reset frame's refill list `p.list` (dispatched indirectly from
+/// its arguments, after [`refill`]): the entry's rays become [`reset_rays`] of the list's count.
+/// How many pixels are mixed is known only once the list is complete; sharing the reserve keeps
+/// the frame at its budget, whether a cut shows a few penumbrae or many.
+pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
+    let RefillCapIo {
+        decision,
+        args,
+        work,
+    } = io;
+    let count = args[(p.list * ARGS_LEN) as usize];
+    if id.x >= count {
+        return;
+    }
+    let i = (p.list * p.pixels + id.x) as usize;
+    let (pix, _) = apply::work_item(work[i]);
+    let reserve = reserve(&decision[p.list as usize], p.share);
+    work[i] = apply::work_entry(pix as u32, reset_rays(count, reserve, p.least));
 }
 
 #[cfg(test)]
@@ -172,5 +297,75 @@ mod tests {
         assert!(listed(1, 1.0, 1).is_empty());
         assert!(listed(1, 0.0, 0).is_empty());
         assert!(listed(4, 0.0, 1).is_empty());
+    }
+
+    /// The work list of a reset frame over a 4×3 image of one shadow plane (mask
+    /// `shadow_planes`) whose first ray was `lit` at each pixel.
+    fn reset_listed_pixels(lit: [[bool; 4]; 3], shadow_planes: u32) -> std::vec::Vec<usize> {
+        let samples: std::vec::Vec<PackedSample> = lit
+            .iter()
+            .flatten()
+            .map(|&l| Sample::uniform(if l { 1.0 } else { 0.0 }, 1).pack())
+            .collect();
+        let (mut work, mut args) = ([0u32; 12], [0u32, 0, 1, 1]);
+        let p = RefillParams {
+            width: 4,
+            height: 3,
+            planes: 1,
+            shadow_planes,
+            rays: MAX_RATE,
+            reset: 1,
+            ..Default::default()
+        };
+        for y in 0..3 {
+            for x in 0..4 {
+                let io = RefillIo {
+                    requests: &[0; 12],
+                    samples: &samples,
+                    history: &[PackedPayload::default(); 12],
+                    changes: &[f32::NAN; 12],
+                    work: &mut work,
+                    args: &mut args,
+                };
+                refill::<1>(UVec3::new(x, y, 0), &p, io);
+            }
+        }
+        let mut listed: std::vec::Vec<usize> = work[..args[0] as usize]
+            .iter()
+            .map(|&e| apply::work_item(e).0)
+            .collect();
+        listed.sort();
+        listed
+    }
+
+    #[test]
+    fn a_reset_frame_lists_the_shadows_mixed_windows() {
+        // An umbra in the left column: the two columns beside the edge are mixed, the lit
+        // column beyond is not.
+        let edge = [[false, true, true, true]; 3];
+        assert_eq!(reset_listed_pixels(edge, 1), [0, 1, 4, 5, 8, 9]);
+        assert!(reset_listed_pixels([[true; 4]; 3], 1).is_empty());
+        assert!(reset_listed_pixels([[false; 4]; 3], 1).is_empty());
+        // Not a shadow plane: nothing.
+        assert!(reset_listed_pixels(edge, 0).is_empty());
+    }
+
+    #[test]
+    fn a_reset_list_shares_its_reserve() {
+        assert_eq!(reset_rays(100, 800, 1), 8);
+        assert_eq!(
+            reset_rays(100, 850, 1),
+            8,
+            "rounded down: never over the reserve"
+        );
+        assert_eq!(reset_rays(100, 5000, 1), MAX_RATE);
+        assert_eq!(reset_rays(100, 50, 1), 1);
+        assert_eq!(
+            reset_rays(100, 50, 2),
+            2,
+            "never fewer than the main pass traced"
+        );
+        assert_eq!(reset_rays(100, 50, 40), MAX_RATE);
+        assert_eq!(reset_rays(0, 50, 0), 1);
     }
 }

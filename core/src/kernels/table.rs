@@ -151,7 +151,7 @@ crate::kernel_table! {
     phases [balance::setup, balance::sums, balance::pick, balance::rings, balance::write],
     threads(128, 1, 1), params balance::BalanceParams {
         counts: read u32,
-        out: write Balance,
+        out: update Balance,
         args: write u32,
         refill: update u32,
     }
@@ -317,5 +317,14 @@ crate::kernel_table! {
         depth: read Depth,
         view: read View,
         guide: write f32,
+    }
+
+    /// [`refill::cap`]: a reset frame's refill list, its reserve shared among its entries;
+    /// dispatch as `raygen_ao`, over the refill list.
+    refill_cap => REFILL_CAP, RefillCapBindings, RefillCapIo: fn refill::cap,
+    threads(64, 1, 1), params refill::CapParams {
+        decision: read Balance,
+        args: read u32,
+        work: update WorkEntry,
     }
 }

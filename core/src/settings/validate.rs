@@ -183,6 +183,12 @@ impl RateSettings {
             "rates.reset_payback",
             self.reset_payback as f32,
             "0..=64",
+        )?;
+        check(
+            (0.0..=1.0).contains(&self.reset_refill),
+            "rates.reset_refill",
+            self.reset_refill,
+            "0..=1",
         )
     }
 }

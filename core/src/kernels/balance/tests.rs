@@ -14,6 +14,8 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
         planes: 1,
         signal_floor: 1.0,
         refill_rays: 1,
+        reset_share: 0.0,
+        reset_least: 1,
         shift: 0,
     }
 }
@@ -366,6 +368,8 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             planes: groups,
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
             refill_rays: 1 + next(8),
+            reset_share: [0.0, 0.0, 0.5][next(3) as usize],
+            reset_least: next(3),
             shift: next(16),
         };
         let rates = group_rates(&c, &p);
@@ -374,13 +378,20 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
         for g in 0..groups as usize {
             refill[4 * g] = next(3) * next(200);
         }
+        // Last frame's decisions: a reset frame's reserve is a share of their budgets.
+        let last: Vec<Balance> = (0..groups)
+            .map(|_| Balance {
+                budget: (next(1000) * 7) as f32,
+                ..Balance::default()
+            })
+            .collect();
         let serial: Vec<Balance> = (0..groups)
             .map(|g| {
-                let spent = (refill[4 * g as usize] * p.refill_rays) as f32;
+                let spent = refill_spent(refill[4 * g as usize], &last[g as usize], &p);
                 solve(&c, g, rates[g as usize], spent, &p)
             })
             .collect();
-        let mut out = vec![Balance::default(); groups as usize];
+        let mut out = last.clone();
         let mut args = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
         let mut local: Shared = bytemuck::Zeroable::zeroed();
         let phases: [fn(WorkgroupIds, &BalanceParams, BalanceIo<'_>, &mut Shared); 5] =
@@ -411,4 +422,27 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
         assert!(args.chunks(4).all(|a| a == [0, 0, 1, 1]));
         assert!(refill.chunks(4).all(|a| a == [0, 0, 1, 1]));
     }
+}
+
+#[test]
+fn a_reset_frames_lists_are_paid_from_its_reserve() {
+    let last = Balance {
+        budget: 1000.0,
+        ..Balance::default()
+    };
+    let detector = BalanceParams {
+        refill_rays: 4,
+        ..params(1.0, 1, 1)
+    };
+    // The detector's lists: every ray off this frame's budget.
+    assert_eq!(refill_spent(30, &last, &detector), 120.0);
+    // A reset frame's: 100 entries shared 500 reserved rays (5 each), none owed.
+    let reset = BalanceParams {
+        reset_share: 0.5,
+        reset_least: 1,
+        ..detector
+    };
+    assert_eq!(refill_spent(100, &last, &reset), 0.0);
+    // 800 entries at the least 1 ray spent 300 beyond the reserve.
+    assert_eq!(refill_spent(800, &last, &reset), 300.0);
 }

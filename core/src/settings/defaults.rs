@@ -1,0 +1,112 @@
+//! The defaults: full VRRT, each value's reason at its field.
+
+use super::*;
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            planes: 1,
+            parallax_plane: None,
+            guide_plane: None,
+            penumbra_plane: None,
+            plane_groups: 0,
+            shadow_planes: 0,
+            ao_planes: 0,
+            temporal: TemporalSettings::default(),
+            rates: RateSettings::default(),
+            gradient: GradientSettings::default(),
+            filter: FilterSettings::default(),
+        }
+    }
+}
+
+impl Default for TemporalSettings {
+    fn default() -> Self {
+        TemporalSettings {
+            max_history: 64.0,
+            normal_threshold: 0.9,
+            plane_threshold: 0.02,
+            clamp_radius: 0,
+            clamp_gamma: 1.0,
+            reflection_clamp_radius: 2,
+            clamp_depth_tolerance: 0.05,
+            firefly_max: 0.0,
+            storage: StoragePrecision::F16,
+            rng_wrap: 0,
+            stuck_correction: true,
+            sampling: SamplePattern::ScreenBlue,
+        }
+    }
+}
+
+impl Default for RateSettings {
+    fn default() -> Self {
+        RateSettings {
+            rays_per_pixel: 1.0,
+            budget_ms: 0.0,
+            budget_floor: 0.25,
+            budget_ceiling: 4.0,
+            supersample_target: 16.0,
+            load_balance: true,
+            spend_saved_rays: true,
+            reset_boost: 1.0,
+            reset_payback: 8,
+            reset_refill: 1.0,
+            undersample: true,
+            undersample_after: 16.0,
+            variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
+            variance_rate: [0.125, 0.25, 0.5, 1.0],
+            still_sigma: 0.045,
+            vrs_mask: false,
+            per_signal: true,
+            signal_floor: 0.25,
+            shift_requests: true,
+        }
+    }
+}
+
+impl Default for GradientSettings {
+    fn default() -> Self {
+        GradientSettings {
+            stratum: 0,
+            iterations: 3,
+            threshold: 0.5,
+            scale: 1.0,
+            detect_radius: 2,
+            detect_sigma: 1.0,
+            ao_detect_sigma: 2.0,
+            detect_min_variance: 1e-4,
+            refill: true,
+            refill_rays: 4,
+            shadow_detect_radius: 1,
+            shadow_threshold: 0.3,
+            shadow_verify_sigma: 1.5,
+            shadow_verify_history: 1.0,
+            shadow_drop_sigma: 1.5,
+            reflection_confirm_sigma: 1.25,
+        }
+    }
+}
+
+impl Default for FilterSettings {
+    fn default() -> Self {
+        FilterSettings {
+            atrous_iterations: 5,
+            sigma_luminance: 1.0,
+            normal_power: 128.0,
+            ao_normal_power: 8.0,
+            plane_tolerance: 2.0,
+            spatial_radius: 1,
+            spatial_until: 4.0,
+            ao_spatial_until: 8.0,
+            skip_sigma: 0.004,
+            cap_variance: true,
+            ao_symmetric_taps: true,
+            guide_sigma: 1.6,
+            guided_sigma_luminance: 3.0,
+            penumbra_reach: 0.5,
+            penumbra_sigma_luminance: 2.0,
+            penumbra_radius: 2,
+        }
+    }
+}
