@@ -202,7 +202,7 @@ fn atrous_matches_cpu() {
                 inputs: &inputs,
                 params: p,
                 grid: [W, H, PLANES],
-                out: 6,
+                out: 7,
                 out_len: n,
             },
         );
@@ -285,6 +285,7 @@ fn chain<E: Executor>(ex: &mut E, input: &[PackedFiltered], surf: &[Surface]) ->
             bytemuck::cast_slice(&normal_roughness),
             bytemuck::bytes_of(&v),
             bytemuck::bytes_of(&NO_GUIDE),
+            bytemuck::bytes_of(&NO_GUIDE),
         ],
     );
     let (s, ind) = (b[1], b[4]);
@@ -298,7 +299,8 @@ fn chain<E: Executor>(ex: &mut E, input: &[PackedFiltered], surf: &[Surface]) ->
             ..AtrousParams::default()
         };
         let out = b[2 + i % 2];
-        let bufs = [prev, s, b[6], b[7], b[5], b[8], out];
+        // No guide or penumbra plane: one unread element each.
+        let bufs = [prev, s, b[6], b[7], b[5], b[8], b[9], out];
         let mut pass = Pass::over_grid(
             &vrrt_core::kernels::ATROUS,
             &bufs,

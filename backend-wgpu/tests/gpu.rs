@@ -77,8 +77,9 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
     let normal_roughness = b.buffer(bytemuck::cast_slice(&normal_roughness));
     let view = b.buffer(bytemuck::bytes_of(&view));
     let tiles = b.buffer(bytemuck::cast_slice(&tile_levels()));
-    // No guide or penumbra plane: one unread element, bound to both.
+    // No guide or penumbra plane: one unread element each.
     let guide = b.buffer(bytemuck::bytes_of(&vrrt_core::kernels::reflect::NO_GUIDE));
+    let penumbra = b.buffer(bytemuck::bytes_of(&vrrt_core::kernels::reflect::NO_GUIDE));
     let out = [
         b.buffer(&vec![0u8; n as usize * 8]),
         b.buffer(&vec![0u8; n as usize * 8]),
@@ -99,7 +100,7 @@ fn atrous_differences(b: &mut Both) -> Vec<Vec<(usize, u32)>> {
             view,
             tiles,
             guide,
-            guide,
+            penumbra,
             out[i],
         ];
         b.dispatch(&Pass::over_grid(

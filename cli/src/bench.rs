@@ -73,8 +73,9 @@ pub struct BenchArgs {
     /// Settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
     /// the defaults). Every cell starts from it instead of the defaults; the cell's
     /// configuration, budget and signal win over it (`rates.rays_per_pixel`, `planes`,
-    /// `parallax_plane`, `guide_plane`, `plane_groups`, `shadow_planes` and `ao_planes` of the
-    /// file are not used, nor `rates.reset_payback` for reflections alone).
+    /// `parallax_plane`, `guide_plane`, `penumbra_plane`, `plane_groups`, `shadow_planes` and
+    /// `ao_planes` of the file are not used, nor `rates.reset_payback` for reflections alone or
+    /// `rates.reset_refill` but for shadows alone).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Do not write the page `report.html` (with its images in `report/`): crops of what moves

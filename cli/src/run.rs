@@ -52,8 +52,9 @@ pub struct RunArgs {
     /// the other options start from, and they win over it: `--denoiser` applies its changes on
     /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
     /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
-    /// `guide_plane`, `plane_groups`, `shadow_planes` and `ao_planes` (and, for reflections
-    /// alone, `rates.reset_payback` 64).
+    /// `guide_plane`, `penumbra_plane`, `plane_groups`, `shadow_planes` and `ao_planes` (and,
+    /// for reflections alone, `rates.reset_payback` 64; but for shadows alone,
+    /// `rates.reset_refill` 0).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.

@@ -411,8 +411,8 @@ impl Renderer {
         // The readbacks waited for the frame, so its timings are in.
         let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
         // The refill lists' rays (`Denoiser::detect_changes`), `refill_list_rays` per entry and
-        // plane of their group: the detector's (or a reset frame's), so counted with the
-        // prepass's and in the total.
+        // plane of their group: in the total, and with the prepass's when they are the
+        // detector's (not a reset frame's penumbrae).
         let refill: Vec<u32> = read(exec, d.refill_args(), (groups * ARGS_LEN) as usize)?;
         let refill_rays: u64 = (0..groups)
             .map(|g| {
@@ -422,7 +422,9 @@ impl Renderer {
                     * group_planes(settings.plane_groups, planes, g) as u64
             })
             .sum();
-        gradient_rays += refill_rays;
+        if !d.refills_reset() {
+            gradient_rays += refill_rays;
+        }
         let rays_traced = (rays.iter().map(|&r| r as f64).sum::<f64>()
             + refill_rays as f64 / planes as f64)
             .round() as u64;

@@ -532,9 +532,9 @@ impl Denoiser {
         self.settings.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved
     }
 
-    /// Whether this frame lists the shadows' mixed windows for more rays: a reset frame that
-    /// sets rays aside for them ([`rates::reset_reserve`]).
-    pub(super) fn reset_refills(&self) -> bool {
+    /// Whether this frame's refill lists are a reset frame's (the shadows' mixed windows, traced
+    /// with the rays it set aside: `rates.reset_refill`) rather than the detector's.
+    pub fn refills_reset(&self) -> bool {
         self.frame.reset && self.reset_share() > 0.0
     }
 
@@ -560,7 +560,7 @@ impl Denoiser {
     /// list has `count` and its decision was `decision`: a reset frame's share its reserve
     /// ([`refill::reset_rays`]).
     pub fn refill_list_rays(&self, count: u32, decision: &balance::Balance) -> u32 {
-        if self.reset_refills() {
+        if self.refills_reset() {
             let reserve = refill::reserve(decision, self.reset_share());
             refill::reset_rays(count, reserve, self.reset_least())
         } else {

@@ -15,7 +15,7 @@ impl Denoiser {
     /// The detector, and the refill lists when `refill` (a host that does not trace them must
     /// not make them: the next frame's balancer would take their rays off its budget).
     fn detect<E: Executor>(&mut self, exec: &mut E, refill: bool) -> Result<bool, E::Error> {
-        if refill && !self.detected && self.reset_refills() {
+        if refill && !self.detected && self.refills_reset() {
             self.detected = true;
             self.dispatch_refill(exec, true)?;
             return Ok(true);

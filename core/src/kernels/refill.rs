@@ -16,6 +16,11 @@
 //! (a thin umbra the camera slides under lit history: 1.97σ, `λ` 0.12); raygen re-traces the
 //! pixel from the same rng index (its first ray again, three new), and accumulation
 //! ([`super::accumulate`]) drops the history if the rays together still disagree.
+//!
+//! A reset frame (first frame, camera cut) has no history and no detector; there the lists hold
+//! the shadow planes' pixels whose 3×3 window of rays is mixed, and [`cap`] shares the rays the
+//! frame set aside (`rates.reset_refill`) among them: the penumbrae get the cut's extra rays that
+//! a second ray everywhere would spend on lit and umbra pixels.
 
 use super::apply::{self, append, ARGS_LEN};
 use super::balance::Balance;
@@ -55,7 +60,7 @@ pub struct RefillParams {
     /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
     pub min_variance: f32,
     /// Nonzero on a reset frame (no history, no detector): list instead the pixels of the
-    /// shadow planes whose 3×3 window of this frame's rays is mixed ([`reset_listed`]), whose
+    /// shadow planes whose 3×3 window of this frame's rays is mixed (`reset_listed`), whose
     /// rays [`cap`] then sets.
     pub reset: u32,
 }
