@@ -326,8 +326,9 @@ pub fn penumbra_guide_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         height: h,
         plane: rng.random_range(0..planes),
         radius: rng.random_range(0..=3),
+        pixel_angle: frame.camera.tan_half_fov_y * 2.0 / h as f32,
     };
-    let [depth, _, _, view] = raygen_inputs(&images(&frame, w, h), &frame);
+    let [depth, ..] = raygen_inputs(&images(&frame, w, h), &frame);
     Case {
         name: format!(
             "penumbra_guide {w}x{h} plane {} radius {}",
@@ -338,7 +339,6 @@ pub fn penumbra_guide_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&blockers, FLOATS),
             depth,
-            view,
             BufferSpec::from_pod(&vec![0.0f32; (w * h) as usize], FLOATS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),

@@ -215,12 +215,12 @@ impl Denoiser {
                 height: h,
                 plane,
                 radius: s.filter.penumbra_radius,
+                pixel_angle: self.frame.pixel_angle,
             };
             let guide = kernels::PenumbraGuideBindings {
                 samples: self.samples,
                 blockers: self.blockers,
                 depth: self.depth[self.cur],
-                view: self.view,
                 guide: self.penumbra,
             };
             exec.dispatch(&guide.over_grid(&p, w, h, 1))?;

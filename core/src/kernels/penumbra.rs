@@ -10,7 +10,6 @@
 
 use super::reflect::NO_GUIDE;
 use super::PenumbraGuideIo;
-use crate::camera::View;
 use crate::math;
 use crate::payload::PackedSample;
 use crate::surface;
@@ -29,6 +28,9 @@ pub struct PenumbraParams {
     pub plane: u32,
     /// Window radius (2 → 5×5).
     pub radius: u32,
+    /// Angle one pixel subtends (`FrameInfo::pixel_angle`): a pixel at view depth `d` is
+    /// `d · pixel_angle` wide.
+    pub pixel_angle: f32,
 }
 
 /// Penumbra guide, one invocation per pixel: `guide[pixel]` is the mean penumbra width of the
@@ -39,7 +41,6 @@ pub fn penumbra_guide(id: UVec3, p: &PenumbraParams, io: PenumbraGuideIo<'_>) {
         samples,
         blockers,
         depth,
-        view,
         guide,
     } = io;
     if id.x >= p.width || id.y >= p.height {
@@ -68,7 +69,7 @@ pub fn penumbra_guide(id: UVec3, p: &PenumbraParams, io: PenumbraGuideIo<'_>) {
         dy += 1;
     }
     guide[pix] = if n > 0.0 && surface::has_surface(d) {
-        sum / n / pixel_footprint(&view[0], d, p.height)
+        sum / n / (d * p.pixel_angle)
     } else {
         NO_GUIDE
     };
@@ -91,28 +92,15 @@ fn traced(s: PackedSample) -> bool {
     s.rays() > 0
 }
 
-/// World size of one pixel at view depth `depth`, across the image's height.
-#[inline]
-pub fn pixel_footprint(view: &View, depth: f32, height: u32) -> f32 {
-    depth * 2.0 * view.camera.tan_half_fov_y / height as f32
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Camera;
     use crate::kernels::raygen::NO_BLOCKER;
     use crate::payload::Sample;
-    use glam::Vec3;
 
     #[test]
     fn the_guide_averages_traced_blocked_records_in_pixels() {
         let (w, h) = (5u32, 1u32);
-        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
-        let view = [View {
-            camera,
-            prev_camera: camera,
-        }];
         let traced = |rays| {
             Sample {
                 m1: 0.0,
@@ -133,14 +121,14 @@ mod tests {
             height: h,
             plane: 0,
             radius: 1,
+            pixel_angle: 0.01,
         };
-        let footprint = pixel_footprint(&view[0], 4.0, h);
+        let footprint = 4.0 * 0.01;
         for x in 0..w {
             let io = PenumbraGuideIo {
                 samples: &samples,
                 blockers: &blockers,
                 depth: &depth,
-                view: &view,
                 guide: &mut guide,
             };
             penumbra_guide(UVec3::new(x, 0, 0), &p, io);
@@ -154,7 +142,6 @@ mod tests {
             samples: &samples,
             blockers: &lone,
             depth: &depth,
-            view: &view,
             guide: &mut guide,
         };
         penumbra_guide(UVec3::new(3, 0, 0), &p, io);

@@ -315,7 +315,6 @@ crate::kernel_table! {
         samples: read PackedSample,
         blockers: read f32,
         depth: read Depth,
-        view: read View,
         guide: write f32,
     }
 
