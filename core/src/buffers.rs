@@ -35,7 +35,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 25;
+pub const DENOISER_BUFFERS: usize = 26;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -142,6 +142,11 @@ pub fn denoiser_buffers(
         size("guide", 1, bytes(guide, 4), "f32"),
         size("blockers", 1, bytes(penumbra, 4), "f32"),
         size("penumbra", 1, bytes(penumbra, 4), "f32"),
+        // Bound in place of a buffer a pass does not read in this configuration (accumulation's
+        // surfaces without an own-surface clamp, the refill's history without verification), so
+        // the pass neither waits on nor counts the bytes it skips; two, since a pass binds each
+        // buffer once.
+        size("unread", 2, 16, "u32"),
     ]
 }
 

@@ -12,6 +12,9 @@
 //!   alignment differs between targets).
 //! - Float functions that differ between targets go through [`math`]; atomics through [`atomic`].
 #![no_std]
+// `math::rsqrt` emits GLSL.std.450 `InverseSqrt` by `asm!`, as spirv-std does for its own
+// extended instructions (the shader build runs on the pinned nightly).
+#![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 // The kernel table (`kernels::table`) is expanded by one recursive macro, a few steps per binding.
 #![recursion_limit = "512"]
 #![deny(unsafe_op_in_unsafe_fn)]

@@ -1,10 +1,16 @@
-//! Scalar math that must give the same bits on every target.
+//! Scalar math shared by every kernel, in the hardware's own forms.
 //!
-//! Transcendentals are evaluated here with plain `+ - * /` on both targets instead of calling the
-//! platform's `exp`/`log` (GLSL.std.450 on the GPU, libm on the CPU), whose results differ in the
-//! last bits. `sqrt` and `floor` are exact (correctly rounded) on both, so they map to the native
-//! instructions.
-//! `min`/`max`/`clamp` are written as comparisons so NaN handling is defined and identical.
+//! On the GPU the transcendentals are the native instructions (GLSL.std.450 `Exp2`, `Log2`,
+//! `InverseSqrt`), and drivers may fuse multiply-adds: bit-exactness across backends is not a
+//! goal (equivalence is held to declared tolerances). On the CPU `exp2` and `log2` are short
+//! polynomials of plain `+ - * /` and selects, because libm's calls stay scalar while these
+//! become vector code in the [`crate::lanes`] runners. Both forms are within a few ULP of the
+//! exact value over the ranges the kernels use.
+//!
+//! What every target keeps identical is the handling of the edges: `exp2` gives 0 for NaN and
+//! underflow and `f32::MAX` for overflow, `log2` gives `-f32::MAX` for 0, negatives and NaN, so a
+//! broken input becomes a zero weight on every backend rather than a NaN on one of them.
+//! `min`/`max`/`clamp` are written as comparisons so NaN handling is defined and the same.
 //!
 //! No function here returns a NaN or infinite *constant*: naga (wgpu's SPIR-V front end) rejects
 //! non-finite literals, so out-of-range results saturate to finite values or pass the input
@@ -118,7 +124,7 @@ pub fn floor(x: f32) -> f32 {
     }
 }
 
-/// `2^x`, relative error below 1e-7 over the normal range; 0 below -126 (and for NaN),
+/// `2^x`, relative error below 1e-6 over the normal range; 0 below -126 (and for NaN),
 /// `f32::MAX` from 128 up.
 ///
 /// Selects rather than early returns: every input takes the same steps, so a loop over
@@ -127,20 +133,7 @@ pub fn floor(x: f32) -> f32 {
 pub fn exp2(x: f32) -> f32 {
     let inside = x > -126.0 && x < 128.0;
     let xr = if inside { x } else { 0.0 };
-    let n = floor(xr);
-    // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347: degree-7 Taylor is exact to ~5e-9.
-    let y = (xr - n - 0.5) * core::f32::consts::LN_2;
-    let p = 1.0
-        + y * (1.0
-            + y * (0.5
-                + y * (1.0 / 6.0
-                    + y * (1.0 / 24.0
-                        + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
-    // 2^n without a float-to-int conversion (no vector form before AVX-512): n + 127 + 1.5·2^23
-    // is an integer below 2^24, exact, with n + 127 in its low mantissa bits; shifted into the
-    // exponent field, everything above them falls off.
-    let scale = f32::from_bits((n + (127.0 + 12_582_912.0)).to_bits() << 23);
-    let r = p * core::f32::consts::SQRT_2 * scale;
+    let r = exp2_normal(xr);
     // Also catches NaN: a weight of 0 is the safe answer for the filters.
     let outside = if x >= 128.0 { f32::MAX } else { 0.0 };
     if inside {
@@ -148,6 +141,31 @@ pub fn exp2(x: f32) -> f32 {
     } else {
         outside
     }
+}
+
+/// `2^x` for `-126 < x < 128`: the GPU's instruction.
+#[cfg(target_arch = "spirv")]
+#[inline]
+fn exp2_normal(x: f32) -> f32 {
+    Float::exp2(x)
+}
+
+/// `2^x` for `-126 < x < 128`: `2^n · 2^f` with a degree-6 polynomial for `2^f`.
+#[cfg(not(target_arch = "spirv"))]
+#[inline]
+fn exp2_normal(x: f32) -> f32 {
+    let n = floor(x);
+    // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347: degree-6 Taylor is within 1.3e-7.
+    let y = (x - n - 0.5) * core::f32::consts::LN_2;
+    let p = 1.0
+        + y * (1.0
+            + y * (0.5
+                + y * (1.0 / 6.0 + y * (1.0 / 24.0 + y * (1.0 / 120.0 + y * (1.0 / 720.0))))));
+    // 2^n without a float-to-int conversion (no vector form before AVX-512): n + 127 + 1.5·2^23
+    // is an integer below 2^24, exact, with n + 127 in its low mantissa bits; shifted into the
+    // exponent field, everything above them falls off.
+    let scale = f32::from_bits((n + (127.0 + 12_582_912.0)).to_bits() << 23);
+    p * (core::f32::consts::SQRT_2 * scale)
 }
 
 /// `e^x` through [`exp2`].
@@ -158,6 +176,7 @@ pub fn exp(x: f32) -> f32 {
 
 /// `log2(x)` for `x > 0` (normal or denormal); `-f32::MAX` for 0, negatives and NaN; `+Inf`
 /// for `+Inf`.
+#[inline]
 pub fn log2(x: f32) -> f32 {
     if !(x > 0.0) {
         return -f32::MAX;
@@ -165,6 +184,20 @@ pub fn log2(x: f32) -> f32 {
     if !is_finite(x) {
         return x;
     }
+    log2_positive(x)
+}
+
+/// `log2(x)` for finite `x > 0`: the GPU's instruction.
+#[cfg(target_arch = "spirv")]
+#[inline]
+fn log2_positive(x: f32) -> f32 {
+    Float::log2(x)
+}
+
+/// `log2(x)` for finite `x > 0`: exponent plus `2 atanh(t) / ln 2` of the mantissa.
+#[cfg(not(target_arch = "spirv"))]
+#[inline]
+fn log2_positive(x: f32) -> f32 {
     // Scale denormals into the normal range first.
     let (x, bias) = if x < MIN_NORMAL {
         (x * 16_777_216.0, 24.0)
@@ -186,14 +219,13 @@ pub fn log2(x: f32) -> f32 {
     e as f32 - bias + ln_m * core::f32::consts::LOG2_E
 }
 
-/// `x^y` for `x >= 0` (`0^y = 0` for `y > 0`, `x^0 = 1`).
+/// `x^y` for `x >= 0` (`0^y = 0` for `y > 0`, `x^0 = 1`, 0 for negative `x`); results below
+/// the normal range are 0 on every target (GPUs flush them anyway).
 ///
-/// Whole exponents up to 1024 of `x` in `(0, 1]` (the edge-stopping weights: `(n·m)^128` is
-/// evaluated for every filter tap) take square-and-multiply: a handful of multiplications instead
-/// of a log and an exp, exact to a few ulp, and with results below the normal range flushed to 0
-/// (as [`exp2`] does) so GPUs that flush denormals agree bit for bit. One check at the end
-/// suffices: every factor is at most 1 and the last square is always multiplied in, so the result
-/// is below the normal range whenever any intermediate value is.
+/// On the GPU `exp2(y · log2(x))`, two native instructions. On the CPU, whole exponents up to
+/// 1024 of `x` in `(0, 1]` (the edge-stopping weights: `(n·m)^128` is evaluated for every filter
+/// tap) take square-and-multiply, a handful of multiplications that vectorise where the
+/// polynomial pair would cost twenty; the rest goes through [`exp2`] and [`log2`].
 // Plain comparisons rather than `RangeInclusive::contains`: the same instructions on every target.
 #[allow(clippy::manual_range_contains)]
 #[inline]
@@ -204,26 +236,79 @@ pub fn pow(x: f32, y: f32) -> f32 {
     if x == 0.0 {
         return 0.0;
     }
+    #[cfg(not(target_arch = "spirv"))]
     if x > 0.0 && x <= 1.0 && y >= 1.0 && y <= 1024.0 && floor(y) == y {
-        let mut e = y as u32;
-        let mut base = x;
-        // Squares up to the lowest set bit, which starts the product (`1 · base`, exact).
-        while e & 1 == 0 {
-            base *= base;
-            e >>= 1;
-        }
-        let mut acc = base;
-        e >>= 1;
-        while e != 0 {
-            base *= base;
-            if e & 1 == 1 {
-                acc *= base;
-            }
-            e >>= 1;
-        }
-        return if acc < MIN_NORMAL { 0.0 } else { acc };
+        return pow_whole(x, y as u32);
     }
-    exp2(y * log2(x))
+    let r = exp2(y * log2(x));
+    if r < MIN_NORMAL {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// `x^e` for `x` in `(0, 1]` and `e >= 1` by square-and-multiply. One check at the end
+/// suffices: every factor is at most 1 and the last square is always multiplied in, so the
+/// result is below the normal range whenever any intermediate value is.
+#[cfg(not(target_arch = "spirv"))]
+#[inline]
+fn pow_whole(x: f32, mut e: u32) -> f32 {
+    let mut base = x;
+    // Squares up to the lowest set bit, which starts the product (`1 · base`, exact).
+    while e & 1 == 0 {
+        base *= base;
+        e >>= 1;
+    }
+    let mut acc = base;
+    e >>= 1;
+    while e != 0 {
+        base *= base;
+        if e & 1 == 1 {
+            acc *= base;
+        }
+        e >>= 1;
+    }
+    if acc < MIN_NORMAL {
+        0.0
+    } else {
+        acc
+    }
+}
+
+/// `1 / sqrt(x)`: the GPU's `InverseSqrt` (a reciprocal square-root unit), the CPU's division
+/// of a square root (both vector instructions there).
+#[inline]
+pub fn rsqrt(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        inverse_sqrt(x)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        1.0 / sqrt(x)
+    }
+}
+
+/// GLSL.std.450 `InverseSqrt` (instruction 32), which rust-gpu does not map from any libm call.
+#[cfg(target_arch = "spirv")]
+#[inline]
+fn inverse_sqrt(x: f32) -> f32 {
+    let mut result = 0.0f32;
+    // SAFETY: one extended instruction over a float; reads `x`, writes `result`.
+    unsafe {
+        core::arch::asm!(
+            "%glsl = OpExtInstImport \"GLSL.std.450\"",
+            "%float = OpTypeFloat 32",
+            "%x = OpLoad %float {x}",
+            // 32 = InverseSqrt
+            "%r = OpExtInst %float %glsl 32 %x",
+            "OpStore {result} %r",
+            x = in(reg) &x,
+            result = in(reg) &mut result,
+        );
+    }
+    result
 }
 
 /// Smallest positive normal f32.

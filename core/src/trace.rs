@@ -252,11 +252,18 @@ impl Hit {
     }
 }
 
-/// `v · (1 / |v|)` through [`math::sqrt`]. A zero vector gives NaN components, which callers that
-/// can see one test with [`math::is_finite`].
+/// `v · (1 / |v|)` through [`math::rsqrt`]. A zero vector gives NaN components, which callers
+/// that can see one test with [`math::is_finite`] (`InverseSqrt` of 0 is undefined, so 0 takes
+/// the division).
 #[inline]
 pub fn normalize(v: Vec3) -> Vec3 {
-    v * (1.0 / math::sqrt(v.dot(v)))
+    let d = v.dot(v);
+    let inv = if d > 0.0 {
+        math::rsqrt(d)
+    } else {
+        1.0 / math::sqrt(d)
+    };
+    v * inv
 }
 
 /// Per-ray constants of the box and triangle tests.

@@ -3,8 +3,8 @@
 //!
 //! `cargo run --release -- --check` rebuilds into the cache and fails if the result differs from the
 //! checked-in file (what CI runs). `--crate DIR --out FILE` builds another shader crate instead
-//! (e.g. one of another project that depends on `vrrt-core`) with the same toolchain, cache and
-//! post-pass, so it needs no codegen backend of its own. Run through `shaders-builder/build.sh`,
+//! (e.g. one of another project that depends on `vrrt-core`) with the same toolchain and cache,
+//! so it needs no codegen backend of its own. Run through `shaders-builder/build.sh`,
 //! which keeps the codegen backend and shader build outside the clone.
 
 use spirv_builder::{ModuleResult, SpirvBuilder, SpirvMetadata};
@@ -12,47 +12,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 const TOOLCHAIN: &str = "nightly-2026-08-15";
-
-/// Decorates every float add, subtract and multiply `NoContraction`.
-///
-/// rust-gpu emits none, so drivers may fuse `a * b + c` into one FMA (lavapipe does), and the
-/// GPU result then differs in the last bits from the CPU backend, which never fuses. Vulkan
-/// drivers must honour the decoration, which makes the kernels bit-exact across backends on
-/// lavapipe and as close as the hardware allows elsewhere.
-fn forbid_contraction(module: &[u8]) -> Vec<u8> {
-    const OP_DECORATE: u32 = 71;
-    const OP_MEMBER_DECORATE: u32 = 72;
-    const NO_CONTRACTION: u32 = 42;
-    // OpFAdd, OpFSub, OpFMul, OpVectorTimesScalar, OpDot: result id is the second operand.
-    const ARITHMETIC: [u32; 5] = [129, 131, 133, 142, 148];
-    let words: Vec<u32> = module
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    let mut results = Vec::new();
-    let mut first_annotation = None;
-    let mut i = 5;
-    while i < words.len() {
-        let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
-        assert!(count > 0 && i + count <= words.len(), "malformed SPIR-V at word {i}");
-        if (op == OP_DECORATE || op == OP_MEMBER_DECORATE) && first_annotation.is_none() {
-            first_annotation = Some(i);
-        }
-        if ARITHMETIC.contains(&op) {
-            results.push(words[i + 2]);
-        }
-        i += count;
-    }
-    let at = first_annotation.expect("module has decorations (bindings)");
-    let decorations = results.iter().flat_map(|&id| [(3 << 16) | OP_DECORATE, id, NO_CONTRACTION]);
-    let out: Vec<u32> = words[..at]
-        .iter()
-        .copied()
-        .chain(decorations)
-        .chain(words[at..].iter().copied())
-        .collect();
-    out.iter().flat_map(|w| w.to_le_bytes()).collect()
-}
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -88,7 +47,9 @@ fn main() -> ExitCode {
         eprintln!("expected a single SPIR-V module");
         return ExitCode::FAILURE;
     };
-    let fresh = forbid_contraction(&std::fs::read(&path).expect("read built SPIR-V"));
+    // As built: no `NoContraction` decorations, so drivers may fuse multiply-adds (equivalence
+    // across backends is held to declared tolerances, not bits).
+    let fresh = std::fs::read(&path).expect("read built SPIR-V");
     let entries: Vec<_> = built.entry_points.iter().map(String::as_str).collect();
     println!("built {} bytes, entry points: {}", fresh.len(), entries.join(", "));
 

@@ -1,8 +1,7 @@
 //! Equivalence cases of the load balancer (`balance`, `apply`), split off to keep `cases` short.
 
-use crate::cases::{
-    groups, histories, value, EXTREME_LENGTHS, FLOATS, INTS, PAYLOAD, PLANES, SAMPLE,
-};
+use crate::cases::{groups, histories, value, EXTREME_LENGTHS, PLANES};
+use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -137,9 +136,13 @@ pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&decisions, BALANCE),
             BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
-            BufferSpec::from_pod(&vec![0u32; 2 * n], INTS).unordered(),
-            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),
-            BufferSpec::from_pod(&samples, SAMPLE),
+            // Which pixels trace, and how many rays, compares a blue-noise threshold with a
+            // float rate: decided.
+            BufferSpec::from_pod(&vec![0u32; 2 * n], INTS)
+                .unordered()
+                .decided(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
+            BufferSpec::from_pod(&samples, SAMPLE).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::APPLY, w, h, p.groups),
@@ -192,8 +195,11 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&histories(rng, n, EXTREME_LENGTHS), PAYLOAD),
             BufferSpec::from_pod(&changes, FLOATS),
-            BufferSpec::from_pod(&vec![0u32; n], INTS).unordered(),
-            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS),
+            // The lists follow `λ > threshold` and the verification's z-score: decided.
+            BufferSpec::from_pod(&vec![0u32; n], INTS)
+                .unordered()
+                .decided(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),

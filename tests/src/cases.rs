@@ -3,7 +3,8 @@
 //! workgroup size.
 
 use crate::inputs::{self, Images};
-use crate::{BufferSpec, Case, Word};
+use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
+use crate::{BufferSpec, Case, Tolerance};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use vrrt_core::glam::Vec3;
@@ -17,35 +18,100 @@ use vrrt_core::surface::{Surface, NO_INSTANCE};
 /// A case generator: `(rng, width, height) -> Case`.
 pub type Generator = fn(&mut Pcg32, u32, u32) -> Case;
 
-/// Every kernel's generator. Adding a kernel adds one line here.
-pub static TABLE: &[(&str, Generator)] = &[
-    ("accumulate", accumulate_case),
-    ("detect", detect_case),
-    ("atrous", crate::filter_cases::atrous_case),
-    ("classify", crate::filter_cases::classify_case),
-    ("count_buckets", buckets_case),
-    ("reproject", reproject_case),
-    ("variance", crate::filter_cases::variance_case),
-    ("balance", crate::balance_cases::balance_case),
-    ("apply", crate::balance_cases::apply_case),
-    ("refill", crate::balance_cases::refill_case),
-    ("refill_cap", crate::balance_cases::refill_cap_case),
-    ("fill", fill_case),
-    ("copy", copy_case),
-    ("gbuffer", crate::trace_cases::gbuffer_case),
-    ("raygen_ao", crate::trace_cases::raygen_ao_case),
-    ("raygen_shadow", crate::trace_cases::raygen_shadow_case),
-    ("penumbra_guide", crate::trace_cases::penumbra_guide_case),
-    ("gradient_project", crate::gradient_cases::project_case),
-    ("gradient_ao", crate::gradient_cases::ao_case),
-    ("gradient_shadow", crate::gradient_cases::shadow_case),
-    ("gradient_atrous", crate::gradient_cases::atrous_case),
-    ("raygen_reflect", crate::reflect_cases::raygen_case),
-    ("reflect_tiles", crate::reflect_cases::tiles_case),
-    ("reflect_motion", crate::reflect_cases::motion_case),
-    ("reflect_reuse", crate::reflect_cases::reuse_case),
-    ("reflect_guide", crate::reflect_cases::guide_case),
+/// Every kernel's generator and the tolerance its results are held to. Adding a kernel adds one
+/// line here.
+pub static TABLE: &[(&str, Generator, Tolerance)] = &[
+    ("accumulate", accumulate_case, DECIDED),
+    ("detect", detect_case, Tolerance::DEFAULT),
+    (
+        "atrous",
+        crate::filter_cases::atrous_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "classify",
+        crate::filter_cases::classify_case,
+        Tolerance::DEFAULT,
+    ),
+    ("count_buckets", buckets_case, Tolerance::DEFAULT),
+    ("reproject", reproject_case, Tolerance::DEFAULT),
+    ("variance", crate::filter_cases::variance_case, DECIDED),
+    (
+        "balance",
+        crate::balance_cases::balance_case,
+        Tolerance::DEFAULT,
+    ),
+    ("apply", crate::balance_cases::apply_case, DECIDED),
+    ("refill", crate::balance_cases::refill_case, DECIDED),
+    (
+        "refill_cap",
+        crate::balance_cases::refill_cap_case,
+        Tolerance::DEFAULT,
+    ),
+    ("fill", fill_case, Tolerance::DEFAULT),
+    ("copy", copy_case, Tolerance::DEFAULT),
+    ("gbuffer", crate::trace_cases::gbuffer_case, DECIDED),
+    (
+        "raygen_ao",
+        crate::trace_cases::raygen_ao_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "raygen_shadow",
+        crate::trace_cases::raygen_shadow_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "penumbra_guide",
+        crate::trace_cases::penumbra_guide_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "gradient_project",
+        crate::gradient_cases::project_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "gradient_ao",
+        crate::gradient_cases::ao_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "gradient_shadow",
+        crate::gradient_cases::shadow_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "gradient_atrous",
+        crate::gradient_cases::atrous_case,
+        Tolerance::DEFAULT,
+    ),
+    ("raygen_reflect", crate::reflect_cases::raygen_case, DECIDED),
+    (
+        "reflect_tiles",
+        crate::reflect_cases::tiles_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "reflect_motion",
+        crate::reflect_cases::motion_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "reflect_reuse",
+        crate::reflect_cases::reuse_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "reflect_guide",
+        crate::reflect_cases::guide_case,
+        Tolerance::DEFAULT,
+    ),
 ];
+
+/// Cases whose outputs a float comparison decides (the buffers marked `decided`, each with its
+/// reason): 1% of those elements may differ; every other word is held to the default.
+const DECIDED: Tolerance = Tolerance::deciding(0.01);
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
 pub const SIZES: &[(u32, u32)] = &[(1, 1), (37, 19), (130, 67)];
@@ -124,13 +190,6 @@ pub(crate) fn groups(kernel: &KernelDesc, w: u32, h: u32, planes: u32) -> [u32; 
     let [x, y, z] = kernel.workgroup_size;
     [w.div_ceil(x), h.div_ceil(y), planes.div_ceil(z)]
 }
-
-/// `PackedPayload`: binary16 fields, compared as the words they are.
-pub(crate) const PAYLOAD: &[Word] = &[Word::U32, Word::U32];
-/// `PackedSample`: binary16 fields, compared as the words they are.
-pub(crate) const SAMPLE: &[Word] = &[Word::U32, Word::U32];
-pub(crate) const FLOATS: &[Word] = &[Word::F32];
-pub(crate) const INTS: &[Word] = &[Word::U32];
 
 /// History lengths at the extremes: 0, fractional, at and past the clamp.
 pub(crate) const EXTREME_LENGTHS: &[f32] = &[0.0, 0.5, 1.0, 63.5, 64.0, 70.0];
@@ -221,7 +280,9 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ),
         kernel: &vrrt_core::kernels::ACCUMULATE,
         buffers: vec![
-            BufferSpec::from_pod(&history, PAYLOAD),
+            // Whether history is dropped compares `λ` and the rays' z-score with thresholds:
+            // decided.
+            BufferSpec::from_pod(&history, PAYLOAD).decided(),
             BufferSpec::from_pod(&samples, SAMPLE),
             BufferSpec::from_pod(&changes, FLOATS),
             BufferSpec::from_pod(&[0u32; payload::COUNTERS_LEN as usize], INTS),
@@ -459,7 +520,7 @@ mod tests {
     fn every_kernel_has_a_case() {
         for kernel in vrrt_core::kernels::ALL {
             assert!(
-                TABLE.iter().any(|(name, _)| *name == kernel.entry),
+                TABLE.iter().any(|(name, _, _)| *name == kernel.entry),
                 "kernel `{}` has no equivalence case",
                 kernel.entry
             );

@@ -1,10 +1,9 @@
 //! Equivalence cases of the spatial filter (`variance`, `classify`, `atrous`), split off to keep
 //! `cases` short.
 
-use crate::cases::{
-    groups, histories, surfaces, value, FLOATS, INTS, PAYLOAD, PLANES, YOUNG_LENGTHS,
-};
+use crate::cases::{groups, histories, surfaces, value, PLANES, YOUNG_LENGTHS};
 use crate::inputs::{self, Images};
+use crate::layouts::{FILTERED, FLOATS, INTS, PAYLOAD};
 use crate::{BufferSpec, Case};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -46,9 +45,12 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             g.normal_roughness(),
             inputs::view(&view),
             BufferSpec::from_pod(&guide, FLOATS),
-            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
+            // A weight sum at the edge of the normal range (hostile inputs) chooses between the
+            // spatial and the temporal estimate, and a GPU that flushes subnormals to zero
+            // chooses the other: decided, and the tile maxima with them.
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], FILTERED).decided(),
             // Tile words, zeroed as the host does, with a few left high to stay the maximum.
-            BufferSpec::from_pod(&tiles, INTS),
+            BufferSpec::from_pod(&tiles, INTS).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::VARIANCE, w, h, PLANES),
@@ -135,14 +137,14 @@ pub(crate) fn atrous_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ),
         kernel: &vrrt_core::kernels::ATROUS,
         buffers: vec![
-            BufferSpec::from_pod(&input, INTS),
+            BufferSpec::from_pod(&input, FILTERED),
             g.depth(),
             g.normal_roughness(),
             inputs::view(&view),
             BufferSpec::from_pod(&tiles, INTS),
             BufferSpec::from_pod(&guide, FLOATS),
             BufferSpec::from_pod(&penumbra, FLOATS),
-            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], INTS),
+            BufferSpec::from_pod(&vec![PackedFiltered::default(); n], FILTERED),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::ATROUS, w, h, PLANES),

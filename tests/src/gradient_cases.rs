@@ -4,6 +4,7 @@
 
 use crate::cases::{value, PLANES};
 use crate::inputs;
+use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::trace_cases::{frame_view, images};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
@@ -17,10 +18,6 @@ use vrrt_scene::FrameGeometry;
 
 const F: Word = Word::F32;
 const U: Word = Word::U32;
-const FLOATS: &[Word] = &[F];
-const INTS: &[Word] = &[U];
-const PAYLOAD: &[Word] = &[U, U];
-const SAMPLE: &[Word] = &[U, U];
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
 

@@ -5,9 +5,12 @@
 //!
 //! 1. a [`Case`] is a kernel plus generated input buffers, parameters and a dispatch size;
 //! 2. [`run_case`] runs it on any [`Executor`];
-//! 3. [`compare`] compares the results word by word — integers exactly, floats by ULP distance.
+//! 3. [`compare`] compares the results word by word within the case's [`Tolerance`]: integers
+//!    exactly, f32 by relative error or ULP, binary16 halves as halves, and the elements a float
+//!    comparison decides (ray counts, work lists) up to a named fraction.
 //!
-//! [`cases::TABLE`] lists one generator per kernel: adding a kernel adds one line there.
+//! [`cases::TABLE`] lists one generator per kernel, with its tolerance: adding a kernel adds one
+//! line there.
 
 mod balance_cases;
 pub mod cases;
@@ -23,10 +26,74 @@ use vrrt_core::plan::{Executor, Groups, KernelDesc, Pass};
 /// How to compare one 4-byte word of a buffer.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Word {
-    /// IEEE f32: compared by ULP distance.
+    /// IEEE f32: within the case's [`Tolerance::rel`] or [`Tolerance::ulp`].
     F32,
     /// Integer: compared exactly.
     U32,
+    /// Two binary16 halves (`low | high << 16`), each within [`Tolerance::half_ulps`].
+    Half2,
+    /// A binary16 in the low half, a 16-bit integer (exact) in the high half.
+    HalfU16,
+    /// A 16-bit integer (exact) in the low half, a binary16 in the high half.
+    U16Half,
+}
+
+/// The word layouts of the packed types the kernels store, shared by every case.
+pub mod layouts {
+    use super::Word::{self, *};
+    /// `PackedPayload`: the moments (binary16 pair), the history length (binary16) with the rng
+    /// index (16 bits).
+    pub const PAYLOAD: &[Word] = &[Half2, HalfU16];
+    /// `PackedSample`: the moments (binary16 pair), the ray count (16 bits) with the first ray's
+    /// value (binary16).
+    pub const SAMPLE: &[Word] = &[Half2, U16Half];
+    /// `PackedFiltered`: value and variance, binary16.
+    pub const FILTERED: &[Word] = &[Half2];
+    /// f32 words.
+    pub const FLOATS: &[Word] = &[F32];
+    /// Integer words.
+    pub const INTS: &[Word] = &[U32];
+}
+
+/// What a case allows between two backends. Hardware GPUs evaluate `exp2`, `log2`, `pow` and
+/// `rsqrt` natively and fuse multiply-adds, so floats are held to a tolerance, not to bits.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Tolerance {
+    /// f32 words: largest relative difference `|a − b| / max(|a|, |b|)`.
+    pub rel: f64,
+    /// f32 words: or at most this many ULP apart (what matters near zero, where relative
+    /// differences are large and meaningless).
+    pub ulp: u32,
+    /// Binary16 halves: at most this many half-ULPs apart.
+    pub half_ulps: u32,
+    /// Buffers marked [`BufferSpec::decided`]: the largest fraction of their elements that may
+    /// differ beyond the tolerances above.
+    pub decided: f64,
+}
+
+impl Tolerance {
+    /// The default: 1e-4 relative or 64 ULP for f32 (hardware GPUs' transcendentals and
+    /// division), one half-ULP for binary16 (a rounding boundary an f32 ULP away), decided
+    /// integers exact.
+    pub const DEFAULT: Tolerance = Tolerance {
+        rel: 1e-4,
+        ulp: 64,
+        half_ulps: 1,
+        decided: 0.0,
+    };
+
+    /// [`Self::DEFAULT`] with `fraction` of the decided words allowed to differ.
+    pub const fn deciding(fraction: f64) -> Tolerance {
+        Tolerance {
+            decided: fraction,
+            ..Self::DEFAULT
+        }
+    }
+
+    /// [`Self::DEFAULT`] with `half_ulps` for the binary16 halves.
+    pub const fn halves(self, half_ulps: u32) -> Tolerance {
+        Tolerance { half_ulps, ..self }
+    }
 }
 
 /// One binding of a case: initial contents and how its words compare.
@@ -39,6 +106,10 @@ pub struct BufferSpec {
     /// Compare as a multiset of `u32` words: for lists filled through an atomic counter, whose
     /// order legitimately differs between backends and runs.
     pub unordered: bool,
+    /// A float comparison inside the kernel decides these elements (ray counts, work lists,
+    /// history drops, the GGX acceptance): an input one ULP away may flip one, so up to
+    /// [`Tolerance::decided`] of them may differ.
+    pub decided: bool,
 }
 
 impl BufferSpec {
@@ -48,12 +119,19 @@ impl BufferSpec {
             data: bytemuck::cast_slice(elems).to_vec(),
             layout,
             unordered: false,
+            decided: false,
         }
     }
 
     /// The same buffer, compared without regard to order.
     pub fn unordered(mut self) -> Self {
         self.unordered = true;
+        self
+    }
+
+    /// The same buffer, its elements decided by float comparisons ([`Self::decided`]).
+    pub fn decided(mut self) -> Self {
+        self.decided = true;
         self
     }
 }
@@ -118,7 +196,26 @@ pub fn ulp_distance(a: u32, b: u32) -> u32 {
         .min(u32::MAX as u64) as u32
 }
 
-/// The first differing word of a comparison.
+/// Distance in half-ULPs between two binary16 codes (0 for identical codes or two NaNs;
+/// `u32::MAX` when only one is NaN).
+pub fn half_ulp_distance(a: u16, b: u16) -> u32 {
+    let nan = |h: u16| (h & 0x7c00) == 0x7c00 && (h & 0x03ff) != 0;
+    match (nan(a), nan(b)) {
+        (true, true) => return 0,
+        (true, false) | (false, true) => return u32::MAX,
+        _ => {}
+    }
+    let ordered = |h: u16| -> i32 {
+        if h & 0x8000 != 0 {
+            -((h & 0x7fff) as i32)
+        } else {
+            h as i32
+        }
+    };
+    (ordered(a) - ordered(b)).unsigned_abs()
+}
+
+/// The first word of a comparison outside its tolerance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Difference {
     /// Binding index.
@@ -136,15 +233,23 @@ pub struct Difference {
 pub struct Report {
     /// Words compared.
     pub words: usize,
-    /// Integer words that differ.
+    /// Words outside the tolerance, outside decided buffers: any fails the case.
+    pub failures: usize,
+    /// Integer words (or 16-bit integer halves) that differ.
     pub int_mismatches: usize,
-    /// Float words that differ in any bit.
+    /// Float words (f32 or binary16) that differ in any bit.
     pub float_mismatches: usize,
-    /// Largest float ULP distance.
+    /// Elements of decided buffers compared.
+    pub decided_elements: usize,
+    /// Elements of decided buffers with a word outside the tolerance.
+    pub decided_mismatches: usize,
+    /// Largest f32 ULP distance.
     pub max_ulp: u32,
-    /// Largest float relative difference `|a-b| / max(|a|,|b|)` over differing finite words.
+    /// Largest f32 relative difference over differing words (∞ where one is not finite).
     pub max_rel: f64,
-    /// First differing word, if any.
+    /// Largest binary16 distance in half-ULPs.
+    pub max_half_ulp: u32,
+    /// First word outside the tolerance outside decided buffers, if any.
     pub first: Option<Difference>,
 }
 
@@ -153,51 +258,182 @@ impl Report {
     pub fn is_exact(&self) -> bool {
         self.int_mismatches == 0 && self.float_mismatches == 0
     }
-}
 
-/// Compares `got` with `expected` buffer by buffer using each binding's word layout.
-pub fn compare(case: &Case, expected: &[Vec<u32>], got: &[Vec<u32>]) -> Report {
-    let mut r = Report::default();
-    for (binding, ((spec, e), g)) in case.buffers.iter().zip(expected).zip(got).enumerate() {
-        let sorted = |v: &[u32]| {
-            let mut v = v.to_vec();
-            v.sort_unstable();
-            v
-        };
-        let (e, g) = if spec.unordered {
-            (sorted(e), sorted(g))
+    /// Fraction of the decided elements that differ (0 without any).
+    pub fn decided_fraction(&self) -> f64 {
+        if self.decided_elements == 0 {
+            0.0
         } else {
-            (e.clone(), g.clone())
+            self.decided_mismatches as f64 / self.decided_elements as f64
+        }
+    }
+
+    /// True when every word is within `tol`.
+    pub fn within(&self, tol: &Tolerance) -> bool {
+        self.failures == 0 && self.decided_fraction() <= tol.decided
+    }
+
+    fn f32_word(&mut self, a: u32, b: u32, tol: &Tolerance) -> bool {
+        self.float_mismatches += 1;
+        let ulp = ulp_distance(a, b);
+        self.max_ulp = self.max_ulp.max(ulp);
+        let (fa, fb) = (f32::from_bits(a) as f64, f32::from_bits(b) as f64);
+        let rel = if fa.is_finite() && fb.is_finite() {
+            (fa - fb).abs() / fa.abs().max(fb.abs())
+        } else {
+            f64::INFINITY
         };
-        for (word, (&a, &b)) in e.iter().zip(&g).enumerate() {
-            r.words += 1;
-            let both_nan = f32::from_bits(a).is_nan() && f32::from_bits(b).is_nan();
-            if a == b || (both_nan && spec.layout[word % spec.layout.len()] == Word::F32) {
-                continue;
+        self.max_rel = self.max_rel.max(rel);
+        ulp <= tol.ulp || rel <= tol.rel
+    }
+
+    fn half(&mut self, a: u32, b: u32, tol: &Tolerance) -> bool {
+        let (a, b) = (a as u16, b as u16);
+        if a == b {
+            return true;
+        }
+        self.float_mismatches += 1;
+        let d = half_ulp_distance(a, b);
+        self.max_half_ulp = self.max_half_ulp.max(d);
+        d <= tol.half_ulps
+    }
+
+    fn int16(&mut self, a: u32, b: u32) -> bool {
+        let same = a as u16 == b as u16;
+        if !same {
+            self.int_mismatches += 1;
+        }
+        same
+    }
+
+    /// Compares one word of kind `kind`: whether it is within `tol`.
+    fn word(&mut self, kind: Word, a: u32, b: u32, tol: &Tolerance) -> bool {
+        self.words += 1;
+        if a == b {
+            return true;
+        }
+        let (hi_a, hi_b) = (a >> 16, b >> 16);
+        match kind {
+            Word::U32 => {
+                self.int_mismatches += 1;
+                false
             }
-            match spec.layout[word % spec.layout.len()] {
-                Word::U32 => r.int_mismatches += 1,
-                Word::F32 => {
-                    r.float_mismatches += 1;
-                    r.max_ulp = r.max_ulp.max(ulp_distance(a, b));
-                    let (fa, fb) = (f32::from_bits(a) as f64, f32::from_bits(b) as f64);
-                    if fa.is_finite() && fb.is_finite() {
-                        let rel = (fa - fb).abs() / fa.abs().max(fb.abs());
-                        r.max_rel = r.max_rel.max(rel);
-                    } else {
-                        r.max_rel = f64::INFINITY;
-                    }
-                }
+            Word::F32 => {
+                let both_nan = f32::from_bits(a).is_nan() && f32::from_bits(b).is_nan();
+                both_nan || self.f32_word(a, b, tol)
             }
-            if r.first.is_none() {
-                r.first = Some(Difference {
+            Word::Half2 => self.half(a, b, tol) & self.half(hi_a, hi_b, tol),
+            Word::HalfU16 => self.half(a, b, tol) & self.int16(hi_a, hi_b),
+            Word::U16Half => self.int16(a, b) & self.half(hi_a, hi_b, tol),
+        }
+    }
+
+    /// Compares one element (one repetition of `spec.layout`) starting at word `at`.
+    fn element(
+        &mut self,
+        spec: &BufferSpec,
+        binding: usize,
+        at: usize,
+        (e, g): (&[u32], &[u32]),
+        tol: &Tolerance,
+    ) {
+        let mut ok = true;
+        for (i, (&a, &b)) in e.iter().zip(g).enumerate() {
+            let word_ok = self.word(spec.layout[i], a, b, tol);
+            ok &= word_ok;
+            if !word_ok && !spec.decided {
+                self.failures += 1;
+                self.first.get_or_insert(Difference {
                     binding,
-                    word,
+                    word: at + i,
                     expected: a,
                     got: b,
                 });
             }
         }
+        if spec.decided {
+            self.decided_elements += 1;
+            self.decided_mismatches += usize::from(!ok);
+        }
+    }
+}
+
+/// The words of `e` missing from `g`, as multisets (for lists filled through an atomic counter,
+/// whose order legitimately differs between backends and runs).
+fn unmatched(e: &[u32], g: &[u32]) -> usize {
+    let sorted = |v: &[u32]| {
+        let mut v = v.to_vec();
+        v.sort_unstable();
+        v
+    };
+    let (e, g) = (sorted(e), sorted(g));
+    let (mut i, mut j, mut missing) = (0, 0, 0);
+    while i < e.len() {
+        if j < g.len() && e[i] == g[j] {
+            i += 1;
+            j += 1;
+        } else if j < g.len() && g[j] < e[i] {
+            j += 1;
+        } else {
+            missing += 1;
+            i += 1;
+        }
+    }
+    missing
+}
+
+/// Compares `got` with `expected` buffer by buffer using each binding's word layout and `tol`.
+pub fn compare(case: &Case, tol: &Tolerance, expected: &[Vec<u32>], got: &[Vec<u32>]) -> Report {
+    let mut r = Report::default();
+    for (binding, ((spec, e), g)) in case.buffers.iter().zip(expected).zip(got).enumerate() {
+        if spec.unordered {
+            // Lists of integers, compared as multisets of words.
+            let missing = unmatched(e, g);
+            r.words += e.len();
+            r.int_mismatches += missing;
+            if spec.decided {
+                r.decided_elements += e.len();
+                r.decided_mismatches += missing;
+            } else if missing > 0 {
+                r.failures += missing;
+                r.first.get_or_insert(Difference {
+                    binding,
+                    word: 0,
+                    expected: e.len() as u32,
+                    got: missing as u32,
+                });
+            }
+            continue;
+        }
+        let n = spec.layout.len();
+        for (k, pair) in e.chunks(n).zip(g.chunks(n)).enumerate() {
+            r.element(spec, binding, k * n, pair, tol);
+        }
+    }
+    r
+}
+
+/// Compares two word arrays of one `layout` within `tol` (every word must be within it): for
+/// tests that read buffers back themselves, outside a [`Case`].
+pub fn compare_words(
+    layout: &'static [Word],
+    tol: &Tolerance,
+    expected: &[u32],
+    got: &[u32],
+) -> Report {
+    let spec = BufferSpec {
+        data: Vec::new(),
+        layout,
+        unordered: false,
+        decided: false,
+    };
+    let mut r = Report::default();
+    let n = layout.len();
+    for (k, pair) in expected.chunks(n).zip(got.chunks(n)).enumerate() {
+        r.element(&spec, 0, k * n, pair, tol);
+    }
+    if expected.len() != got.len() {
+        r.failures += 1;
     }
     r
 }
@@ -229,16 +465,55 @@ mod tests {
     }
 
     #[test]
+    fn halves_compare_as_halves() {
+        let one: u16 = 0x3c00; // 1.0
+        assert_eq!(half_ulp_distance(one, one + 1), 1);
+        assert_eq!(half_ulp_distance(0x0001, 0x8001), 2);
+        assert_eq!(half_ulp_distance(0x7e00, 0x7e01), 0);
+        assert_eq!(half_ulp_distance(0x7e00, one), u32::MAX);
+        let tol = Tolerance::DEFAULT;
+        let mut r = Report::default();
+        let word = |lo: u16, hi: u16| lo as u32 | (hi as u32) << 16;
+        assert!(r.word(Word::Half2, word(one, one), word(one + 1, one - 1), &tol));
+        assert!(!r.word(Word::Half2, word(one, one), word(one + 2, one), &tol));
+        // The integer half of a mixed word is exact.
+        assert!(!r.word(Word::HalfU16, word(one, 7), word(one, 8), &tol));
+        assert!(r.word(Word::U16Half, word(7, one), word(7, one + 1), &tol));
+        assert_eq!(r.max_half_ulp, 2);
+    }
+
+    #[test]
+    fn decided_buffers_allow_their_fraction() {
+        let spec = BufferSpec::from_pod(&[0u32; 4], layouts::INTS).decided();
+        let case = Case {
+            name: "decided".into(),
+            kernel: &vrrt_core::kernels::FILL,
+            buffers: vec![spec],
+            params: vec![],
+            groups: [1, 1, 1],
+        };
+        let e = vec![vec![1, 2, 3, 4]];
+        let g = vec![vec![1, 2, 3, 5]];
+        let r = compare(&case, &Tolerance::DEFAULT, &e, &g);
+        assert_eq!((r.decided_elements, r.decided_mismatches), (4, 1));
+        assert!(!r.within(&Tolerance::DEFAULT));
+        assert!(r.within(&Tolerance::deciding(0.25)));
+        assert!(!r.within(&Tolerance::deciding(0.2)));
+    }
+
+    #[test]
     fn compare_detects_a_perturbed_word() {
         let case = cases::TABLE[0].1(&mut cases::rng(1), 9, 7);
         let mut exec = vrrt_cpu::CpuExecutor::new();
         let a = run_case(&mut exec, &case).unwrap();
         let mut b = a.clone();
-        assert!(compare(&case, &a, &b).is_exact());
+        let tol = Tolerance::DEFAULT;
+        assert!(compare(&case, &tol, &a, &b).is_exact());
         let last = b.len() - 1;
-        b[last][0] ^= 1;
-        let r = compare(&case, &a, &b);
-        assert!(!r.is_exact());
+        // Far outside any tolerance: the sign bit of the first word.
+        b[last][0] ^= 0x8000_0000;
+        let r = compare(&case, &tol, &a, &b);
+        assert!(!r.is_exact() && !r.within(&tol), "{r:?}");
         assert_eq!(r.first.unwrap().binding, last);
     }
 }

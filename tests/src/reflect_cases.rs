@@ -3,8 +3,8 @@
 //! ray records mixing this frame's, stale and empty ones.
 
 use crate::inputs::{self, Images};
+use crate::layouts::{FLOATS, PAYLOAD, SAMPLE};
 use crate::trace_cases::{frame_view, geometry_buffers, room_frame, surfaces, WorkList};
-use crate::trace_cases::{FLOATS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -139,8 +139,10 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             nodes,
             tris,
             BufferSpec::from_pod(&lights, FLOATS),
-            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE),
-            BufferSpec::from_pod(&vec![RayHit::default(); (w * h) as usize], HIT),
+            // The GGX sampler accepts or rejects each try by a float comparison: a one-ULP input
+            // difference may pick another direction, and the sample and hit with it.
+            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE).decided(),
+            BufferSpec::from_pod(&vec![RayHit::default(); (w * h) as usize], HIT).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: list.groups,

@@ -3,6 +3,7 @@
 //! edges, thin poles and nothing at all.
 
 use crate::inputs::{self, Images};
+use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -21,9 +22,6 @@ const U: Word = Word::U32;
 const NODE: &[Word] = &[F, F, F, U, F, F, F, U];
 /// `Triangle`: nine coordinates, then the instance id.
 const TRIANGLE: &[Word] = &[F, F, F, F, F, F, F, F, F, U];
-pub(crate) const FLOATS: &[Word] = &[F];
-const INTS: &[Word] = &[U];
-pub(crate) const SAMPLE: &[Word] = &[U, U];
 
 /// A random frame of the animated room.
 pub fn room_frame(rng: &mut Pcg32) -> FrameGeometry {
@@ -106,9 +104,13 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&frame.geometry.normals, FLOATS),
             BufferSpec::from_pod(&frame.instances, FLOATS),
             BufferSpec::from_pod(&vec![0f32; (w * h) as usize], FLOATS),
-            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS),
-            BufferSpec::from_pod(&vec![[0u32; 2]; (w * h) as usize], &[U, U]),
-            BufferSpec::from_pod(&vec![[0u32; 2]; (w * h) as usize], &[U, U]),
+            // Octahedral codes round a normalised float normal to 11 bits: decided.
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], INTS).decided(),
+            BufferSpec::from_pod(
+                &vec![[0u32; 2]; (w * h) as usize],
+                &[Word::Half2, Word::Half2],
+            ),
+            BufferSpec::from_pod(&vec![[0u32; 2]; (w * h) as usize], &[U, U]).decided(),
         ],
         params: bytemuck::bytes_of(&frame.gbuffer_params(w, h)).to_vec(),
         groups: groups(&vrrt_core::kernels::GBUFFER, w, h, 1),
@@ -187,8 +189,6 @@ impl WorkList {
         ]
     }
 }
-
-pub(crate) const PAYLOAD: &[Word] = &[U, U];
 
 /// `raygen_ao`: AO rays from the room's G-buffer over a work list, two planes.
 pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {

@@ -1,10 +1,10 @@
-//! The comparison harness of the ash-vs-CPU equivalence tests (inputs, launches, bit checks).
+//! The comparison harness of the ash-vs-CPU equivalence tests (inputs, launches, tolerance checks).
 
 use bytemuck::Pod;
 use vrrt_ash::AshExecutor;
-use vrrt_core::payload::{Filtered, PackedFiltered};
 use vrrt_core::plan::{BufferId, Executor, KernelDesc, Pass};
 use vrrt_cpu::CpuExecutor;
+use vrrt_tests::{compare_words, Tolerance, Word};
 
 /// xorshift32: deterministic "random" inputs.
 pub struct Rng(pub u32);
@@ -39,73 +39,24 @@ pub fn read<E: Executor, T: Pod>(ex: &mut E, b: BufferId, len: usize) -> Vec<T> 
     out
 }
 
-/// Distance in units in the last place between two f32 bit patterns (0 for +0/-0).
-fn ulp(a: u32, b: u32) -> u32 {
-    let key = |x: u32| {
-        if x & 0x8000_0000 != 0 {
-            0x8000_0000 - (x & 0x7fff_ffff)
-        } else {
-            0x8000_0000 + x
-        }
-    };
-    key(a).abs_diff(key(b))
-}
-
-/// Whether the embedded module decorates float arithmetic `NoContraction`. Without it, drivers
-/// may fuse `a * b + c` into an FMA (lavapipe does), so float results can differ from the CPU by a
-/// few ULP; with it, lavapipe is bit-exact.
-fn module_forbids_contraction() -> bool {
-    let bytes = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/vrrt.spv"));
-    let words: Vec<u32> = bytes
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    let mut i = 5;
-    while i < words.len() {
-        let (op, n) = (words[i] & 0xffff, (words[i] >> 16) as usize);
-        // OpDecorate %id NoContraction
-        if op == 71 && n >= 3 && words[i + 2] == 42 {
-            return true;
-        }
-        i += n.max(1);
-    }
-    false
-}
-
-/// Integer words must match exactly; float words bit-exactly when `exact_floats`, else within
-/// `max_ulp` (reported).
-pub fn assert_bits<T: Pod + std::fmt::Debug>(
+/// Asserts that `gpu` matches `cpu` within `tol`, word by word in `layout`
+/// (`vrrt_tests::compare_words`): integers exactly, f32 by relative error or ULP, binary16 halves
+/// as halves. The GPU's native transcendentals and fused multiply-adds leave the last bits free.
+pub fn assert_within<T: Pod>(
     what: &str,
     gpu: &[T],
     cpu: &[T],
-    floats: bool,
-    max_ulp: u32,
+    layout: &'static [Word],
+    tol: &Tolerance,
 ) {
     let (g, c): (&[u32], &[u32]) = (bytemuck::cast_slice(gpu), bytemuck::cast_slice(cpu));
     assert_eq!(g.len(), c.len());
-    let exact = !floats || module_forbids_contraction();
-    let diff = g.iter().zip(c).filter(|(a, b)| a != b).count();
-    let worst = g.iter().zip(c).map(|(&a, &b)| ulp(a, b)).max().unwrap_or(0);
+    let r = compare_words(layout, tol, c, g);
     println!(
-        "{what}: {diff} of {} words differ, max {worst} ULP",
-        g.len()
+        "{what}: {} int and {} float words of {} differ (max {} ULP, {:.2e} relative, {} half-ULPs)",
+        r.int_mismatches, r.float_mismatches, r.words, r.max_ulp, r.max_rel, r.max_half_ulp
     );
-    let limit = if exact { 0 } else { max_ulp };
-    if (exact && diff > 0) || worst > limit {
-        let i = g.iter().zip(c).position(|(a, b)| a != b).unwrap() * 4 / std::mem::size_of::<T>();
-        panic!(
-            "{what}: {diff} words differ (max {worst} ULP, allowed {limit}); first element {i}: gpu {:?} cpu {:?}",
-            gpu[i], cpu[i]
-        );
-    }
-    if !exact && diff > 0 {
-        println!("  (module lacks NoContraction: FMA contraction allowed, not bit-exact)");
-    }
-}
-
-/// The filter's packed words as values (compared as floats).
-pub fn unpacked(f: &[PackedFiltered]) -> Vec<Filtered> {
-    f.iter().map(|p| p.unpack()).collect()
+    assert!(r.within(tol), "{what}: outside {tol:?}: {r:?}");
 }
 
 pub fn check_validation(ex: &AshExecutor) {

@@ -5,6 +5,7 @@ use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
+use vrrt_tests::{compare_words, Tolerance, Word};
 use vrrt_wgpu::{WgpuError, WgpuExecutor, WgpuOptions};
 
 pub const W: u32 = 37;
@@ -54,18 +55,6 @@ pub fn assert_clean(e: &WgpuExecutor) {
         "validation errors: {:#?}",
         e.validation_log().messages()
     );
-}
-
-/// Distance in representable floats between two f32 bit patterns.
-pub fn ulp_distance(a: u32, b: u32) -> u32 {
-    let key = |x: u32| {
-        if x & 0x8000_0000 != 0 {
-            0x8000_0000 - (x & 0x7fff_ffff)
-        } else {
-            x + 0x8000_0000
-        }
-    };
-    key(a).abs_diff(key(b))
 }
 
 /// SplitMix64: deterministic inputs without extra dependencies.
@@ -138,6 +127,24 @@ impl Both {
             bytemuck::pod_collect_to_vec(&c),
             bytemuck::pod_collect_to_vec(&g),
         )
+    }
+
+    /// Reads `id` from both and asserts the GPU's words are within `tol` of the CPU's, word by
+    /// word in `layout` (`vrrt_tests::compare_words`).
+    pub fn assert_within(
+        &mut self,
+        id: BufferId,
+        bytes: usize,
+        what: &str,
+        (layout, tol): (&'static [Word], &Tolerance),
+    ) {
+        let (c, g) = self.read_both(id, bytes);
+        let r = compare_words(layout, tol, &c, &g);
+        println!(
+            "{what}: {} int and {} float words of {} differ (max {} ULP, {:.2e} relative, {} half-ULPs)",
+            r.int_mismatches, r.float_mismatches, r.words, r.max_ulp, r.max_rel, r.max_half_ulp
+        );
+        assert!(r.within(tol), "{what}: outside {tol:?}: {r:?}");
     }
 
     /// Reads `id` from both and asserts the bytes are identical.

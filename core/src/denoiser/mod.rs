@@ -173,6 +173,8 @@ pub struct Denoiser {
     guide: BufferId,
     blockers: BufferId,
     penumbra: BufferId,
+    /// Bound where a pass does not read a binding in this configuration (`buffers`' `unread`).
+    unread: [BufferId; 2],
     cur: usize,
     out: usize,
     frame: FrameInfo,
@@ -258,6 +260,7 @@ impl Denoiser {
             guide: id("guide")[0],
             blockers: id("blockers")[0],
             penumbra: id("penumbra")[0],
+            unread: [id("unread")[0], id("unread")[1]],
             cur: 0,
             out: 0,
             frame: FrameInfo {

@@ -73,10 +73,16 @@ impl Denoiser {
             min_variance: s.gradient.detect_min_variance,
             reset: reset as u32,
         };
+        // Only the shadow planes' verification reads history.
+        let verifies = p.verify_sigma > 0.0 && s.shadow_planes != 0;
         let pass = kernels::RefillBindings {
             requests: self.requests,
             samples: self.samples,
-            history: self.history[self.cur],
+            history: if verifies {
+                self.history[self.cur]
+            } else {
+                self.unread[0]
+            },
             changes: self.changes_buffer(),
             work: self.refill_work(),
             args: self.refill_args,
@@ -150,13 +156,23 @@ impl Denoiser {
             confirm_planes: reflections,
             confirm_sigma: s.gradient.reflection_confirm_sigma,
         };
+        // Only the reflections' own-surface clamp reads the surfaces.
+        let surfaces = reflections != 0 && s.temporal.reflection_clamp_radius > 0;
         let accumulate = kernels::AccumulateBindings {
             history: self.history[self.cur],
             samples: self.samples,
             changes,
             counters: self.counters,
-            depth: self.depth[self.cur],
-            normal_roughness: self.normal_roughness[self.cur],
+            depth: if surfaces {
+                self.depth[self.cur]
+            } else {
+                self.unread[0]
+            },
+            normal_roughness: if surfaces {
+                self.normal_roughness[self.cur]
+            } else {
+                self.unread[1]
+            },
         };
         exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
 

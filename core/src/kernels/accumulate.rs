@@ -88,10 +88,15 @@ fn clamp_history(
 ) -> Payload {
     let r = radius as i32;
     let centre = (id.y * p.width + id.x) as usize;
-    let (d0, n0) = (
-        depth[centre],
-        packing::unpack_normal(normal_roughness[centre]),
-    );
+    // Without `surface` the surfaces are not read (the frame binds a placeholder there).
+    let (d0, n0) = if surface {
+        (
+            depth[centre],
+            packing::unpack_normal(normal_roughness[centre]),
+        )
+    } else {
+        (0.0, glam::Vec3::Z)
+    };
     let (mut s1, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
     let mut dy = -r;
     while dy <= r {
