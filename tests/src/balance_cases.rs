@@ -149,12 +149,9 @@ pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let (requests, _) = histogram(rng, w, h);
-    let lists = rng.random_range(1..=2);
-    let n = (w * h * PLANES) as usize;
-    // Half the pixels untraced, `λ` around the threshold, some NaN.
-    let samples: Vec<PackedSample> = (0..n)
+/// Samples of the refill cases: half the pixels untraced, the others 1 or 3 rays.
+fn refill_samples(rng: &mut Pcg32, n: usize) -> Vec<PackedSample> {
+    (0..n)
         .map(|_| Sample {
             m1: value(rng),
             m2: value(rng),
@@ -162,15 +159,12 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             first: 0.0,
         })
         .map(|s| s.pack())
-        .collect();
-    let changes: Vec<f32> = (0..n)
-        .map(|_| match rng.random_range(0..8) {
-            0 => f32::NAN,
-            1 => 0.5,
-            _ => rng.random_range(0.0..1.0),
-        })
-        .collect();
-    let params = refill::RefillParams {
+        .collect()
+}
+
+/// List parameters over their ranges, with one or two plane groups.
+fn refill_params(rng: &mut Pcg32, w: u32, h: u32, lists: u32) -> refill::RefillParams {
+    refill::RefillParams {
         width: w,
         height: h,
         planes: PLANES,
@@ -182,19 +176,59 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         verify_sigma: [0.0, 1.0, 1.5][rng.random_range(0..3)],
         verify_history: [1.0, 4.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
-        reset: rng.random_range(0..2),
+    }
+}
+
+/// `refill`: a reset frame's lists of the shadows' mixed windows.
+pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, _) = histogram(rng, w, h);
+    let lists = rng.random_range(1..=2);
+    let samples = refill_samples(rng, (w * h * PLANES) as usize);
+    // Reset lists come from the shadow planes only: at least one.
+    let params = refill::RefillParams {
+        shadow_planes: rng.random_range(1..1 << PLANES),
+        ..refill_params(rng, w, h, lists)
     };
     Case {
         name: format!(
-            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} verify {} reset {}",
-            params.shadow_planes, params.verify_sigma, params.reset
+            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} rays {}",
+            params.shadow_planes, params.rays
         ),
         kernel: &vrrt_core::kernels::REFILL,
         buffers: vec![
             BufferSpec::from_pod(&requests, INTS),
             BufferSpec::from_pod(&samples, SAMPLE),
+            // The lists follow float comparisons of the rays' means: decided.
+            BufferSpec::from_pod(&vec![0u32; (w * h * PLANES) as usize], INTS)
+                .unordered()
+                .decided(),
+            BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),
+    }
+}
+
+/// `detect_refill`: the detector's `λ` and the lists it makes, with the verification.
+pub(crate) fn detect_refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, _) = histogram(rng, w, h);
+    let lists = rng.random_range(1..=2);
+    let n = (w * h * PLANES) as usize;
+    let params = refill::DetectRefillParams {
+        detect: crate::cases::detect_params(rng, w, h),
+        refill: refill_params(rng, w, h, lists),
+    };
+    Case {
+        name: format!(
+            "detect_refill {w}x{h}x{PLANES} groups {lists} radius {} shadows {:b} verify {}",
+            params.detect.radius, params.refill.shadow_planes, params.refill.verify_sigma
+        ),
+        kernel: &vrrt_core::kernels::DETECT_REFILL,
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&refill_samples(rng, n), SAMPLE),
             BufferSpec::from_pod(&histories(rng, n, EXTREME_LENGTHS), PAYLOAD),
-            BufferSpec::from_pod(&changes, FLOATS),
+            BufferSpec::from_pod(&vec![f32::NAN; n], FLOATS),
             // The lists follow `λ > threshold` and the verification's z-score: decided.
             BufferSpec::from_pod(&vec![0u32; n], INTS)
                 .unordered()
@@ -202,7 +236,7 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
-        groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),
+        groups: groups(&vrrt_core::kernels::DETECT_REFILL, w, h, lists),
     }
 }
 

@@ -44,6 +44,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
     ("apply", crate::balance_cases::apply_case, DECIDED),
     ("refill", crate::balance_cases::refill_case, DECIDED),
     (
+        "detect_refill",
+        crate::balance_cases::detect_refill_case,
+        DECIDED,
+    ),
+    (
         "refill_cap",
         crate::balance_cases::refill_cap_case,
         Tolerance::DEFAULT,
@@ -294,11 +299,9 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let n = (w * h * PLANES) as usize;
-    let history = histories(rng, n, EXTREME_LENGTHS);
-    let samples = hostile_samples(rng, n);
-    let params = detect::DetectParams {
+/// Detector parameters over their ranges (window radii 0–3, both significances).
+pub(crate) fn detect_params(rng: &mut Pcg32, w: u32, h: u32) -> detect::DetectParams {
+    detect::DetectParams {
         width: w,
         height: h,
         radius: rng.random_range(0..4),
@@ -308,7 +311,14 @@ fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_z_full: [1.0, 2.0][rng.random_range(0..2)],
-    };
+    }
+}
+
+fn detect_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let n = (w * h * PLANES) as usize;
+    let history = histories(rng, n, EXTREME_LENGTHS);
+    let samples = hostile_samples(rng, n);
+    let params = detect_params(rng, w, h);
     Case {
         name: format!(
             "detect {w}x{h}x{PLANES} radius {} shadows {:b} radius {} ao {:b} σ {}",

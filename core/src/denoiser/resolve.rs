@@ -17,7 +17,7 @@ impl Denoiser {
     fn detect<E: Executor>(&mut self, exec: &mut E, refill: bool) -> Result<bool, E::Error> {
         if refill && !self.detected && self.refills_reset() {
             self.detected = true;
-            self.dispatch_refill(exec, true)?;
+            self.dispatch_reset_refill(exec)?;
             return Ok(true);
         }
         if self.detected || !self.detects() {
@@ -37,28 +37,40 @@ impl Denoiser {
             ao_z_full: s.gradient.ao_detect_sigma,
             min_variance: s.gradient.detect_min_variance,
         };
-        let pass = kernels::DetectBindings {
-            history: self.history[self.cur],
-            samples: self.samples,
-            changes: self.changes_buffer(),
-        };
-        exec.dispatch(&pass.over_grid(&p, w, h, planes))?;
         if !refill {
+            let pass = kernels::DetectBindings {
+                history: self.history[self.cur],
+                samples: self.samples,
+                changes: self.changes_buffer(),
+            };
+            exec.dispatch(&pass.over_grid(&p, w, h, planes))?;
             return Ok(false);
         }
-        self.dispatch_refill(exec, false)?;
+        // The lists are all the detector feeds: one pass, `λ` tested where it is computed.
+        let fused = refill::DetectRefillParams {
+            detect: p,
+            refill: self.refill_params(false),
+        };
+        let pass = kernels::DetectRefillBindings {
+            requests: self.requests,
+            samples: self.samples,
+            history: self.history[self.cur],
+            changes: self.changes_buffer(),
+            work: self.refill_work(),
+            args: self.refill_args,
+        };
+        exec.dispatch(&pass.over_grid(&fused, w, h, s.groups()))?;
         Ok(true)
     }
 
-    /// The refill lists: the pixels the detector drops (and, on the shadow planes, those to
-    /// verify), or on a reset frame (`reset`) the pixels of the shadows' mixed windows.
-    fn dispatch_refill<E: Executor>(&mut self, exec: &mut E, reset: bool) -> Result<(), E::Error> {
+    /// The refill lists' parameters (`reset`: a reset frame's, whose listed pixels take up to
+    /// `MAX_RATE` rays, set by [`refill::cap`]).
+    fn refill_params(&self, reset: bool) -> refill::RefillParams {
         let s = self.settings;
-        let (w, h, planes) = (self.width, self.height, s.planes);
-        let p = refill::RefillParams {
-            width: w,
-            height: h,
-            planes,
+        refill::RefillParams {
+            width: self.width,
+            height: self.height,
+            planes: s.planes,
             plane_groups: s.plane_groups,
             threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
@@ -71,24 +83,23 @@ impl Denoiser {
             verify_sigma: s.gradient.shadow_verify_sigma,
             verify_history: s.gradient.shadow_verify_history,
             min_variance: s.gradient.detect_min_variance,
-            reset: reset as u32,
-        };
-        // Only the shadow planes' verification reads history.
-        let verifies = p.verify_sigma > 0.0 && s.shadow_planes != 0;
+        }
+    }
+
+    /// A reset frame's refill lists (no detector): the pixels of the shadows' mixed windows,
+    /// their rays set by [`refill::cap`].
+    fn dispatch_reset_refill<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h) = (self.width, self.height);
+        let p = self.refill_params(true);
         let pass = kernels::RefillBindings {
             requests: self.requests,
             samples: self.samples,
-            history: if verifies {
-                self.history[self.cur]
-            } else {
-                self.unread[0]
-            },
-            changes: self.changes_buffer(),
             work: self.refill_work(),
             args: self.refill_args,
         };
         exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
-        if reset {
+        {
             for list in 0..s.groups() {
                 let p = refill::CapParams {
                     pixels: w * h,

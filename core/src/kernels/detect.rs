@@ -62,6 +62,19 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    lambda::<N>(id, p, history, samples).store(changes, plane_index(id, w, h), live);
+}
+
+/// `λ` of the `N` pixels of a row from `id` on plane `id.z` (module rule); `id` inside the image.
+#[inline(always)]
+pub fn lambda<const N: usize>(
+    id: UVec3,
+    p: &DetectParams,
+    history: &[PackedPayload],
+    samples: &[PackedSample],
+) -> Lanes<f32, N> {
+    let (w, h) = (p.width, p.height);
     let r = per_plane(p.radius, p.shadow_radius, p.shadow_planes, id.z) as i32;
     let z_full = per_plane(p.z_full, p.ao_z_full, p.ao_planes, id.z);
     let x0 = id.x as i32;
@@ -117,7 +130,7 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
         dy += 1;
     }
     let [sum_s, sum_m, var] = sums;
-    let lambda = Lanes::<f32, N>::from_index(|l| {
+    Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
         let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
         let diff = math::abs(sum_s - sum_m);
@@ -130,9 +143,7 @@ pub fn detect<const N: usize>(id: UVec3, p: &DetectParams, io: DetectIo<'_>) {
         } else {
             0.0
         }
-    });
-    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
-    lambda.store(changes, plane_index(id, w, h), live);
+    })
 }
 
 /// The detector's setting for plane `plane` (its window radius, significance, the `λ` above

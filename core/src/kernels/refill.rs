@@ -25,7 +25,8 @@
 use super::apply::{self, append, ARGS_LEN};
 use super::balance::Balance;
 use super::buckets::{BUCKET_COUNT, MAX_RATE};
-use super::{RefillCapIo, RefillIo};
+use super::detect::DetectParams;
+use super::{DetectRefillIo, RefillCapIo, RefillIo};
 use crate::lanes::{self, Lanes};
 use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
@@ -59,19 +60,37 @@ pub struct RefillParams {
     pub verify_history: f32,
     /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
     pub min_variance: f32,
-    /// Nonzero on a reset frame (no history, no detector): list instead the pixels of the
-    /// shadow planes whose 3×3 window of this frame's rays is mixed (`reset_listed`), whose
-    /// rays [`cap`] then sets.
-    pub reset: u32,
 }
 
-/// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]): appends
-/// each pixel that asked for rays (not sky, not masked), traced none in the group's planes, and
-/// whose history the detector drops in one of them, with `rays` rays, to the group's list
-/// ([`append`]; the balancer reset `args` to `[0, 0, 1, 1]`).
+/// A reset frame's lists (no history, no detector: [`detect_refill`] makes the others): one call
+/// per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]), appending the
+/// pixels of the group's shadow planes whose 3×3 window of rays is mixed (`reset_listed`), with
+/// `rays` rays each until [`cap`] sets them (the balancer reset `args` to `[0, 0, 1, 1]`).
 #[inline(always)]
 pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     let RefillIo {
+        requests,
+        samples,
+        work,
+        args,
+    } = io;
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let listed = reset_listed::<N>(id, p, samples);
+    list(id, p, requests, listed, (work, args));
+}
+
+/// The detector fused with the lists it feeds ([`super::detect::detect`], then the lists):
+/// one call per `N` pixels of a row and plane group (z), `λ` of each of the group's planes
+/// written to `changes` and tested where it was computed, not read back. Appends each pixel that
+/// asked for rays (not sky, not masked), traced none in the group's planes and whose history the
+/// detector drops in one of them, or that the shadow planes verify, with `rays` rays, to the
+/// group's list ([`append`]; the balancer reset `args` to `[0, 0, 1, 1]`). Reset frames have no
+/// detector: their lists are [`refill`]'s.
+#[inline(always)]
+pub fn detect_refill<const N: usize>(id: UVec3, p: &DetectRefillParams, io: DetectRefillIo<'_>) {
+    let DetectRefillIo {
         requests,
         samples,
         history,
@@ -79,57 +98,126 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         work,
         args,
     } = io;
-    let (w, h) = (p.width, p.height);
+    let r = &p.refill;
+    let (w, h) = (r.width, r.height);
     if id.x >= w || id.y >= h {
         return;
     }
-    let pixels = w * h;
-    let (group, row) = (id.z, id.y * w);
-    let x0 = id.x as i32;
-    let requests = Lanes::<u32, N>::load_row(requests, group * pixels + row, x0, w);
-    let mut traced = Lanes::<bool, N>::splat(false);
-    let mut dropped = Lanes::<bool, N>::splat(false);
-    let mut surprised = Lanes::<bool, N>::splat(false);
-    let mut fewer = Lanes::<bool, N>::splat(false);
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let mut seen = Seen::<N>::new();
     let mut z = 0;
-    while z < p.planes {
-        if super::plane_group(p.plane_groups, z) == group {
-            let threshold =
-                super::detect::per_plane(p.threshold, p.shadow_threshold, p.shadow_planes, z);
-            let s = Lanes::<PackedSample, N>::load_row(samples, z * pixels + row, x0, w);
-            let lambda = Lanes::<f32, N>::load_row(changes, z * pixels + row, x0, w);
-            traced = traced.zip(s, |t, s| t || s.rays() > 0);
-            dropped = dropped.zip(lambda, |d, l| d || l > threshold);
-            // Verification, on the shadow planes only (a uniform branch).
-            if p.verify_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
-                let m = Lanes::<PackedPayload, N>::load_row(history, z * pixels + row, x0, w);
-                fewer = fewer.zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
-                lanes::each_lane!(l in N {
-                    let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
-                    let sigmas = super::detect::pixel_z(s, m, p.min_variance);
-                    surprised.0[l] |= m.count >= p.verify_history && sigmas >= p.verify_sigma;
-                });
-            }
+    while z < r.planes {
+        if super::plane_group(r.plane_groups, z) == id.z {
+            let at = UVec3::new(id.x, id.y, z);
+            let lambda = super::detect::lambda::<N>(at, &p.detect, history, samples);
+            lambda.store(changes, super::plane_index(at, w, h), live);
+            seen.plane(id, z, r, (samples, history), lambda);
         }
         z += 1;
     }
+    list(id, r, requests, seen.listed(), (work, args));
+}
+
+/// Push constants of [`detect_refill`]: the detector's and the lists'.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DetectRefillParams {
+    /// The detector's.
+    pub detect: DetectParams,
+    /// The lists'.
+    pub refill: RefillParams,
+}
+
+/// What the planes of a group say about `N` pixels: whether a plane traced them, dropped their
+/// history, or (the shadow planes' verification) found their own rays far from it with fewer
+/// than a listed pixel's rays.
+#[derive(Copy, Clone)]
+struct Seen<const N: usize> {
+    traced: Lanes<bool, N>,
+    dropped: Lanes<bool, N>,
+    surprised: Lanes<bool, N>,
+    fewer: Lanes<bool, N>,
+}
+
+impl<const N: usize> Seen<N> {
+    /// Nothing seen yet.
+    #[inline(always)]
+    fn new() -> Self {
+        let no = Lanes::splat(false);
+        Seen {
+            traced: no,
+            dropped: no,
+            surprised: no,
+            fewer: no,
+        }
+    }
+
+    /// Adds plane `z`'s samples and `λ` (row `id.y` from `id.x`).
+    #[inline(always)]
+    fn plane(
+        &mut self,
+        id: UVec3,
+        z: u32,
+        p: &RefillParams,
+        (samples, history): (&[PackedSample], &[PackedPayload]),
+        lambda: Lanes<f32, N>,
+    ) {
+        let (w, x0) = (p.width, id.x as i32);
+        let start = z * w * p.height + id.y * w;
+        let threshold =
+            super::detect::per_plane(p.threshold, p.shadow_threshold, p.shadow_planes, z);
+        let s = Lanes::<PackedSample, N>::load_row(samples, start, x0, w);
+        self.traced = self.traced.zip(s, |t, s| t || s.rays() > 0);
+        self.dropped = self.dropped.zip(lambda, |d, l| d || l > threshold);
+        // Verification, on the shadow planes only (a uniform branch).
+        if p.verify_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
+            let m = Lanes::<PackedPayload, N>::load_row(history, start, x0, w);
+            self.fewer = self
+                .fewer
+                .zip(s, |f, s| f || (s.rays() > 0 && s.rays() < p.rays));
+            let surprised = &mut self.surprised;
+            lanes::each_lane!(l in N {
+                let (s, m) = (s.0[l].unpack(), m.0[l].unpack());
+                let sigmas = super::detect::pixel_z(s, m, p.min_variance);
+                surprised.0[l] |= m.count >= p.verify_history && sigmas >= p.verify_sigma;
+            });
+        }
+    }
+
+    /// The pixels to list: dropped and untraced, or to verify.
+    #[inline(always)]
+    fn listed(&self) -> Lanes<bool, N> {
+        let mut out = Lanes::<bool, N>::splat(false);
+        lanes::each_lane!(l in N {
+            let verify = self.fewer.0[l] && self.surprised.0[l] && !self.dropped.0[l];
+            out.0[l] = (!self.traced.0[l] && self.dropped.0[l]) || verify;
+        });
+        out
+    }
+}
+
+/// Appends the `listed` pixels that asked for rays and lie inside the image to group `id.z`'s
+/// list, with `p.rays` rays each.
+#[inline(always)]
+fn list<const N: usize>(
+    id: UVec3,
+    p: &RefillParams,
+    requests: &[u32],
+    listed: Lanes<bool, N>,
+    (work, args): (&mut [u32], &mut [u32]),
+) {
+    let (w, pixels) = (p.width, p.width * p.height);
+    let row = id.y * w;
+    let requests = Lanes::<u32, N>::load_row(requests, id.z * pixels + row, id.x as i32, w);
     let mut refills = Lanes::<bool, N>::splat(false);
-    let mixed = if p.reset != 0 {
-        reset_listed::<N>(id, p, samples)
-    } else {
-        Lanes::splat(false)
-    };
     lanes::each_lane!(l in N {
         let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
-        let verify = fewer.0[l] && surprised.0[l] && !dropped.0[l];
-        let refill = !traced.0[l] && dropped.0[l];
-        let listed = if p.reset != 0 { mixed.0[l] } else { refill || verify };
-        refills.0[l] = id.x + (l as u32) < w && asked && listed;
+        refills.0[l] = id.x + (l as u32) < w && asked && listed.0[l];
     });
     append(
         work,
         args,
-        group,
+        id.z,
         pixels,
         row + id.x,
         refills,
@@ -266,28 +354,38 @@ mod tests {
         let history = [Payload::binary(0.9, 16.0).pack()];
         let samples = [Sample::uniform(value, rays).pack()];
         let (mut work, mut args) = ([0u32; 1], [0u32, 0, 1, 1]);
-        let p = RefillParams {
-            width: 1,
-            height: 1,
-            planes: 1,
-            threshold: 0.5,
-            shadow_threshold: 0.3,
-            shadow_planes,
-            rays: 4,
-            verify_sigma: 1.5,
-            verify_history: 1.0,
-            min_variance: 1e-4,
-            ..Default::default()
+        let p = DetectRefillParams {
+            // A detector that never counts a change (`λ` 0): only the verification lists.
+            detect: DetectParams {
+                width: 1,
+                height: 1,
+                z_full: 1e30,
+                ao_z_full: 1e30,
+                ..Default::default()
+            },
+            refill: RefillParams {
+                width: 1,
+                height: 1,
+                planes: 1,
+                threshold: 0.5,
+                shadow_threshold: 0.3,
+                shadow_planes,
+                rays: 4,
+                verify_sigma: 1.5,
+                verify_history: 1.0,
+                min_variance: 1e-4,
+                ..Default::default()
+            },
         };
-        let io = RefillIo {
+        let io = DetectRefillIo {
             requests: &[0],
             samples: &samples,
             history: &history,
-            changes: &[0.0],
+            changes: &mut [f32::NAN],
             work: &mut work,
             args: &mut args,
         };
-        refill::<1>(UVec3::ZERO, &p, io);
+        detect_refill::<1>(UVec3::ZERO, &p, io);
         work[..args[0] as usize]
             .iter()
             .map(|&e| apply::work_item(e))
@@ -319,7 +417,6 @@ mod tests {
             planes: 1,
             shadow_planes,
             rays: MAX_RATE,
-            reset: 1,
             ..Default::default()
         };
         for y in 0..3 {
@@ -327,8 +424,6 @@ mod tests {
                 let io = RefillIo {
                     requests: &[0; 12],
                     samples: &samples,
-                    history: &[PackedPayload::default(); 12],
-                    changes: &[f32::NAN; 12],
                     work: &mut work,
                     args: &mut args,
                 };

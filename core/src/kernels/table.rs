@@ -167,14 +167,24 @@ crate::kernel_table! {
         samples: write PackedSample,
     }
 
-    /// [`refill::refill`]: the detector's dropped, untraced pixels as a second work list per
-    /// plane group (after the detector, before the second raygen and accumulation).
+    /// [`refill::refill`]: a reset frame's second work list per plane group (the shadows' mixed
+    /// windows, before [`refill::cap`], the second raygen and accumulation).
     refill => REFILL, RefillBindings, RefillIo: lanes(16, avx512 64) refill::refill,
     threads(8, 8, 1), params refill::RefillParams {
         requests: read Request,
         samples: read PackedSample,
+        work: write WorkEntry,
+        args: atomic u32,
+    }
+
+    /// [`refill::detect_refill`]: the change detector and the refill lists in one pass (each
+    /// plane group's `λ` tested where it is computed), outside reset frames.
+    detect_refill => DETECT_REFILL, DetectRefillBindings, DetectRefillIo: lanes(16, avx512 32) refill::detect_refill,
+    threads(8, 8, 1), params refill::DetectRefillParams {
+        requests: read Request,
+        samples: read PackedSample,
         history: read PackedPayload,
-        changes: read f32,
+        changes: write f32,
         work: write WorkEntry,
         args: atomic u32,
     }
