@@ -3,15 +3,16 @@
 
 use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
+use crate::outdir::OutDir;
 use crate::page::Page;
 use crate::plot::{self, Curve};
+use crate::progress;
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
     self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, References,
     SequenceOptions, SignalKind,
 };
-use crate::{outdir, progress};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -59,9 +60,9 @@ pub struct BenchArgs {
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
-    /// Output directory. It holds only this bench's files: what an earlier bench wrote there
-    /// (`bench.csv`, `bench.md`, `relmse_vs_*.png`, `report.html` and `report/*.png`; with
-    /// `--passes`, `passes.csv`) is removed first, and nothing else in it is touched.
+    /// Output directory. It holds only this bench's files: the files an earlier bench wrote there
+    /// (listed in its `.vrrt-bench-manifest`; `.vrrt-bench-passes-manifest` with `--passes`)
+    /// are removed first, and nothing else in it is touched.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
     /// Per-pass report against the bandwidth floor instead of the matrix: renders one
@@ -90,8 +91,20 @@ pub struct BenchArgs {
 /// The scenes of the full matrix when `--scenes` is not given.
 pub const DEFAULT_SCENES: [&str; 3] = ["room", "bunny", "dragon"];
 
-/// The files the matrix writes into `--out` (and removes there before writing).
-pub const BENCH_OUTPUTS: [&str; 4] = ["bench.csv", "bench.md", "spectrum.csv", "relmse_vs_*.png"];
+/// Most timing repeats per cell (`--repeats`).
+pub const MAX_REPEATS: u32 = 100;
+
+/// `items` without repeats, first occurrences kept in order: a list such as `--budgets 1,1,1`
+/// names one cell, not three.
+pub fn distinct<T: PartialEq + Clone>(items: &[T]) -> Vec<T> {
+    let mut out: Vec<T> = Vec::with_capacity(items.len());
+    for x in items {
+        if !out.contains(x) {
+            out.push(x.clone());
+        }
+    }
+    out
+}
 
 /// One cell of the matrix.
 #[derive(Clone, Debug)]
@@ -175,7 +188,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let q = args.quick;
     let scenes = if !args.scenes.is_empty() {
-        args.scenes.clone()
+        distinct(&args.scenes)
     } else if q {
         vec!["room".to_string()]
     } else {
@@ -186,10 +199,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let configs = if args.configs.is_empty() {
         Config::ALL.to_vec()
     } else {
-        args.configs.clone()
+        distinct(&args.configs)
     };
     let budgets = if !args.budgets.is_empty() {
-        args.budgets.clone()
+        distinct(&args.budgets)
     } else if q {
         vec![0.5, 1.0]
     } else {
@@ -197,7 +210,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     };
     let explicit_backends = !args.backends.is_empty();
     let backends = if explicit_backends {
-        args.backends.clone()
+        distinct(&args.backends)
     } else if q {
         vec![BackendKind::Cpu]
     } else {
@@ -207,13 +220,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let frames = args.frames.unwrap_or(if q { 48 } else { 96 });
     let repeats = args.repeats.unwrap_or(if q { 1 } else { 3 });
     check_common(frames, args.spp, args.ao_radius)?;
-    if repeats == 0 {
-        bail!("--repeats must be at least 1");
+    if !(1..=MAX_REPEATS).contains(&repeats) {
+        bail!("--repeats must be between 1 and {MAX_REPEATS}, got {repeats}");
     }
     let signals = if args.signals.is_empty() {
         vec![SignalKind::Ao, SignalKind::Reflections]
     } else {
-        args.signals.clone()
+        distinct(&args.signals)
     };
     let file = load_settings(args.settings.as_deref())?;
     let base = file.denoiser;
@@ -222,8 +235,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .iter()
         .map(|s| load_scene(s, &limits))
         .collect::<Result<Vec<_>>>()?;
-    outdir::prepare(&args.out, &BENCH_OUTPUTS)?;
-    let mut page = Page::new(&args.out, !args.no_page)?;
+    let out = std::rc::Rc::new(OutDir::prepare(&args.out, "bench")?);
+    let mut page = Page::new(out.clone(), !args.no_page);
 
     match which("oidnDenoise") {
         Some(p) => println!(
@@ -335,11 +348,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
 
     let csv = bench_csv(&cells);
     let md = bench_md(&cells) + &adaptive_md(&cells) + &oracle_md(&cells);
-    std::fs::write(args.out.join("bench.csv"), csv).context("writing bench.csv")?;
-    std::fs::write(args.out.join("bench.md"), &md).context("writing bench.md")?;
-    std::fs::write(args.out.join("spectrum.csv"), spectrum::csv(&cells))
-        .context("writing spectrum.csv")?;
-    if let Err(e) = plots(&args.out, &cells) {
+    out.write("bench.csv", csv.as_bytes())?;
+    out.write("bench.md", md.as_bytes())?;
+    out.write("spectrum.csv", spectrum::csv(&cells).as_bytes())?;
+    if let Err(e) = plots(&out, &cells) {
         eprintln!("warning: plots not written: {e:#}");
     }
     page.write()?;
@@ -543,7 +555,7 @@ pub fn oracle_md(cells: &[Cell]) -> String {
 
 /// Per scene, signal and backend: relMSE against ms per frame and against rays per pixel, one curve per
 /// configuration (its points are the budgets).
-fn plots(out: &std::path::Path, cells: &[Cell]) -> Result<()> {
+fn plots(out: &OutDir, cells: &[Cell]) -> Result<()> {
     let mut groups: Vec<(String, SignalKind, String)> = Vec::new();
     for c in cells {
         let g = (c.scene.clone(), c.signal, c.backend.clone());
@@ -577,14 +589,14 @@ fn plots(out: &std::path::Path, cells: &[Cell]) -> Result<()> {
                 .collect()
         };
         plot::curves(
-            &out.join(format!("relmse_vs_ms_{scene}_{signal}_{backend}.png")),
+            &out.file(&format!("relmse_vs_ms_{scene}_{signal}_{backend}.png"))?,
             &format!("{scene}, {signal} on {backend}: error vs time"),
             "ms per frame",
             "relMSE",
             &curves(&|c| c.ms_per_frame),
         )?;
         plot::curves(
-            &out.join(format!("relmse_vs_rpp_{scene}_{signal}_{backend}.png")),
+            &out.file(&format!("relmse_vs_rpp_{scene}_{signal}_{backend}.png"))?,
             &format!("{scene}, {signal} on {backend}: error vs rays"),
             "rays per pixel per frame (traced)",
             "relMSE",

@@ -26,9 +26,36 @@ pub struct InfoArgs {
     /// Signal of `--memory`.
     #[arg(long, value_enum, default_value = "ao")]
     pub signal: SignalKind,
-    /// Lights in the scene of `--memory` (one shadow plane each, up to 4).
-    #[arg(long, default_value = "1")]
+    /// Lights in the scene of `--memory` (one shadow plane each): 1 to 4, and with `--signal
+    /// all` 1 or 2 (AO, the shadows and the reflections share the 4 planes).
+    #[arg(long, default_value = "1", value_parser = parse_lights)]
     pub lights: usize,
+}
+
+/// Most shadow planes, one per light (the denoiser's four planes).
+const MAX_LIGHTS: usize = 4;
+
+/// Parses `--lights`: 1 to [`MAX_LIGHTS`]; anything else is an error, not clamped.
+fn parse_lights(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=MAX_LIGHTS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "`{s}` is not a number of lights from 1 to {MAX_LIGHTS} (one shadow plane each)"
+        )),
+    }
+}
+
+/// Refuses more lights than `signal` leaves planes for (with `all`, AO and reflections take
+/// two of the four), with the reason, before the layout's own check fails on a plane count.
+fn check_lights(signal: SignalKind, lights: usize) -> Result<()> {
+    if signal == SignalKind::All && lights > MAX_LIGHTS - 2 {
+        anyhow::bail!(
+            "--signal all has planes for at most {} lights (AO and reflections take 2 of the {MAX_LIGHTS} \
+             planes, each light a shadow plane), got --lights {lights}",
+            MAX_LIGHTS - 2
+        );
+    }
+    Ok(())
 }
 
 /// Runs `vrrt info`.
@@ -41,6 +68,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         return Ok(());
     }
     if args.memory {
+        check_lights(args.signal, args.lights)?;
         let signal = args.signal.signal(1.0, ReflectionSettings::default());
         let report = crate::memory::report(args.size, args.signal.name(), signal, args.lights)?;
         print!("{report}");

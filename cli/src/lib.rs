@@ -48,3 +48,43 @@ pub enum Command {
     /// into the mesh cache, once.
     Fetch(fetch::FetchArgs),
 }
+
+/// An error and its causes on one line, as `main` prints it: each cause after a `: `, except a
+/// cause whose text the line already holds (many errors quote their OS error in their own
+/// message and also return it as their source, which would print "Permission denied" twice).
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_os_error_is_printed_once() {
+        let io = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        let image = vrrt_scene::image::ImageError::Io {
+            path: "out/frames.png".into(),
+            action: "writing",
+            source: io,
+        };
+        let e = anyhow::Error::from(image).context("frame 0");
+        let line = one_line(&e);
+        assert_eq!(line.matches("ermission denied").count(), 1, "{line}");
+        assert!(
+            line.starts_with("frame 0: writing out/frames.png"),
+            "{line}"
+        );
+    }
+}

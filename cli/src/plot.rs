@@ -40,11 +40,11 @@ pub fn has_font() -> bool {
     })
 }
 
-/// Encodes tightly packed RGB8 as a PNG file.
+/// Encodes tightly packed RGB8 as a PNG file, written through a temporary file renamed over
+/// `path` (a link there is replaced, not followed).
 fn write_rgb_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> Result<()> {
-    let file = std::fs::File::create(path)
-        .map_err(|e| anyhow!("cannot create {}: {e}", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, w, h);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     let mut writer = enc
@@ -56,7 +56,8 @@ fn write_rgb_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> Result<()> {
     writer
         .finish()
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    Ok(())
+    vrrt_scene::safe_fs::write_atomic(path, &bytes)
+        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
 }
 
 fn draw_err(e: impl std::fmt::Display) -> anyhow::Error {

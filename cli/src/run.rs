@@ -3,6 +3,8 @@
 
 use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
+use crate::outdir::OutDir;
+use crate::plot;
 use crate::progress::Progress;
 use crate::session::{
     self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_budget_ms, parse_rpp,
@@ -10,8 +12,7 @@ use crate::session::{
     SignalKind, WARMUP_FRAMES,
 };
 use crate::settings::SettingsFile;
-use crate::{outdir, plot};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
@@ -66,9 +67,9 @@ pub struct RunArgs {
     /// Reference samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Output directory. It holds only this run's files: what an earlier run wrote there
-    /// (`frame*_*.png`, `denoised_last*.exr`, `frames.csv`) is removed first, and nothing else
-    /// in it is touched.
+    /// Output directory. It holds only this run's files: the files an earlier `vrrt run` wrote
+    /// there (listed in its `.vrrt-run-manifest`) are removed first, and nothing else in it is
+    /// touched.
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
     /// Write PNGs of every n-th frame (clamped to [0, 1]: reflections are HDR radiance, which
@@ -87,16 +88,21 @@ pub struct RunArgs {
     pub limits: LimitArgs,
 }
 
-/// The files `vrrt run` writes into `--out` (and removes there before writing).
-pub const RUN_OUTPUTS: [&str; 3] = ["frame*_*.png", "denoised_last*.exr", "frames.csv"];
+/// Most reference samples per pixel (`--spp`): 256 times the default, and a bound on the
+/// references' cost, so a mistyped number is refused instead of rendering without end.
+pub const MAX_SPP: u32 = 1 << 16;
 
-/// Checks the options that clap's parsers do not.
+/// Most frames of a sequence (`--frames`): the scenes' animations are far shorter.
+pub const MAX_FRAMES: u32 = 1 << 16;
+
+/// Checks the options that clap's parsers do not, before anything is loaded, removed or
+/// rendered.
 pub fn check_common(frames: u32, spp: u32, ao_radius: f32) -> Result<()> {
-    if frames == 0 {
-        bail!("--frames must be at least 1");
+    if !(1..=MAX_FRAMES).contains(&frames) {
+        bail!("--frames must be between 1 and {MAX_FRAMES}, got {frames}");
     }
-    if spp == 0 {
-        bail!("--spp must be at least 1");
+    if !(1..=MAX_SPP).contains(&spp) {
+        bail!("--spp must be between 1 and {MAX_SPP}, got {spp}");
     }
     if !(ao_radius.is_finite() && ao_radius > 0.0) {
         bail!("--ao-radius must be a positive distance, got {ao_radius}");
@@ -120,7 +126,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let frames = clamp_frames(args.frames, scene.scene.frames_available());
     let (mut exec, why) = open_backend(args.backend, args.validation)?;
     let device = exec.device();
-    outdir::prepare(&args.out, &RUN_OUTPUTS)?;
+    let out = OutDir::prepare(&args.out, "run")?;
     let refs = References::from_env(true);
     let opts = SequenceOptions {
         size: args.size,
@@ -133,7 +139,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         overlays: args.overlays,
         measure: true,
     };
-    let out = &args.out;
+    let out = &out;
     let (w, h) = args.size;
     let mut last_denoised = Vec::new();
     let mut progress = Progress::new("frame", frames.into(), 10);
@@ -148,11 +154,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
                 String::new()
             };
             if i % args.every == 0 || i + 1 == frames {
-                let png = |what: &str| out.join(format!("frame{i:04}{tag}_{what}.png"));
-                write_png(png("denoised"), p.test.view())?;
-                write_png(png("raw"), p.raw.view())?;
+                let png = |what: &str| out.file(&format!("frame{i:04}{tag}_{what}.png"));
+                write_png(png("denoised")?, p.test.view())?;
+                write_png(png("raw")?, p.raw.view())?;
                 if let Some(r) = &p.reference {
-                    write_png(png("reference"), r.view())?;
+                    write_png(png("reference")?, r.view())?;
                 }
             }
             if i + 1 == frames {
@@ -174,12 +180,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
     })?;
     drop(progress);
     for (tag, img) in &last_denoised {
-        write_exr(out.join(format!("denoised_last{tag}.exr")), img.view())?;
+        write_exr(out.file(&format!("denoised_last{tag}.exr"))?, img.view())?;
     }
     let part_names: Vec<&str> = result.parts.iter().map(|p| p.part.name).collect();
     let csv = frames_csv(&result.records, &part_names, &result.pass_names);
-    std::fs::write(out.join("frames.csv"), csv)
-        .with_context(|| format!("cannot write {}", out.join("frames.csv").display()))?;
+    out.write("frames.csv", csv.as_bytes())?;
     exec.warn_validation_errors();
 
     let rs = &result;
@@ -339,7 +344,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     for (name, ms) in rs.pass_means(timed) {
         row(&mut t, &format!("  {name}"), format!("{ms:.3} ms"));
     }
-    row(&mut t, "output", out.display().to_string());
+    row(&mut t, "output", out.dir().display().to_string());
     println!("{t}");
     Ok(())
 }
@@ -456,7 +461,7 @@ fn heatmap(path: &Path, values: &[f32], (w, h): (u32, u32), max: f32) -> Result<
     Ok(())
 }
 
-fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()> {
+fn write_overlays(out: &OutDir, v: &FrameView<'_>, size: (u32, u32)) -> Result<()> {
     let i = v.record.frame;
     let o = v.output;
     let requested: Vec<f32> = o
@@ -478,14 +483,14 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
         .fold(1.0f32, f32::max);
     if !requested.is_empty() {
         heatmap(
-            &out.join(format!("frame{i:04}_requested.png")),
+            &out.file(&format!("frame{i:04}_requested.png"))?,
             &requested,
             size,
             max_rays,
         )?;
     }
     heatmap(
-        &out.join(format!("frame{i:04}_granted.png")),
+        &out.file(&format!("frame{i:04}_granted.png"))?,
         &granted,
         size,
         max_rays,
@@ -493,7 +498,7 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
     if !o.history_accumulated.is_empty() {
         let max_history = o.history_accumulated.iter().copied().fold(1.0f32, f32::max);
         heatmap(
-            &out.join(format!("frame{i:04}_history_accumulated.png")),
+            &out.file(&format!("frame{i:04}_history_accumulated.png"))?,
             &o.history_accumulated,
             size,
             max_history,
@@ -501,7 +506,7 @@ fn write_overlays(out: &Path, v: &FrameView<'_>, size: (u32, u32)) -> Result<()>
     }
     let r = v.record;
     plot::budget_bars(
-        &out.join(format!("frame{i:04}_budget.png")),
+        &out.file(&format!("frame{i:04}_budget.png"))?,
         i,
         &[
             ("requested", r.requested),

@@ -8,7 +8,7 @@ use anyhow::{anyhow, Result};
 use std::path::Path;
 use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::{
-    FilterSettings, GradientSettings, RateSettings, Settings, TemporalSettings,
+    FilterSettings, GradientSettings, RateSettings, Settings, SettingsError, TemporalSettings,
 };
 
 /// First lines of [`to_toml`]'s output.
@@ -113,16 +113,49 @@ impl Default for Layout {
 pub fn parse(text: &str) -> Result<SettingsFile, String> {
     let layout: Layout = toml::from_str(text).map_err(|e| describe(text, &e))?;
     let file = SettingsFile::from(layout);
-    file.denoiser.validate().map_err(|e| e.to_string())?;
-    file.reflections.validate().map_err(|e| e.to_string())?;
+    file.denoiser
+        .validate()
+        .map_err(|e| out_of_range(text, &e))?;
+    file.reflections
+        .validate()
+        .map_err(|e| out_of_range(text, &e))?;
     Ok(file)
 }
 
-/// Reads and parses the settings file at `path`; errors name the file.
+/// Largest settings file read: the defaults take about 2 KiB.
+pub const MAX_SETTINGS_BYTES: u64 = 1 << 20;
+
+/// Reads and parses the settings file at `path` (a regular file of at most
+/// [`MAX_SETTINGS_BYTES`]: a FIFO or `/dev/zero` is refused, not waited on or read without end);
+/// errors name the file.
 pub fn load(path: &Path) -> Result<SettingsFile> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("cannot read settings file {}: {e}", path.display()))?;
+    let text = vrrt_scene::safe_fs::read_capped_string(path, MAX_SETTINGS_BYTES)
+        .map_err(|e| anyhow!("settings file {} {e}", path.display()))?;
     parse(&text).map_err(|e| anyhow!("settings file {}: {e}", path.display()))
+}
+
+/// A validation error as text, with the value as written in the file: the error holds it as
+/// `f32`, which would print an integer such as 4294967295 as 4294967300.
+fn out_of_range(text: &str, e: &SettingsError) -> String {
+    let SettingsError::OutOfRange { field, range, .. } = e else {
+        return e.to_string();
+    };
+    let Ok(table) = text.parse::<toml::Table>() else {
+        return e.to_string();
+    };
+    let mut value: Option<&toml::Value> = None;
+    for key in field.split('.') {
+        value = match value {
+            None => table.get(key),
+            Some(v) => v.get(key),
+        };
+    }
+    match value {
+        Some(toml::Value::Integer(i)) => {
+            format!("setting `{field}` = {i} is out of range ({range})")
+        }
+        _ => e.to_string(),
+    }
 }
 
 /// `file` as the text of a settings file (with a comment header). Every float is written as
@@ -168,7 +201,15 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
             let before = &text[..span.start.min(text.len())];
             let line = before.matches('\n').count() + 1;
             let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-            format!("line {line}, column {column}: {message}")
+            // The parser's message does not say which key is duplicated; the span holds it.
+            let key = text
+                .get(span.clone())
+                .map(|k| k.trim().trim_matches(['[', ']']).trim())
+                .filter(|k| message.contains("duplicate") && !k.is_empty() && !k.contains('\n'));
+            match key {
+                Some(key) => format!("line {line}, column {column}: {message} `{key}`"),
+                None => format!("line {line}, column {column}: {message}"),
+            }
         }
         None => message,
     }
@@ -373,6 +414,16 @@ storage = \"f16\"
             assert_eq!(s.denoiser.temporal.sampling, pattern);
         }
         assert!(parse("[temporal]\nsampling = \"blue\"\n").is_err());
+    }
+
+    #[test]
+    fn duplicate_keys_and_large_integers_are_named_exactly() {
+        let e = parse("[temporal]\nmax_history = 3\nmax_history = 4\n").unwrap_err();
+        assert!(e.contains("duplicate key `max_history`"), "{e}");
+        let e = parse("[temporal]\nrng_wrap = 4294967295\n").unwrap_err();
+        assert!(e.contains("`temporal.rng_wrap` = 4294967295 is out"), "{e}");
+        let e = parse("planes = 4294967295\n").unwrap_err();
+        assert!(e.contains("`planes` = 4294967295 is out"), "{e}");
     }
 
     #[test]

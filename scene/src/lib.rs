@@ -17,6 +17,7 @@ pub mod mesh_scenes;
 pub mod metrics;
 pub mod reference_cache;
 pub mod render;
+pub mod safe_fs;
 pub mod scene;
 pub mod shapes;
 pub mod thicket;

@@ -7,7 +7,7 @@
 //! missing mesh is [`SceneError::MeshNotFetched`], whose message names the command to run.
 
 use crate::error::SceneError;
-use crate::load::load_mesh;
+use crate::load::load_mesh_from_bytes;
 use crate::mesh::Mesh;
 use crate::reference_cache::{user_cache_dir, write_atomically, CacheError};
 use std::fmt;
@@ -118,12 +118,19 @@ impl MeshCache {
 
     /// Loads `mesh`; [`SceneError::MeshNotFetched`] if it is not there, the loader's error
     /// (naming the file) if it is unreadable.
+    ///
+    /// The file must be a regular file of at most [`MAX_ENTRY_BYTES`] whose body matches the
+    /// BLAKE3 hash in its header: an edited or damaged entry is refused (naming `vrrt fetch`,
+    /// which stores it again), never rendered as the scene.
     pub fn load(&self, mesh: CachedMesh) -> Result<Mesh, SceneError> {
         let path = self.path(mesh);
-        if !path.exists() {
+        if std::fs::symlink_metadata(&path).is_err() {
             return Err(not_fetched(mesh, Some(path)));
         }
-        load_mesh(&path)
+        let bytes = crate::safe_fs::read_capped(&path, MAX_ENTRY_BYTES)
+            .map_err(|e| SceneError::parse(&path, format!("mesh cache entry {e}")))?;
+        verify(&path, &bytes)?;
+        load_mesh_from_bytes(&path, &bytes)
     }
 
     /// Stores `mesh` as binary PLY, atomically (temporary file + rename), with `source` in a
@@ -162,32 +169,69 @@ fn not_fetched(mesh: CachedMesh, path: Option<PathBuf>) -> SceneError {
     }
 }
 
+/// Largest mesh-cache entry read: the cached meshes take a few MiB.
+pub const MAX_ENTRY_BYTES: u64 = 64 << 20;
+
+/// The header line that carries the hash of the body (the bytes after `end_header`).
+const HASH_COMMENT: &str = "comment blake3 ";
+
+/// `Ok` if the body of the PLY `bytes` hashes to the value its header names.
+fn verify(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
+    const END: &[u8] = b"end_header\n";
+    let refuse = |why: &str| {
+        SceneError::parse(
+            path,
+            format!("mesh cache entry {why}: run `vrrt fetch` to store it again"),
+        )
+    };
+    let head_len = bytes
+        .windows(END.len())
+        .take(4096)
+        .position(|w| w == END)
+        .ok_or_else(|| refuse("has no PLY header"))?
+        + END.len();
+    let header = String::from_utf8_lossy(&bytes[..head_len]);
+    let expected = header
+        .lines()
+        .find_map(|l| l.strip_prefix(HASH_COMMENT))
+        .ok_or_else(|| refuse("has no content hash (stored by an older vrrt)"))?;
+    if blake3::hash(&bytes[head_len..]).to_hex().as_str() != expected.trim() {
+        return Err(refuse(
+            "does not match its content hash (edited or damaged)",
+        ));
+    }
+    Ok(())
+}
+
 /// Binary little-endian PLY of the positions and triangles (normals are recomputed on load, the
-/// same smooth normals [`Mesh::new`] gave the converted mesh). `comment` must be one line.
+/// same smooth normals [`Mesh::new`] gave the converted mesh), with the BLAKE3 hash of the body
+/// in a header comment. `comment` must be one line.
 fn encode_ply(mesh: &Mesh, comment: &str) -> Vec<u8> {
     let comment = comment.replace(['\n', '\r'], " ");
+    let mut body = Vec::with_capacity(mesh.positions.len() * 12 + mesh.indices.len() * 13);
+    for p in &mesh.positions {
+        for c in p.to_array() {
+            body.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for t in &mesh.indices {
+        body.push(3);
+        for i in t {
+            // Written as `int`: an index below 2³¹ (the loaders' limits are far lower) has the
+            // same bytes as u32 and i32.
+            body.extend_from_slice(&i.to_le_bytes());
+        }
+    }
     let mut out = format!(
-        "ply\nformat binary_little_endian 1.0\ncomment {comment}\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\nelement face {}\n\
-         property list uchar int vertex_indices\nend_header\n",
+        "ply\nformat binary_little_endian 1.0\ncomment {comment}\n{HASH_COMMENT}{}\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        blake3::hash(&body).to_hex(),
         mesh.positions.len(),
         mesh.indices.len()
     )
     .into_bytes();
-    out.reserve(mesh.positions.len() * 12 + mesh.indices.len() * 13);
-    for p in &mesh.positions {
-        for c in p.to_array() {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    for t in &mesh.indices {
-        out.push(3);
-        for i in t {
-            // Written as `int`: an index below 2³¹ (the loaders' limits are far lower) has the
-            // same bytes as u32 and i32.
-            out.extend_from_slice(&i.to_le_bytes());
-        }
-    }
+    out.extend_from_slice(&body);
     out
 }
 

@@ -12,10 +12,12 @@ mod html;
 mod region;
 
 use crate::backend::Backend;
+use crate::outdir::OutDir;
 use crate::session::{self, Config, FrameView, LoadedScene, SequenceOptions};
 use anyhow::{Context, Result};
 use region::Rect;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::rc::Rc;
 use vrrt_scene::image::{write_heatmap_png, write_png, Image};
 use vrrt_scene::render::Signal;
 use vrrt_scene::{Event, EventKind};
@@ -79,7 +81,7 @@ struct SceneEvents {
 
 /// The page being assembled over a bench.
 pub struct Page {
-    out: PathBuf,
+    out: Rc<OutDir>,
     enabled: bool,
     /// The backend whose frames the page shows (the first one the bench opens).
     backend: Option<String>,
@@ -89,27 +91,17 @@ pub struct Page {
 }
 
 impl Page {
-    /// A page in `out`. What an earlier bench wrote there (`report.html`, `report/*.png`) is
-    /// removed first, also when `enabled` is false, so no stale page is left beside new
-    /// results.
-    pub fn new(out: &Path, enabled: bool) -> Result<Page> {
-        let page = out.join(PAGE);
-        if page.is_file() {
-            std::fs::remove_file(&page)
-                .with_context(|| format!("cannot remove {}", page.display()))?;
-        }
-        let dir = out.join(DIR);
-        if enabled || dir.is_dir() {
-            crate::outdir::prepare(&dir, &["*.png"])?;
-        }
-        Ok(Page {
-            out: out.to_path_buf(),
+    /// A page in `out` (whose preparation removed an earlier bench's page, as every file that
+    /// bench wrote, also when `enabled` is false, so no stale page is left beside new results).
+    pub fn new(out: Rc<OutDir>, enabled: bool) -> Page {
+        Page {
+            out,
             enabled,
             backend: None,
             spp: 0,
             scenes: Vec::new(),
             sections: Vec::new(),
-        })
+        }
     }
 
     /// Starts one sequence (one configuration at one budget): finds or opens the sections of
@@ -194,9 +186,9 @@ impl Page {
         if !self.enabled {
             return Ok(());
         }
-        let dir = self.out.join(DIR);
         let legend = html::legend(ERROR_MAX);
-        write_heatmap_png(dir.join(html::LEGEND), legend.view(), ERROR_MAX)
+        let legend_path = self.out.file(&format!("{DIR}/{}", html::LEGEND))?;
+        write_heatmap_png(legend_path, legend.view(), ERROR_MAX)
             .context("writing the page's legend")?;
         let text = html::page(&html::Meta {
             backend: self.backend.as_deref().unwrap_or("none"),
@@ -204,13 +196,12 @@ impl Page {
             scenes: &self.scenes,
             sections: &self.sections,
         });
-        let path = self.out.join(PAGE);
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        let path = self.out.write(PAGE, text.as_bytes())?;
         println!(
             "page: {} ({} sections, images in {})",
             path.display(),
             self.sections.len(),
-            dir.display()
+            self.out.dir().join(DIR).display()
         );
         Ok(())
     }
@@ -229,7 +220,7 @@ impl Shots<'_> {
     /// bench's timing repeats, are skipped).
     pub fn frame(&mut self, v: &FrameView<'_>) -> Result<()> {
         let frame = v.record.frame;
-        let dir = self.page.out.join(DIR);
+        let dir = &*self.page.out;
         for &(index, k) in &self.targets {
             let section = &mut self.page.sections[index];
             let (Some(row), Some(crop), Some(p)) = (
@@ -243,7 +234,7 @@ impl Shots<'_> {
                 continue;
             };
             let writer = Writer {
-                dir: &dir,
+                dir,
                 stem: format!("s{index:03}_f{frame:04}"),
                 crop,
                 scale: crop.display_scale(),
@@ -301,7 +292,7 @@ fn column<'c>(
 
 /// Writes one frame's crops of one section.
 struct Writer<'a> {
-    dir: &'a Path,
+    dir: &'a OutDir,
     stem: String,
     crop: Rect,
     scale: u32,
@@ -309,14 +300,14 @@ struct Writer<'a> {
 }
 
 impl Writer<'_> {
-    fn path(&self, what: &str) -> (PathBuf, String) {
+    fn path(&self, what: &str) -> Result<(PathBuf, String)> {
         let file = format!("{}_{what}.png", self.stem);
-        (self.dir.join(&file), file)
+        Ok((self.dir.file(&format!("{DIR}/{file}"))?, file))
     }
 
     /// The crop of `image`, captioned with its relMSE (none for the reference itself).
     fn image(&self, what: &str, image: &Image, relmse: Option<f64>) -> Result<Tile> {
-        let (path, file) = self.path(what);
+        let (path, file) = self.path(what)?;
         write_png(&path, crop::cut(image, self.crop, self.scale).view())?;
         let caption = relmse.map_or(String::new(), |v| format!("relMSE {}", session::fmt(v, 5)));
         Ok(Tile { file, caption })
@@ -327,7 +318,7 @@ impl Writer<'_> {
         let relmse = crop::rel_mse(test, self.reference, self.crop)?;
         let image = self.image(what, test, Some(relmse))?;
         let error = crop::error(test, self.reference, self.crop, self.scale);
-        let (path, file) = self.path(&format!("{what}_error"));
+        let (path, file) = self.path(&format!("{what}_error"))?;
         write_heatmap_png(&path, error.view(), ERROR_MAX)?;
         let caption = format!(
             "mean |error| {}",
@@ -338,7 +329,7 @@ impl Writer<'_> {
 
     /// The moving mask's crop (white: moving), as the configuration `config` flagged it.
     fn mask(&self, moving: &[bool], width: u32, config: &str) -> Result<Tile> {
-        let (path, file) = self.path("moving");
+        let (path, file) = self.path("moving")?;
         write_png(
             &path,
             crop::mask(moving, width, self.crop, self.scale).view(),

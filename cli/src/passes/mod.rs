@@ -355,7 +355,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let file = load_settings(args.settings.as_deref())?;
     let signal = kind.signal(args.ao_radius, file.reflections);
     let settings = config.settings(file.denoiser, rpp, signal);
-    crate::outdir::prepare(&args.out, &["passes.csv"])?;
+    let out = crate::outdir::OutDir::prepare(&args.out, "bench-passes")?;
 
     let mut reports = Vec::new();
     for backend in backends {
@@ -394,9 +394,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("{}", report.table());
         reports.push(report);
     }
-    let path = args.out.join("passes.csv");
-    std::fs::write(&path, passes_csv(&reports))
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    let path = out.write("passes.csv", passes_csv(&reports).as_bytes())?;
     println!("written {}", path.display());
     Ok(())
 }

@@ -109,6 +109,8 @@ fn io_error(path: &Path, action: &'static str, source: std::io::Error) -> ImageE
     }
 }
 
+/// Writes through a temporary file renamed over `path`: a symbolic link there is replaced, not
+/// followed ([`crate::safe_fs::write_atomic`]).
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
-    std::fs::write(path, bytes).map_err(|e| io_error(path, "writing", e))
+    crate::safe_fs::write_atomic(path, bytes).map_err(|e| io_error(path, "writing", e))
 }

@@ -68,7 +68,17 @@ fn parse_guarded(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh,
     let mut visits = vec![0u32; doc.nodes().len()];
     while let Some((node, parent, depth)) = stack.pop() {
         visits[node.index()] += 1;
-        if depth > MAX_NODE_DEPTH || visits[node.index()] > 1 {
+        if depth > MAX_NODE_DEPTH {
+            return Err(SceneError::parse(
+                path,
+                format!(
+                    "node {} is more than {MAX_NODE_DEPTH} levels deep: the node hierarchy is \
+                     too deep",
+                    node.index()
+                ),
+            ));
+        }
+        if visits[node.index()] > 1 {
             return Err(SceneError::parse(
                 path,
                 format!(
@@ -301,19 +311,25 @@ fn check_accessor(
     Ok(())
 }
 
+/// The bytes of every buffer. External files and data URIs count against one total of
+/// [`LoadLimits::max_file_size`], so naming one large file many times costs at most the limit.
 fn resolve_buffers(
     path: &Path,
     gltf: &gltf::Gltf,
     limits: &LoadLimits,
 ) -> Result<Vec<Vec<u8>>, SceneError> {
     let mut out = Vec::new();
+    let mut total = 0u64;
     for buffer in gltf.document.buffers() {
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => gltf
                 .blob
                 .clone()
                 .ok_or_else(|| SceneError::parse(path, "GLB buffer without a BIN chunk"))?,
-            gltf::buffer::Source::Uri(uri) => load_uri(path, uri, limits)?,
+            gltf::buffer::Source::Uri(uri) => {
+                let left = limits.max_file_size.saturating_sub(total);
+                load_uri(path, uri, limits, left)?
+            }
         };
         if data.len() < buffer.length() {
             return Err(SceneError::parse(
@@ -326,12 +342,25 @@ fn resolve_buffers(
                 ),
             ));
         }
+        total += data.len() as u64;
+        if !matches!(buffer.source(), gltf::buffer::Source::Bin) {
+            buffers_total(path, limits, total)?;
+        }
         out.push(data);
     }
     Ok(out)
 }
 
-fn load_uri(path: &Path, uri: &str, limits: &LoadLimits) -> Result<Vec<u8>, SceneError> {
+/// `Ok` while the external buffers' `total` is within the file-size limit.
+fn buffers_total(path: &Path, limits: &LoadLimits, total: u64) -> Result<(), SceneError> {
+    let mut named = path.as_os_str().to_owned();
+    named.push(" (its buffers together)");
+    limits.check(Path::new(&named), Limit::FileSize, total)
+}
+
+/// A buffer's bytes: a base64 data URI, or a file inside the glTF file's own directory (no
+/// absolute path, no `..`, no link leading out), at most `left` bytes.
+fn load_uri(path: &Path, uri: &str, limits: &LoadLimits, left: u64) -> Result<Vec<u8>, SceneError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, payload) = rest
             .split_once(";base64,")
@@ -345,18 +374,49 @@ fn load_uri(path: &Path, uri: &str, limits: &LoadLimits) -> Result<Vec<u8>, Scen
             format!("buffer URI `{uri}` is not a local file"),
         ));
     }
-    let file = path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(percent_decode(uri));
-    super::read_file(&file, limits).map_err(|e| match e {
-        SceneError::Io { source, .. } => SceneError::parse(
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let file = confined(path, dir, &percent_decode(uri))?;
+    let bytes = crate::safe_fs::read_capped(&file, left).map_err(|e| match e {
+        crate::safe_fs::ReadError::TooLarge { len, .. } => {
+            let mut named = path.as_os_str().to_owned();
+            named.push(" (its buffers together)");
+            let total = len.map(|l| l + limits.max_file_size - left);
+            limits.exceeded(Path::new(&named), Limit::FileSize, total)
+        }
+        other => SceneError::parse(path, format!("buffer file {}: {other}", file.display())),
+    })?;
+    Ok(bytes)
+}
+
+/// `dir/relative` if `relative` is a plain relative path that stays inside `dir`, also after
+/// following links; a parse error of `path` otherwise.
+fn confined(path: &Path, dir: &Path, relative: &str) -> Result<std::path::PathBuf, SceneError> {
+    use std::path::Component;
+    let outside = || {
+        SceneError::parse(
             path,
-            format!("cannot read buffer file {}: {source}", file.display()),
-        ),
-        // A limit hit names the buffer file.
-        other => other,
-    })
+            format!("buffer URI `{relative}` leads outside the glTF file's directory"),
+        )
+    };
+    let rel = Path::new(relative);
+    if relative.is_empty()
+        || !rel
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(outside());
+    }
+    let file = dir.join(rel);
+    // A link inside the directory may still lead out of it.
+    if let (Ok(real_dir), Ok(real_file)) = (dir.canonicalize(), file.canonicalize()) {
+        if !real_file.starts_with(&real_dir) {
+            return Err(outside());
+        }
+    }
+    Ok(file)
 }
 
 fn percent_decode(s: &str) -> String {

@@ -20,6 +20,9 @@ use std::path::Path;
 /// Bytes of a file (after inflation, for gzip) read to check its format before the rest.
 const HEAD_LEN: u64 = 4096;
 
+/// The UTF-8 byte-order mark some editors put at the start of text files.
+pub(crate) const BOM: &[u8] = b"\xEF\xBB\xBF";
+
 /// Mesh file formats.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Format {
@@ -53,9 +56,12 @@ impl Format {
     /// it must at least be text (UTF-8, no NUL).
     fn check_head(self, path: &Path, head: &[u8]) -> Result<(), SceneError> {
         let ok = match self {
-            Format::Ply => head.starts_with(b"ply\n") || head.starts_with(b"ply\r"),
+            Format::Ply => {
+                let head = head.strip_prefix(BOM).unwrap_or(head);
+                head.starts_with(b"ply\n") || head.starts_with(b"ply\r")
+            }
             Format::Gltf => {
-                let json = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
+                let json = head.strip_prefix(BOM).unwrap_or(head);
                 head.starts_with(b"glTF")
                     || json.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{')
             }
@@ -101,7 +107,8 @@ pub fn load_mesh_with(path: &Path, limits: &LoadLimits) -> Result<Mesh, SceneErr
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(io_error)?;
+    // Only a regular file: a FIFO would block the open or the read forever, a device never end.
+    let file = crate::safe_fs::open_regular(path).map_err(|e| io_error(e.into()))?;
     // Refuse a file known to be too large before reading any of it (the read is capped too:
     // special files report no size, and files grow).
     let len = file.metadata().map_err(io_error)?.len();
@@ -167,21 +174,6 @@ pub fn load_mesh_from_reader(
     )?;
     mesh.check_visible(path)?;
     Ok(mesh)
-}
-
-/// Reads a whole file (a glTF buffer, say) under [`LoadLimits::max_file_size`]; errors name
-/// `file`.
-pub(crate) fn read_file(file: &Path, limits: &LoadLimits) -> Result<Vec<u8>, SceneError> {
-    let io_error = |source| SceneError::Io {
-        path: file.to_path_buf(),
-        source,
-    };
-    let f = std::fs::File::open(file).map_err(io_error)?;
-    limits.check(file, Limit::FileSize, f.metadata().map_err(io_error)?.len())?;
-    let mut out = Vec::new();
-    read_capped(Capped::new(f, Limit::FileSize, limits), &mut out)
-        .map_err(|e| read_error(file, false, limits, e))?;
-    Ok(out)
 }
 
 /// A failure of [`read_checked`]: the head is not the format's, or reading failed.

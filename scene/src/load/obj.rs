@@ -24,6 +24,9 @@ pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, Sce
     let text = std::str::from_utf8(bytes).map_err(|e| {
         SceneError::parse(path, format!("not UTF-8 text (byte {})", e.valid_up_to()))
     })?;
+    // A byte-order mark would otherwise glue itself to the first keyword (`\u{feff}v`), which
+    // is then skipped as unknown and every later index shifts.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut positions: Vec<Vec3> = Vec::new();
     let mut file_normals: Vec<Vec3> = Vec::new();
     // Corners as (position index, normal index or NONE).

@@ -33,6 +33,8 @@ enum Rows {
 /// Parses a PLY file. The declared vertex and face counts are held to the limits before the
 /// body is read (a face makes at least one triangle), the triangles again as polygons split.
 pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
+    // A UTF-8 byte-order mark before the `ply` magic is skipped.
+    let bytes = bytes.strip_prefix(super::BOM).unwrap_or(bytes);
     // serde-ply's ascii reader needs whitespace after the last value, which a file may lack: an
     // ascii body gets a final newline (a binary one must not, or a truncated file could pass).
     let format = PlyReader::from_reader(bytes)

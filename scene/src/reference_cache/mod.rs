@@ -153,10 +153,14 @@ impl ReferenceCache {
     /// Looks `key` up, telling a missing entry from an unusable one.
     pub fn lookup(&self, key: &ReferenceKey) -> Lookup {
         let path = self.path(key);
-        let bytes = match std::fs::read(&path) {
+        // A regular file no larger than the key's image can make: a FIFO, a device or a link
+        // to `/dev/zero` placed in the cache is unusable, not waited on or read without end.
+        let bytes = match crate::safe_fs::read_capped(&path, entry_cap(key)) {
             Ok(bytes) => bytes,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Lookup::Miss,
-            Err(e) => return Lookup::Corrupt(format!("{}: {e}", path.display())),
+            Err(crate::safe_fs::ReadError::Io(e)) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Lookup::Miss
+            }
+            Err(e) => return Lookup::Corrupt(format!("{} {e}", path.display())),
         };
         match decode_entry(key, &bytes) {
             Ok(reference) => Lookup::Hit(reference),
@@ -200,4 +204,11 @@ impl ReferenceCache {
         write_atomically(&path, &bytes)?;
         Ok(path)
     }
+}
+
+/// The largest entry `key` can have: four image and four standard-error channels of `f32` per
+/// pixel (uncompressed), plus the EXR header and line offsets.
+fn entry_cap(key: &ReferenceKey) -> u64 {
+    let (w, h) = (u64::from(key.width), u64::from(key.height));
+    w * h * 8 * 4 + h * 16 + (1 << 20)
 }
