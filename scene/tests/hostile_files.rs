@@ -1,0 +1,236 @@
+//! Hostile files given to the loaders and caches (issue 47): FIFOs and devices are refused
+//! without blocking, reads are capped, glTF buffers stay inside the glTF's directory under one
+//! total cap, a byte-order mark does not shift OBJ or PLY indices, and an edited mesh-cache
+//! entry is refused.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::mpsc;
+use std::time::Duration;
+use vrrt_scene::load::{load_mesh, load_mesh_from_bytes, load_mesh_with, Limit, LoadLimits};
+use vrrt_scene::mesh_cache::{CachedMesh, MeshCache};
+use vrrt_scene::{Mesh, SceneError};
+
+/// Runs `f` on a thread and fails the test if it has not returned within a few seconds (a
+/// FIFO read blocks forever; the test must not).
+fn within_seconds<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(Duration::from_secs(10))
+        .expect("the call blocked (a FIFO was opened and waited on)")
+}
+
+fn mkfifo(path: &Path) {
+    let ok = Command::new("mkfifo").arg(path).status().unwrap().success();
+    assert!(ok, "mkfifo {}", path.display());
+}
+
+/// A triangle whose 36 bytes of positions live in the buffer file(s) `uris`, each declared
+/// `len` bytes long; the first buffer supplies the positions.
+fn gltf_with_buffers(uris: &[&str], len: usize) -> String {
+    let buffers: Vec<String> = uris
+        .iter()
+        .map(|u| format!(r#"{{"uri":"{u}","byteLength":{len}}}"#))
+        .collect();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"mesh":0,"translation":[0,0,-1]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "buffers":[{}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+        "min":[0,0,0],"max":[1,1,0]}}]}}"#,
+        buffers.join(",")
+    )
+}
+
+fn triangle_bytes() -> Vec<u8> {
+    [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect()
+}
+
+#[test]
+fn a_fifo_scene_is_refused_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("f.obj");
+    mkfifo(&fifo);
+    let e = within_seconds(move || load_mesh(&fifo).unwrap_err().to_string());
+    assert!(e.contains("FIFO"), "{e}");
+    let e = load_mesh(Path::new("/dev/zero.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cannot read"), "{e}");
+}
+
+#[test]
+fn a_fifo_gltf_buffer_is_refused_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    mkfifo(&dir.path().join("b.bin"));
+    let gltf = dir.path().join("t.gltf");
+    std::fs::write(&gltf, gltf_with_buffers(&["b.bin"], 36)).unwrap();
+    let e = within_seconds(move || load_mesh(&gltf).unwrap_err().to_string());
+    assert!(e.contains("FIFO"), "{e}");
+}
+
+#[test]
+fn gltf_buffers_stay_in_the_gltf_directory() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("model");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(root.path().join("secret.bin"), triangle_bytes()).unwrap();
+    std::fs::write(dir.join("ok.bin"), triangle_bytes()).unwrap();
+    let load = |uri: &str| {
+        let gltf = dir.join("t.gltf");
+        std::fs::write(&gltf, gltf_with_buffers(&[uri], 36)).unwrap();
+        load_mesh(&gltf)
+    };
+    assert_eq!(load("ok.bin").unwrap().triangle_count(), 1);
+    let secret = root.path().join("secret.bin");
+    for uri in [
+        "../secret.bin".to_string(),
+        "..%2Fsecret.bin".to_string(),
+        secret.display().to_string(),
+        "../../../../../../etc/passwd".to_string(),
+    ] {
+        let e = load(&uri).unwrap_err().to_string();
+        assert!(
+            e.contains("outside the glTF file's directory"),
+            "{uri}: {e}"
+        );
+    }
+    // A link inside the directory that leads out of it.
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&secret, dir.join("link.bin")).unwrap();
+        let e = load("link.bin").unwrap_err().to_string();
+        assert!(e.contains("outside the glTF file's directory"), "{e}");
+    }
+}
+
+#[test]
+fn gltf_buffers_share_one_size_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut big = triangle_bytes();
+    big.resize(1000, 0);
+    std::fs::write(dir.path().join("big.bin"), &big).unwrap();
+    let gltf = dir.path().join("t.gltf");
+    // One 1000-byte file named as 8 buffers: 8000 bytes in all.
+    std::fs::write(&gltf, gltf_with_buffers(&["big.bin"; 8], 1000)).unwrap();
+    let limits = |max_file_size| LoadLimits {
+        max_file_size,
+        ..LoadLimits::default()
+    };
+    assert!(load_mesh_with(&gltf, &limits(8000)).is_ok());
+    // Each buffer alone is within 4000 bytes; together they are not.
+    match load_mesh_with(&gltf, &limits(4000)) {
+        Err(e @ SceneError::LimitExceeded { limit, .. }) => {
+            assert_eq!(limit, Limit::FileSize);
+            assert!(e.to_string().contains("buffers together"), "{e}");
+        }
+        other => panic!("expected the file-size limit, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_deep_gltf_node_chain_is_called_deep() {
+    let n = 300;
+    let nodes: Vec<String> = (0..n)
+        .map(|i| {
+            if i + 1 < n {
+                format!(r#"{{"children":[{}]}}"#, i + 1)
+            } else {
+                r#"{"mesh":0}"#.to_string()
+            }
+        })
+        .collect();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "buffers":[{{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}]}}"#,
+        nodes.join(",")
+    );
+    let e = load_mesh_from_bytes(Path::new("deep.gltf"), json.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("levels deep"), "{e}");
+    assert!(!e.contains("reached twice"), "{e}");
+}
+
+/// The quad of the issue's reproduction, with and without a byte-order mark.
+fn with_and_without_bom(text: &[u8], name: &str) -> (Mesh, Mesh) {
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend_from_slice(text);
+    let plain = load_mesh_from_bytes(Path::new(name), text).unwrap();
+    let marked = load_mesh_from_bytes(Path::new(name), &bom).unwrap();
+    (plain, marked)
+}
+
+#[test]
+fn a_byte_order_mark_shifts_no_obj_index() {
+    let obj = b"v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 1 1\nf 1 2 3\n";
+    let (plain, marked) = with_and_without_bom(obj, "b.obj");
+    assert_eq!(plain, marked);
+}
+
+#[test]
+fn a_byte_order_mark_before_ply_is_skipped() {
+    let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+        property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+        -1 0 -1\n1 0 -1\n1 0 1\n3 0 1 2\n";
+    let (plain, marked) = with_and_without_bom(ply, "b.ply");
+    assert_eq!(plain, marked);
+}
+
+fn cached_triangle(dir: &Path) -> (MeshCache, PathBuf, Mesh) {
+    let cache = MeshCache::new(dir);
+    let mesh = load_mesh_from_bytes(
+        Path::new("t.obj"),
+        b"v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 1 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let path = cache.store(CachedMesh::Bunny, &mesh, "test").unwrap();
+    (cache, path, mesh)
+}
+
+#[test]
+fn an_edited_mesh_cache_entry_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, path, _) = cached_triangle(dir.path());
+    assert!(cache.load(CachedMesh::Bunny).is_ok());
+    // Move one vertex: its first coordinate's float, just after the header.
+    let mut bytes = std::fs::read(&path).unwrap();
+    let body = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    bytes[body..body + 4].copy_from_slice(&0.5f32.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let e = cache.load(CachedMesh::Bunny).unwrap_err().to_string();
+    assert!(
+        e.contains("content hash") && e.contains("vrrt fetch"),
+        "{e}"
+    );
+}
+
+#[test]
+fn fifo_and_device_mesh_cache_entries_are_refused_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = MeshCache::new(dir.path());
+    mkfifo(&cache.path(CachedMesh::Bunny));
+    let e = within_seconds(move || cache.load(CachedMesh::Bunny).unwrap_err().to_string());
+    assert!(e.contains("FIFO"), "{e}");
+    #[cfg(unix)]
+    {
+        let cache = MeshCache::new(dir.path());
+        std::os::unix::fs::symlink("/dev/zero", cache.path(CachedMesh::Dragon)).unwrap();
+        let e = cache.load(CachedMesh::Dragon).unwrap_err().to_string();
+        assert!(e.contains("device"), "{e}");
+    }
+}
