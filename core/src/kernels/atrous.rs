@@ -185,20 +185,23 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     } else {
         p.sigma_luminance
     };
-    let lum_scale = blurred.map(|b| sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6);
+    // Reciprocals once per pixel: every tap multiplies instead of dividing.
+    let lum_scale = blurred.map(|b| 1.0 / (sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6));
+    let plane_scale = cd.map(|d| 1.0 / math::max(p.plane_scale * d, 1e-12));
 
     let c = Centre {
         id,
         p: *p,
         guided,
+        penumbral,
         guide: guide_row(guide, guided, row, x0, w),
         reach: guide_row::<N>(penumbra, penumbral, row, x0, w)
             .map(|pw| penumbra::reach(pw, p.penumbra_scale)),
         value,
-        depth: cd,
         normal: n,
         plane,
         lum_scale,
+        plane_scale,
         normal_power,
     };
     let symmetric = super::plane_in(p.symmetric_planes, id.z);
@@ -253,15 +256,18 @@ struct Centre<const N: usize> {
     p: AtrousParams,
     /// This plane compares the hit-distance guide, the centre's is `guide`.
     guided: bool,
+    /// This plane's taps stay within the centre's penumbra (`reach`).
+    penumbral: bool,
     guide: Lanes<f32, N>,
     /// `1 / (k · W)` of the centre's penumbra `W` ([`penumbra::reach`]), 0 for no limit.
     reach: Lanes<f32, N>,
     value: Lanes<f32, N>,
-    depth: Lanes<f32, N>,
     normal: Lanes<Vec3, N>,
     plane: Lanes<TangentPlane, N>,
-    /// Luminance difference per unit of the exponent.
+    /// Exponent per unit of luminance difference.
     lum_scale: Lanes<f32, N>,
+    /// Exponent per unit of distance from the centre's tangent plane, one pixel of offset away.
+    plane_scale: Lanes<f32, N>,
     normal_power: f32,
 }
 
@@ -306,22 +312,32 @@ fn tap<const N: usize>(
     let (value, variance) = payload::unpack_filtered(packed);
     let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
+    let per_offset = 1.0 / offset_len;
     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
     let w_n = surface::normal_weights(c.normal, m, c.normal_power);
-    let qg = guide_row::<N>(guide, c.guided, qrow, qx0, w);
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
-    let e = Lanes::<f32, N>::from_index(|l| {
+    let mut e = Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
-        let scale = math::max(p.plane_scale * c.depth.0[l] * offset_len, 1e-12);
         // Columns outside the image are never used (`valid`); clamped, they stay the finite
         // values of some pixel.
         let x = lanes::clamp_column(qx.0[l], w);
-        c.plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
-            + math::abs(c.value.0[l] - value.0[l]) / c.lum_scale.0[l]
-            + guide_exponent(c.guide.0[l], qg.0[l], p.guide_scale)
-            + (offset_len * c.reach.0[l]) * (offset_len * c.reach.0[l])
+        c.plane.0[l].distance(x, qy as u32, qd.0[l]) * (c.plane_scale.0[l] * per_offset)
+            + math::abs(c.value.0[l] - value.0[l]) * c.lum_scale.0[l]
     });
+    // The guides' terms only on their planes (uniform branches).
+    if c.guided {
+        let qg = guide_row::<N>(guide, true, qrow, qx0, w);
+        lanes::each_lane!(l in N {
+            e.0[l] += guide_exponent(c.guide.0[l], qg.0[l], p.guide_scale);
+        });
+    }
+    if c.penumbral {
+        lanes::each_lane!(l in N {
+            let r = offset_len * c.reach.0[l];
+            e.0[l] += r * r;
+        });
+    }
     let tw = TAP_WEIGHT[ay][ax];
     Tap {
         valid,
