@@ -215,9 +215,10 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             if !symmetric {
                 if tx != 0 || ty != 0 {
                     let t = tap(input, depth, normal_roughness, guide, &c, tx, ty);
+                    let w_n = t.cosine.pow(c.normal_power);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
-                            let w = t.weight.0[l];
+                            let w = t.weight * w_n.0[l] * math::exp(-t.exponent.0[l]);
                             sum.0[l] += w * t.value.0[l];
                             sum_var.0[l] += w * w * t.variance.0[l];
                             sum_w.0[l] += w;
@@ -225,12 +226,19 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                     });
                 }
             } else if ty > 0 || (ty == 0 && tx > 0) {
-                // The pair (tx, ty), (-tx, -ty): both or neither, at one weight.
+                // The pair (tx, ty), (-tx, -ty): both or neither, at one weight, the geometric
+                // mean of theirs. Their B3 weights are equal, so it is
+                // `tw · ((n·a)(n·b))^(p/2) · exp(−(e_a + e_b)/2)`: one power, one exponential.
                 let a = tap(input, depth, normal_roughness, guide, &c, tx, ty);
                 let b = tap(input, depth, normal_roughness, guide, &c, -tx, -ty);
+                let w_n = a
+                    .cosine
+                    .zip(b.cosine, |a, b| a * b)
+                    .pow(0.5 * c.normal_power);
                 lanes::each_lane!(l in N {
                     if a.valid.0[l] && b.valid.0[l] {
-                        let w = math::sqrt(a.weight.0[l] * b.weight.0[l]);
+                        let e = 0.5 * (a.exponent.0[l] + b.exponent.0[l]);
+                        let w = a.weight * w_n.0[l] * math::exp(-e);
                         sum.0[l] += w * (a.value.0[l] + b.value.0[l]);
                         sum_var.0[l] += w * w * (a.variance.0[l] + b.variance.0[l]);
                         sum_w.0[l] += 2.0 * w;
@@ -271,10 +279,17 @@ struct Centre<const N: usize> {
     normal_power: f32,
 }
 
-/// One tap: whether it counts (inside the image, on a surface), its weight, value and variance.
+/// One tap: whether it counts (inside the image, on a surface), its value and variance, and the
+/// parts of its weight `weight · cosine^p · exp(−exponent)`, kept apart so a symmetric pair
+/// takes one power and one exponential for both.
 struct Tap<const N: usize> {
     valid: Lanes<bool, N>,
-    weight: Lanes<f32, N>,
+    /// The B3-spline weight relative to the centre's.
+    weight: f32,
+    /// `max(0, n·m)` of the centre's and the tap's normals.
+    cosine: Lanes<f32, N>,
+    /// The plane, luminance and guide exponents, summed.
+    exponent: Lanes<f32, N>,
     value: Lanes<f32, N>,
     variance: Lanes<f32, N>,
 }
@@ -294,11 +309,14 @@ fn tap<const N: usize>(
     let (w, h) = (p.width, p.height);
     let step = p.step as i32;
     let qy = id.y as i32 + ty * step;
+    let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
     if qy < 0 || qy >= h as i32 {
         let zero = Lanes::<f32, N>::splat(0.0);
         return Tap {
             valid: Lanes::splat(false),
-            weight: zero,
+            weight: 0.0,
+            cosine: zero,
+            exponent: zero,
             value: zero,
             variance: zero,
         };
@@ -310,11 +328,10 @@ fn tap<const N: usize>(
     let valid = qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
     let packed = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
     let (value, variance) = payload::unpack_filtered(packed);
-    let (ax, ay) = (tx.unsigned_abs() as usize, ty.unsigned_abs() as usize);
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
     let per_offset = 1.0 / offset_len;
     let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
-    let w_n = surface::normal_weights(c.normal, m, c.normal_power);
+    let cosine = surface::normal_cosines(c.normal, m);
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let mut e = Lanes::<f32, N>::from_index(|l| {
@@ -338,10 +355,11 @@ fn tap<const N: usize>(
             e.0[l] += r * r;
         });
     }
-    let tw = TAP_WEIGHT[ay][ax];
     Tap {
         valid,
-        weight: w_n.zip(e, |w_n, e| tw * w_n * math::exp(-e)),
+        weight: TAP_WEIGHT[ay][ax],
+        cosine,
+        exponent: e,
         value,
         variance,
     }
