@@ -166,16 +166,6 @@ impl Backend {
         }
     }
 
-    /// True for the CPU backend and for software Vulkan devices (lavapipe), where every kernel
-    /// is expected to match the CPU backend bit for bit.
-    pub fn is_software(&self) -> bool {
-        match self {
-            Backend::Cpu(_) => true,
-            Backend::Wgpu(e) => e.adapter_info().device_type == wgpu::DeviceType::Cpu,
-            Backend::Ash(e) => e.adapter_info().adapter_type == AdapterType::Cpu,
-        }
-    }
-
     /// Validation-layer and API errors seen so far (0 for the CPU backend).
     pub fn validation_errors(&self) -> u32 {
         match self {
