@@ -246,7 +246,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         None => println!("OIDN: not installed (pip install pyoidn==2.5.1 provides oidnDenoise)"),
     }
 
-    let refs = References::from_env(true);
     let started = Instant::now();
     let mut cells = Vec::new();
     for kind in &backends {
@@ -263,6 +262,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             exec.name().to_string()
         };
         println!("backend {backend}: {}", exec.device());
+        // One per executor: it keeps the buffers of the references it traces on it.
+        let refs = References::from_env(true);
         for scene in &loaded {
             let frames = clamp_frames(frames, scene.scene.frames_available());
             for &kind in &signals {

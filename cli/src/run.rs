@@ -88,9 +88,11 @@ pub struct RunArgs {
     pub limits: LimitArgs,
 }
 
-/// Most reference samples per pixel (`--spp`): 256 times the default, and a bound on the
-/// references' cost, so a mistyped number is refused instead of rendering without end.
-pub const MAX_SPP: u32 = 1 << 16;
+/// Most reference samples per pixel (`--spp`): 128 times the default, a bound on the
+/// references' cost (a mistyped number is refused instead of rendering without end), and the
+/// most their 16-bit random sequence index holds without wrapping
+/// ([`vrrt_scene::render::REFERENCE_RNG_BASE`]).
+pub const MAX_SPP: u32 = 1 << 15;
 
 /// Most frames of a sequence (`--frames`): the scenes' animations are far shorter.
 pub const MAX_FRAMES: u32 = 1 << 16;

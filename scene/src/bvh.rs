@@ -100,15 +100,76 @@ pub fn build(triangles: &[Triangle], normals: &[TriangleNormals]) -> Bvh {
 
 /// Builds with explicit options.
 pub fn build_with(triangles: &[Triangle], normals: &[TriangleNormals], opt: &BuildOptions) -> Bvh {
-    let n = triangles.len();
+    check_lengths(triangles, normals);
+    let (nodes, idx) = tree(triangles, opt);
+    Bvh {
+        nodes,
+        triangles: idx.iter().map(|&i| triangles[i as usize]).collect(),
+        normals: if normals.is_empty() {
+            Vec::new()
+        } else {
+            idx.iter().map(|&i| normals[i as usize]).collect()
+        },
+        order: idx,
+    }
+}
+
+/// Builds with default options from owned triangles and normals, reordering them in place: the
+/// same BVH as [`build`] without a second copy of the triangles, which on a large mesh is most
+/// of the peak memory of loading it.
+pub fn build_owned(mut triangles: Vec<Triangle>, mut normals: Vec<TriangleNormals>) -> Bvh {
+    check_lengths(&triangles, &normals);
+    let (nodes, idx) = tree(&triangles, &BuildOptions::default());
+    let mut done = vec![false; idx.len()];
+    gather_in_place(&mut triangles, &idx, &mut done);
+    if !normals.is_empty() {
+        done.fill(false);
+        gather_in_place(&mut normals, &idx, &mut done);
+    }
+    Bvh {
+        nodes,
+        triangles,
+        normals,
+        order: idx,
+    }
+}
+
+/// Reorders `v` so that `v[k]` becomes the old `v[order[k]]` (`order` a permutation), one cycle
+/// at a time; `done` (all false, `v`'s length) marks the positions filled.
+fn gather_in_place<T: Copy>(v: &mut [T], order: &[u32], done: &mut [bool]) {
+    for start in 0..v.len() {
+        if done[start] {
+            continue;
+        }
+        let first = v[start];
+        let mut k = start;
+        loop {
+            done[k] = true;
+            let j = order[k] as usize;
+            if j == start {
+                v[k] = first;
+                break;
+            }
+            v[k] = v[j];
+            k = j;
+        }
+    }
+}
+
+fn check_lengths(triangles: &[Triangle], normals: &[TriangleNormals]) {
     assert!(
-        n < u32::MAX as usize,
+        triangles.len() < u32::MAX as usize,
         "too many triangles for 32-bit indices"
     );
     assert!(
-        normals.is_empty() || normals.len() == n,
+        normals.is_empty() || normals.len() == triangles.len(),
         "normals must parallel triangles"
     );
+}
+
+/// The nodes over `triangles` and the order of the triangles in their leaves.
+fn tree(triangles: &[Triangle], opt: &BuildOptions) -> (Vec<BvhNode>, Vec<u32>) {
+    let n = triangles.len();
     let bins = opt.bins.max(2);
     if n == 0 {
         let empty = node(
@@ -119,10 +180,7 @@ pub fn build_with(triangles: &[Triangle], normals: &[TriangleNormals], opt: &Bui
             0,
             0,
         );
-        return Bvh {
-            nodes: vec![empty],
-            ..Bvh::default()
-        };
+        return (vec![empty], Vec::new());
     }
     let boxes: Vec<Aabb> = triangles
         .iter()
@@ -227,16 +285,7 @@ pub fn build_with(triangles: &[Triangle], normals: &[TriangleNormals], opt: &Bui
         work.push((left + 1, start + mid, end, depth + 1));
         work.push((left, start, start + mid, depth + 1));
     }
-    Bvh {
-        nodes,
-        triangles: idx.iter().map(|&i| triangles[i as usize]).collect(),
-        normals: if normals.is_empty() {
-            Vec::new()
-        } else {
-            idx.iter().map(|&i| normals[i as usize]).collect()
-        },
-        order: idx,
-    }
+    (nodes, idx)
 }
 
 #[inline]
@@ -346,6 +395,21 @@ mod tests {
         );
         assert_eq!(visited_nodes, bvh.nodes.len(), "no orphan nodes");
         assert!(depth_and_leaves(&bvh.nodes).0 < MAX_DEPTH);
+    }
+
+    #[test]
+    fn building_in_place_gives_the_same_bvh() {
+        let tris = random_triangles(3000, 7);
+        let normals: Vec<TriangleNormals> = (0..tris.len())
+            .map(|i| {
+                let v = Vec3::new(i as f32, 1.0, 0.0).normalize();
+                TriangleNormals::new(v, v, v)
+            })
+            .collect();
+        let copied = build(&tris, &normals);
+        assert_eq!(build_owned(tris.clone(), normals), copied);
+        assert_eq!(build_owned(tris.clone(), Vec::new()), build(&tris, &[]));
+        assert_eq!(build_owned(Vec::new(), Vec::new()), build(&[], &[]));
     }
 
     #[test]

@@ -495,10 +495,82 @@ pub struct Reference {
 /// wrapping).
 pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 
+/// The executor buffers of reference renders, kept from one call of [`reference_with`] to the
+/// next on the same executor. Executors have no call that frees a buffer, so a reference that
+/// made its own each time would keep every frame's copy of the geometry (about 90 bytes a
+/// triangle on the CPU backend) and its per-pixel buffers until the executor is dropped.
+#[derive(Default)]
+pub struct ReferenceBuffers {
+    gpu: GpuScene,
+    sized: Option<SizedBuffers>,
+}
+
+/// The buffers of one image size and signal.
+struct SizedBuffers {
+    key: (u32, u32, Signal, usize),
+    gbuffer: GBuffer,
+    work: BufferId,
+    args: BufferId,
+    history: BufferId,
+    out: BufferId,
+    blockers: BufferId,
+    reflections: Option<Reflections>,
+}
+
+impl SizedBuffers {
+    fn create<E: Executor>(
+        exec: &mut E,
+        (width, height, signal, lights): (u32, u32, Signal, usize),
+    ) -> Result<SizedBuffers, DenoiserError<E::Error>> {
+        let pixels = (width * height) as usize;
+        let n = pixels * signal.planes(lights) as usize;
+        let layout = signal.layout(lights);
+        let args = exec.create_buffer(16)?;
+        exec.write_buffer(
+            args,
+            bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
+        )?;
+        Ok(SizedBuffers {
+            key: (width, height, signal, lights),
+            gbuffer: GBuffer::create(exec, width, height)?,
+            work: exec.create_buffer(pixels as u64 * 4)?,
+            args,
+            history: exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?,
+            out: exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?,
+            // References record no blockers: one element, never written.
+            blockers: exec.create_buffer(4)?,
+            reflections: match (layout.reflections, signal.reflections()) {
+                (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
+                _ => None,
+            },
+        })
+    }
+}
+
 /// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
 /// denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling `progress(done, spp)` after each.
+/// Its buffers are new and stay on `exec`: for more than one reference on an executor use
+/// [`reference_with`].
 pub fn reference<E: Executor>(
     exec: &mut E,
+    f: &FrameGeometry,
+    width: u32,
+    height: u32,
+    signal: Signal,
+    spp: u32,
+    progress: impl FnMut(u32, u32),
+) -> Result<Reference, DenoiserError<E::Error>> {
+    let mut buffers = ReferenceBuffers::default();
+    reference_with(exec, &mut buffers, f, width, height, signal, spp, progress)
+}
+
+/// [`reference`] with the buffers of `buffers`, which must have been used on `exec` only: the
+/// geometry is uploaded again only when the frame's differs, the per-pixel buffers made again
+/// only for another size or signal.
+#[allow(clippy::too_many_arguments)]
+pub fn reference_with<E: Executor>(
+    exec: &mut E,
+    buffers: &mut ReferenceBuffers,
     f: &FrameGeometry,
     width: u32,
     height: u32,
@@ -509,30 +581,23 @@ pub fn reference<E: Executor>(
     let pixels = (width * height) as usize;
     let planes = signal.planes(f.lights.len());
     let n = pixels * planes as usize;
-    let mut gpu = GpuScene::default();
+    let gpu = &mut buffers.gpu;
     gpu.upload(exec, f)?;
-    let gbuffer = GBuffer::create(exec, width, height)?;
+    let key = (width, height, signal, f.lights.len());
+    if buffers.sized.as_ref().is_none_or(|b| b.key != key) {
+        buffers.sized = Some(SizedBuffers::create(exec, key)?);
+    }
+    let b = buffers.sized.as_ref().expect("just made");
+    let (gbuffer, work, args, history, out, blockers) =
+        (b.gbuffer, b.work, b.args, b.history, b.out, b.blockers);
+    let reflections = b.reflections.as_ref();
     let view = View {
         camera: f.camera,
         prev_camera: f.prev_camera,
     };
     exec.write_buffer(gbuffer.view, bytemuck::bytes_of(&view))?;
     gpu.gbuffer(exec, f, width, height, gbuffer)?;
-    let work = exec.create_buffer(pixels as u64 * 4)?;
-    let args = exec.create_buffer(16)?;
-    exec.write_buffer(
-        args,
-        bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
-    )?;
-    let history = exec.create_buffer((n * std::mem::size_of::<PackedPayload>()) as u64)?;
-    let out = exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?;
-    // References record no blockers: one element, never written.
-    let blockers = exec.create_buffer(4)?;
     let layout = signal.layout(f.lights.len());
-    let reflections = match (layout.reflections, signal.reflections()) {
-        (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
-        _ => None,
-    };
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
     let mut done = 0u32;
     while done < spp {
@@ -565,7 +630,7 @@ pub fn reference<E: Executor>(
             sampling: 0,
         };
         let scene = gpu.frame_scene(f);
-        trace_planes(exec, signal, &layout, &scene, reflections.as_ref(), &target)?;
+        trace_planes(exec, signal, &layout, &scene, reflections, &target)?;
         let samples = unpack_samples(&read(exec, out, n)?);
         for (i, s) in samples.iter().enumerate() {
             sum[i] += s.m1 as f64 * s.rays as f64;

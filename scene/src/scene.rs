@@ -262,7 +262,7 @@ impl Scene {
                 normals.push(TriangleNormals::new(nrm[a], nrm[b], nrm[c]));
             }
         }
-        bvh::build(&tris, &normals)
+        bvh::build_owned(tris, normals)
     }
 
     /// Everything the GPU needs for frame `i`.

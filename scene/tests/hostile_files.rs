@@ -234,3 +234,37 @@ fn fifo_and_device_mesh_cache_entries_are_refused_without_blocking() {
         assert!(e.contains("device"), "{e}");
     }
 }
+
+/// Reference renders on one executor reuse its buffers (executors cannot free one; a copy of
+/// the geometry per reference grew memory by the mesh's size every frame) and give the same
+/// images as fresh buffers, across frames, signals and sizes.
+#[test]
+fn references_reusing_their_buffers_give_the_same_images() {
+    use vrrt_core::reflections::ReflectionSettings;
+    use vrrt_cpu::CpuExecutor;
+    use vrrt_scene::render::{self, ReferenceBuffers, Signal};
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let all = Signal::All {
+        max_distance: 1.0,
+        reflections: ReflectionSettings::default(),
+    };
+    let ao = Signal::Ao { max_distance: 1.0 };
+    let mut exec = CpuExecutor::new();
+    let mut buffers = ReferenceBuffers::default();
+    for (frame, signal, (w, h)) in [
+        (0, all, (24, 16)),
+        (30, all, (24, 16)),
+        (30, ao, (24, 16)),
+        (31, all, (16, 8)),
+    ] {
+        let f = scene.frame(frame);
+        let reused =
+            render::reference_with(&mut exec, &mut buffers, &f, w, h, signal, 4, |_, _| {})
+                .unwrap();
+        let fresh =
+            render::reference(&mut CpuExecutor::new(), &f, w, h, signal, 4, |_, _| {}).unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&reused.mean), bits(&fresh.mean), "frame {frame}");
+        assert_eq!(bits(&reused.stderr), bits(&fresh.stderr), "frame {frame}");
+    }
+}

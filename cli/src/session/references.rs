@@ -5,6 +5,7 @@ use super::{mean, planes_to_image};
 use crate::backend::Backend;
 use crate::progress::Progress;
 use anyhow::{anyhow, Result};
+use std::cell::RefCell;
 use std::path::Path;
 use vrrt_scene::image::Image;
 use vrrt_scene::reference_cache::{ReferenceCache, ReferenceKey, StdErr};
@@ -45,10 +46,15 @@ pub struct ReferenceRequest<'a> {
 }
 
 /// Where references come from: the on-disk cache, else traced (and then stored).
+///
+/// The executor buffers of the references it traces are kept and reused (executors cannot
+/// free a buffer, and each reference made its own would keep a copy of the geometry), so one
+/// `References` serves one executor: open another for another backend.
 pub struct References {
     cache: Option<ReferenceCache>,
     /// Show the progress of each reference traced.
     pub progress: bool,
+    buffers: RefCell<render::ReferenceBuffers>,
 }
 
 impl References {
@@ -58,7 +64,11 @@ impl References {
         if cache.is_none() {
             eprintln!("note: no reference cache directory (set $VRRT_REFERENCE_CACHE or $HOME); references are traced every time");
         }
-        References { cache, progress }
+        References {
+            cache,
+            progress,
+            buffers: RefCell::default(),
+        }
     }
 
     /// The cache directory, if any.
@@ -99,24 +109,34 @@ impl References {
         }
         let frame = f.index;
         let mut bar = None;
-        let r = render::reference(exec, f, width, height, signal, spp, |done, total| {
-            if self.progress {
-                bar.get_or_insert_with(|| {
-                    let what = match signal {
-                        Signal::Ao { .. } => "ao",
-                        Signal::Shadows => "shadows",
-                        Signal::Reflections(_) => "reflections",
-                        Signal::All { .. } => "all",
-                    };
-                    Progress::new(
-                        format!("reference of frame {frame} ({what}), spp"),
-                        total.into(),
-                        1,
-                    )
-                })
-                .set(done.into(), String::new);
-            }
-        })
+        let mut buffers = self.buffers.borrow_mut();
+        let r = render::reference_with(
+            exec,
+            &mut buffers,
+            f,
+            width,
+            height,
+            signal,
+            spp,
+            |done, total| {
+                if self.progress {
+                    bar.get_or_insert_with(|| {
+                        let what = match signal {
+                            Signal::Ao { .. } => "ao",
+                            Signal::Shadows => "shadows",
+                            Signal::Reflections(_) => "reflections",
+                            Signal::All { .. } => "all",
+                        };
+                        Progress::new(
+                            format!("reference of frame {frame} ({what}), spp"),
+                            total.into(),
+                            1,
+                        )
+                    })
+                    .set(done.into(), String::new);
+                }
+            },
+        )
         .map_err(|e| anyhow!("tracing the reference of frame {frame}: {e}"))?;
         drop(bar);
         let image = planes_to_image(&r.mean, width, height, planes);
