@@ -15,13 +15,13 @@ pub struct LimitArgs {
     #[arg(long, value_name = "SIZE", default_value = "1G", value_parser = parse_bytes)]
     pub max_decompressed: u64,
     /// Most vertices of a mesh file.
-    #[arg(long, value_name = "N", default_value = "67108864", value_parser = parse_count)]
+    #[arg(long, value_name = "N", default_value = "8388608", value_parser = parse_count)]
     pub max_vertices: u64,
     /// Most triangles of a mesh file (after polygons are split into triangles).
-    #[arg(long, value_name = "N", default_value = "67108864", value_parser = parse_count)]
+    #[arg(long, value_name = "N", default_value = "8388608", value_parser = parse_count)]
     pub max_triangles: u64,
     /// Largest BVH built over a mesh file (bytes, or K, M, G, T).
-    #[arg(long, value_name = "SIZE", default_value = "8G", value_parser = parse_bytes)]
+    #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
     pub max_bvh_memory: u64,
 }
 

@@ -129,8 +129,11 @@ pub const MAX_SETTINGS_BYTES: u64 = 1 << 20;
 /// [`MAX_SETTINGS_BYTES`]: a FIFO or `/dev/zero` is refused, not waited on or read without end);
 /// errors name the file.
 pub fn load(path: &Path) -> Result<SettingsFile> {
-    let text = vrrt_scene::safe_fs::read_capped_string(path, MAX_SETTINGS_BYTES)
-        .map_err(|e| anyhow!("settings file {} {e}", path.display()))?;
+    use vrrt_scene::safe_fs::{read_capped_string, ReadError};
+    let text = read_capped_string(path, MAX_SETTINGS_BYTES).map_err(|e| match e {
+        ReadError::Io(e) => anyhow!("cannot read settings file {}: {e}", path.display()),
+        other => anyhow!("settings file {} {other}", path.display()),
+    })?;
     parse(&text).map_err(|e| anyhow!("settings file {}: {e}", path.display()))
 }
 

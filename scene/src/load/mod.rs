@@ -141,7 +141,7 @@ pub fn load_mesh_from_reader(
     };
     let io_error = |e: io::Error| read_error(path, gz, limits, e);
     let mut raw = Capped::new(reader, Limit::FileSize, limits);
-    let bytes = if gz {
+    let mesh = if gz {
         let mut magic = Vec::new();
         (&mut raw)
             .take(2)
@@ -151,20 +151,16 @@ pub fn load_mesh_from_reader(
             return Err(wrong_format(path, "gzip", &magic));
         }
         let inflated = flate2::read::GzDecoder::new(io::Cursor::new(magic).chain(raw));
-        read_checked(
+        parse_from(
             path,
             format,
             Capped::new(inflated, Limit::DecompressedSize, limits),
+            limits,
         )
     } else {
-        read_checked(path, format, raw)
+        parse_from(path, format, raw, limits)
     }
     .map_err(|e| e.into_scene_error(io_error))?;
-    let mesh = match format {
-        Format::Obj => obj::parse(path, &bytes, limits),
-        Format::Ply => ply::parse(path, &bytes, limits),
-        Format::Gltf => gltf::parse(path, &bytes, limits),
-    }?;
     limits.check(path, Limit::Vertices, mesh.positions.len() as u64)?;
     limits.check(path, Limit::Triangles, mesh.triangle_count() as u64)?;
     limits.check(
@@ -173,6 +169,42 @@ pub fn load_mesh_from_reader(
         bvh::memory_bound(mesh.triangle_count()),
     )?;
     mesh.check_visible(path)?;
+    Ok(mesh)
+}
+
+/// Parses the mesh `reader` yields after checking its first bytes against `format`. PLY is
+/// streamed into the mesh's arrays, and the rest of the stream is then read through its cap
+/// without being kept, so a gzip bomb behind a small mesh is refused at the cost of the mesh;
+/// OBJ and glTF are read whole first.
+fn parse_from<R: Read>(
+    path: &Path,
+    format: Format,
+    mut reader: Capped<R>,
+    limits: &LoadLimits,
+) -> Result<Mesh, ReadError> {
+    if format != Format::Ply {
+        let bytes = read_checked(path, format, reader)?;
+        return match format {
+            Format::Obj => obj::parse(path, &bytes, limits),
+            _ => gltf::parse(path, &bytes, limits),
+        }
+        .map_err(ReadError::Format);
+    }
+    let mut head = Vec::new();
+    (&mut reader)
+        .take(HEAD_LEN)
+        .read_to_end(&mut head)
+        .map_err(ReadError::Io)?;
+    format.check_head(path, &head).map_err(ReadError::Format)?;
+    let bound = reader.max;
+    let mesh = ply::parse_stream(
+        path,
+        io::Cursor::new(head).chain(&mut reader),
+        limits,
+        bound,
+    )
+    .map_err(ReadError::Format)?;
+    io::copy(&mut reader, &mut io::sink()).map_err(ReadError::Io)?;
     Ok(mesh)
 }
 
@@ -229,10 +261,17 @@ fn read_capped<R: Read>(mut reader: Capped<R>, out: &mut Vec<u8>) -> io::Result<
     }
 }
 
+/// The limit a [`Capped`] reader failed with, if `e` is that failure.
+pub(crate) fn limit_hit(e: &io::Error) -> Option<Limit> {
+    e.get_ref()
+        .and_then(|i| i.downcast_ref::<Exceeded>())
+        .map(|Exceeded(limit)| *limit)
+}
+
 /// The [`SceneError`] of a failed read: a hit limit, a corrupt gzip stream or an I/O error.
-fn read_error(path: &Path, gz: bool, limits: &LoadLimits, e: io::Error) -> SceneError {
-    if let Some(Exceeded(limit)) = e.get_ref().and_then(|i| i.downcast_ref::<Exceeded>()) {
-        return limits.exceeded(path, *limit, None);
+pub(crate) fn read_error(path: &Path, gz: bool, limits: &LoadLimits, e: io::Error) -> SceneError {
+    if let Some(limit) = limit_hit(&e) {
+        return limits.exceeded(path, limit, None);
     }
     let bad_data = matches!(
         e.kind(),

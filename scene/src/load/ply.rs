@@ -11,7 +11,7 @@ use serde::de::{DeserializeSeed, Deserializer, IgnoredAny, MapAccess, SeqAccess,
 use serde::Deserialize;
 use serde_ply::{DeserializeError, ElementDef, PlyFormat, PlyReader, PropertyType};
 use std::fmt;
-use std::io::{ErrorKind, Read};
+use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 use vrrt_core::glam::Vec3;
 
@@ -33,11 +33,29 @@ enum Rows {
 /// Parses a PLY file. The declared vertex and face counts are held to the limits before the
 /// body is read (a face makes at least one triangle), the triangles again as polygons split.
 pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, SceneError> {
-    // A UTF-8 byte-order mark before the `ply` magic is skipped.
-    let bytes = bytes.strip_prefix(super::BOM).unwrap_or(bytes);
+    parse_stream(path, bytes, limits, bytes.len() as u64)
+}
+
+/// Longest PLY header read before its `end_header`.
+const MAX_HEADER: u64 = 1 << 20;
+
+/// Allocation made ahead of the rows read: a header may declare more rows than the stream
+/// holds, so larger lists grow as their rows arrive.
+const RESERVE_AHEAD: usize = 1 << 20;
+
+/// [`parse`] from a stream of at most `size_bound` bytes, read once into the mesh's arrays (no
+/// copy of the file is held, so a gzipped file costs its mesh, not its inflated size).
+pub fn parse_stream(
+    path: &Path,
+    input: impl Read,
+    limits: &LoadLimits,
+    size_bound: u64,
+) -> Result<Mesh, SceneError> {
+    let mut input = BufReader::new(input);
+    let head = read_header(path, limits, &mut input)?;
     // serde-ply's ascii reader needs whitespace after the last value, which a file may lack: an
     // ascii body gets a final newline (a binary one must not, or a truncated file could pass).
-    let format = PlyReader::from_reader(bytes)
+    let format = PlyReader::from_reader(&head[..])
         .map_err(|e| header_error(path, e))?
         .header()
         .format;
@@ -46,10 +64,11 @@ pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, Sce
     } else {
         b""
     };
-    let mut reader =
-        PlyReader::from_reader(bytes.chain(tail)).map_err(|e| header_error(path, e))?;
+    let mut reader = PlyReader::from_reader(head.as_slice().chain(input).chain(tail))
+        .map_err(|e| header_error(path, e))?;
     let plan = plan(path, &reader.header().elem_defs, limits)?;
-    let vertex_bound = bytes.len() / 3; // x, y and z take at least a byte each
+    // x, y and z take at least a byte each.
+    let vertex_bound = usize::try_from(size_bound / 3).unwrap_or(usize::MAX);
     let mut sink = Sink {
         path,
         limits,
@@ -61,7 +80,7 @@ pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, Sce
     };
     for (el, rows) in reader.header().elem_defs.iter().zip(&plan) {
         if let Rows::Vertices { normals } = rows {
-            let cap = el.count.min(vertex_bound);
+            let cap = el.count.min(vertex_bound).min(RESERVE_AHEAD);
             sink.positions.reserve(cap);
             if *normals {
                 sink.normals.reserve(cap);
@@ -75,8 +94,34 @@ pub fn parse(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Mesh, Sce
     if let Some(e) = sink.error.take() {
         return Err(e);
     }
-    read.map_err(|e| body_error(path, e))?;
+    read.map_err(|e| body_error(path, limits, e))?;
     Mesh::new(path, sink.positions, sink.normals, sink.indices)
+}
+
+/// The header's bytes through `end_header` and its line break (a byte-order mark before it
+/// dropped), at most [`MAX_HEADER`].
+fn read_header(
+    path: &Path,
+    limits: &LoadLimits,
+    input: &mut impl BufRead,
+) -> Result<Vec<u8>, SceneError> {
+    let mut head = Vec::new();
+    loop {
+        let start = head.len();
+        let n = input
+            .take(MAX_HEADER + 1 - start as u64)
+            .read_until(b'\n', &mut head)
+            .map_err(|e| super::read_error(path, false, limits, e))?;
+        if n == 0 || head.len() as u64 > MAX_HEADER {
+            return Err(SceneError::parse(path, "header has no `end_header`"));
+        }
+        if start == 0 && head.starts_with(super::BOM) {
+            head.drain(..super::BOM.len());
+        }
+        if head[start..].trim_ascii() == b"end_header" {
+            return Ok(head);
+        }
+    }
 }
 
 /// Checks the header's elements (counts against the limits, the properties a mesh needs) and
@@ -136,7 +181,11 @@ fn header_error(path: &Path, e: DeserializeError) -> SceneError {
     }
 }
 
-fn body_error(path: &Path, e: DeserializeError) -> SceneError {
+fn body_error(path: &Path, limits: &LoadLimits, e: DeserializeError) -> SceneError {
+    // A cap of the stream (file or inflated size) hit while the rows were read.
+    if let Some(limit) = super::limit_hit(&e.0) {
+        return limits.exceeded(path, limit, None);
+    }
     if e.0.kind() == ErrorKind::UnexpectedEof {
         SceneError::parse(
             path,
