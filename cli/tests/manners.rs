@@ -134,7 +134,7 @@ fn a_shorter_run_leaves_no_stale_files_of_a_longer_one() {
     let o = run("2", &out, &cache);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
-        stderr.contains("removed 11 files of an earlier run"),
+        stderr.contains("removed 11 files an earlier `vrrt run` wrote"),
         "{stderr}"
     );
     let mut names: Vec<String> = std::fs::read_dir(&out)
@@ -142,9 +142,14 @@ fn a_shorter_run_leaves_no_stale_files_of_a_longer_one() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     names.sort();
-    let mut expected: Vec<String> = ["denoised_last.exr", "frames.csv", "notes.txt"]
-        .map(String::from)
-        .into();
+    let mut expected: Vec<String> = [
+        ".vrrt-run-manifest",
+        "denoised_last.exr",
+        "frames.csv",
+        "notes.txt",
+    ]
+    .map(String::from)
+    .into();
     for i in 0..2 {
         for what in ["denoised", "raw", "reference"] {
             expected.push(format!("frame{i:04}_{what}.png"));

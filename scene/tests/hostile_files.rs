@@ -11,6 +11,31 @@ use vrrt_scene::load::{load_mesh, load_mesh_from_bytes, load_mesh_with, Limit, L
 use vrrt_scene::mesh_cache::{CachedMesh, MeshCache};
 use vrrt_scene::{Mesh, SceneError};
 
+/// Notes the largest allocation each thread makes, so a test can tell a load that holds its
+/// whole (inflated) input from one that streams it.
+struct NoteLargest;
+
+thread_local! {
+    static LARGEST: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+unsafe impl std::alloc::GlobalAlloc for NoteLargest {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        let _ = LARGEST.try_with(|l| l.set(l.get().max(layout.size())));
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, size: usize) -> *mut u8 {
+        let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
+        unsafe { std::alloc::System.realloc(ptr, layout, size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: NoteLargest = NoteLargest;
+
 /// Runs `f` on a thread and fails the test if it has not returned within a few seconds (a
 /// FIFO read blocks forever; the test must not).
 fn within_seconds<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
@@ -267,4 +292,37 @@ fn references_reusing_their_buffers_give_the_same_images() {
         assert_eq!(bits(&reused.mean), bits(&fresh.mean), "frame {frame}");
         assert_eq!(bits(&reused.stderr), bits(&fresh.stderr), "frame {frame}");
     }
+}
+
+/// A `.ply.gz` whose small mesh is followed by far more inflated bytes than the limit: refused
+/// by the limit, with no allocation near the inflated size (the rows stream into the mesh and
+/// the rest of the stream is read through its cap without being kept).
+#[test]
+fn a_ply_gz_bomb_is_refused_without_holding_it() {
+    use std::io::Write;
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    enc.write_all(
+        b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+          property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+          0 0 -2\n1 0 -2\n0 1 -2\n3 0 1 2\n",
+    )
+    .unwrap();
+    let spaces = vec![b' '; 1 << 20];
+    for _ in 0..64 {
+        enc.write_all(&spaces).unwrap();
+    }
+    drop(spaces);
+    let gz = enc.finish().unwrap();
+    let limits = LoadLimits {
+        max_decompressed_size: 48 << 20,
+        ..LoadLimits::default()
+    };
+    LARGEST.with(|l| l.set(0));
+    let r = vrrt_scene::load::load_mesh_from_reader(Path::new("bomb.ply.gz"), &gz[..], &limits);
+    let largest = LARGEST.with(|l| l.get());
+    match r {
+        Err(SceneError::LimitExceeded { limit, .. }) => assert_eq!(limit, Limit::DecompressedSize),
+        other => panic!("expected the decompressed-size limit, got {other:?}"),
+    }
+    assert!(largest < 4 << 20, "largest allocation {largest} bytes");
 }

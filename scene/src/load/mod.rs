@@ -197,15 +197,15 @@ fn parse_from<R: Read>(
         .map_err(ReadError::Io)?;
     format.check_head(path, &head).map_err(ReadError::Format)?;
     let bound = reader.max;
-    let mesh = ply::parse_stream(
-        path,
-        io::Cursor::new(head).chain(&mut reader),
-        limits,
-        bound,
-    )
-    .map_err(ReadError::Format)?;
-    io::copy(&mut reader, &mut io::sink()).map_err(ReadError::Io)?;
-    Ok(mesh)
+    let input = io::Cursor::new(head).chain(&mut reader);
+    let parsed = ply::parse_stream(path, input, limits, bound);
+    // A stream past its cap is refused for the cap, whatever its rows held.
+    match (parsed, io::copy(&mut reader, &mut io::sink())) {
+        (_, Err(e)) if limit_hit(&e).is_some() => Err(ReadError::Io(e)),
+        (Err(e), _) => Err(ReadError::Format(e)),
+        (Ok(_), Err(e)) => Err(ReadError::Io(e)),
+        (Ok(mesh), Ok(_)) => Ok(mesh),
+    }
 }
 
 /// A failure of [`read_checked`]: the head is not the format's, or reading failed.
