@@ -36,6 +36,13 @@ pub fn oct_encode(n: Vec3) -> Vec2 {
 /// The unit vector of an octahedral code in `[-1, 1]²`.
 #[inline]
 pub fn oct_decode(e: Vec2) -> Vec3 {
+    crate::trace::normalize(oct_direction(e))
+}
+
+/// The direction of an octahedral code in `[-1, 1]²`, not normalised (its L1 norm is 1): for
+/// callers that divide by its length where it cancels (the filters' normal weights).
+#[inline]
+pub fn oct_direction(e: Vec2) -> Vec3 {
     let z = 1.0 - math::abs(e.x) - math::abs(e.y);
     // The folded lower half, computed always and selected (vector code over lanes).
     let sx = if e.x >= 0.0 { 1.0 } else { -1.0 };
@@ -45,7 +52,7 @@ pub fn oct_decode(e: Vec2) -> Vec3 {
     let upper = z >= 0.0;
     let x = if upper { e.x } else { fx };
     let y = if upper { e.y } else { fy };
-    crate::trace::normalize(Vec3::new(x, y, z))
+    Vec3::new(x, y, z)
 }
 
 /// `v` in `[lo, 1]` (`lo` = −1 or 0) to an unsigned code of `bits` bits, rounded to nearest (NaN
@@ -82,7 +89,14 @@ pub fn unpack_normal_roughness(w: u32) -> (Vec3, f32) {
 /// The unit shading normal of a packed normal + roughness word.
 #[inline]
 pub fn unpack_normal(w: u32) -> Vec3 {
-    oct_decode(Vec2::new(
+    crate::trace::normalize(unpack_direction(w))
+}
+
+/// The shading normal's direction of a packed normal + roughness word, not normalised
+/// ([`oct_direction`]).
+#[inline]
+pub fn unpack_direction(w: u32) -> Vec3 {
+    oct_direction(Vec2::new(
         from_code(w & 0x7ff, -1.0, 11),
         from_code((w >> 11) & 0x7ff, -1.0, 11),
     ))

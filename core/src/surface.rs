@@ -316,13 +316,7 @@ pub fn normal_weights<const N: usize>(
     m: Lanes<Vec3, N>,
     power: f32,
 ) -> Lanes<f32, N> {
-    normal_cosines(n, m).pow(power)
-}
-
-/// What [`normal_weights`] raises to its power, lane by lane: `max(0, n·m)`.
-#[inline(always)]
-pub fn normal_cosines<const N: usize>(n: Lanes<Vec3, N>, m: Lanes<Vec3, N>) -> Lanes<f32, N> {
-    n.zip(m, normal_cosine)
+    n.zip(m, normal_cosine).pow(power)
 }
 
 /// What [`normal_weight`] raises to its power: `max(0, n·m)`.

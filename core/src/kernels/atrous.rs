@@ -215,7 +215,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             if !symmetric {
                 if tx != 0 || ty != 0 {
                     let t = tap(input, depth, normal_roughness, guide, &c, tx, ty);
-                    let w_n = t.cosine.pow(c.normal_power);
+                    let w_n = t.cosine2.pow(0.5 * c.normal_power);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
                             let w = t.weight * w_n.0[l] * math::exp(-t.exponent.0[l]);
@@ -228,13 +228,13 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
             } else if ty > 0 || (ty == 0 && tx > 0) {
                 // The pair (tx, ty), (-tx, -ty): both or neither, at one weight, the geometric
                 // mean of theirs. Their B3 weights are equal, so it is
-                // `tw · ((n·a)(n·b))^(p/2) · exp(−(e_a + e_b)/2)`: one power, one exponential.
+                // `tw · ((n·a)²(n·b)²)^(p/4) · exp(−(e_a + e_b)/2)`: one power, one exponential.
                 let a = tap(input, depth, normal_roughness, guide, &c, tx, ty);
                 let b = tap(input, depth, normal_roughness, guide, &c, -tx, -ty);
                 let w_n = a
-                    .cosine
-                    .zip(b.cosine, |a, b| a * b)
-                    .pow(0.5 * c.normal_power);
+                    .cosine2
+                    .zip(b.cosine2, |a, b| a * b)
+                    .pow(0.25 * c.normal_power);
                 lanes::each_lane!(l in N {
                     if a.valid.0[l] && b.valid.0[l] {
                         let e = 0.5 * (a.exponent.0[l] + b.exponent.0[l]);
@@ -280,14 +280,15 @@ struct Centre<const N: usize> {
 }
 
 /// One tap: whether it counts (inside the image, on a surface), its value and variance, and the
-/// parts of its weight `weight · cosine^p · exp(−exponent)`, kept apart so a symmetric pair
-/// takes one power and one exponential for both.
+/// parts of its weight `weight · cosine2^(p/2) · exp(−exponent)`, kept apart so a symmetric
+/// pair takes one power and one exponential for both.
 struct Tap<const N: usize> {
     valid: Lanes<bool, N>,
     /// The B3-spline weight relative to the centre's.
     weight: f32,
-    /// `max(0, n·m)` of the centre's and the tap's normals.
-    cosine: Lanes<f32, N>,
+    /// `max(0, n·m)²` of the centre's and the tap's normals: squared, so the tap's decoded
+    /// direction needs no square root (`(n·u)² / (u·u)` for its direction `u`).
+    cosine2: Lanes<f32, N>,
     /// The plane, luminance and guide exponents, summed.
     exponent: Lanes<f32, N>,
     value: Lanes<f32, N>,
@@ -315,7 +316,7 @@ fn tap<const N: usize>(
         return Tap {
             valid: Lanes::splat(false),
             weight: 0.0,
-            cosine: zero,
+            cosine2: zero,
             exponent: zero,
             value: zero,
             variance: zero,
@@ -330,8 +331,13 @@ fn tap<const N: usize>(
     let (value, variance) = payload::unpack_filtered(packed);
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
     let per_offset = 1.0 / offset_len;
-    let m = Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_normal);
-    let cosine = surface::normal_cosines(c.normal, m);
+    let m =
+        Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_direction);
+    let cosine2 = c.normal.zip(m, |n, u| {
+        let d = math::max(n.dot(u), 0.0);
+        // At most 1: a cosine that rounds above it would send the power down its general path.
+        math::min(d * d / u.dot(u), 1.0)
+    });
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let mut e = Lanes::<f32, N>::from_index(|l| {
@@ -358,7 +364,7 @@ fn tap<const N: usize>(
     Tap {
         valid,
         weight: TAP_WEIGHT[ay][ax],
-        cosine,
+        cosine2,
         exponent: e,
         value,
         variance,

@@ -34,7 +34,7 @@ crate::kernel_table! {
 
     /// [`atrous::atrous`]: one à-trous iteration; `tiles` holds the iterations each tile needs,
     /// `guide` the hit-distance guide of plane `guide_plane` (one element when none).
-    atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32, avx512 128) atrous::atrous,
+    atrous => ATROUS, AtrousBindings, AtrousIo: lanes(32, avx512 64) atrous::atrous,
     threads(8, 8, 1), params atrous::AtrousParams {
         input: read PackedFiltered,
         depth: read Depth,
