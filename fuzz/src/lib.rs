@@ -68,7 +68,10 @@ pub fn load(name: &str, bytes: &[u8]) {
     let limits = limits();
     let checked = catch_unwind(AssertUnwindSafe(|| {
         match load_mesh_from_reader(&path, bytes, &limits) {
-            Ok(m) => check_mesh(&path, &m, &limits),
+            Ok(m) => {
+                check_mesh(&path, &m, &limits);
+                check_bom(&path, bytes, &m, &limits);
+            }
             Err(e) => check_error(&path, &e),
         }
     }));
@@ -79,6 +82,22 @@ pub fn load(name: &str, bytes: &[u8]) {
             last.unwrap_or_else(|| "an unknown location".into())
         );
         std::process::abort();
+    }
+}
+
+/// For OBJ and plain PLY: the same bytes after a UTF-8 byte-order mark give the same mesh (a
+/// mark once glued itself to the first keyword and shifted every index).
+pub fn check_bom(path: &Path, bytes: &[u8], m: &Mesh, limits: &LoadLimits) {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    if !(name.ends_with(".obj") || name.ends_with(".ply")) || bytes.starts_with(b"\xEF\xBB\xBF") {
+        return;
+    }
+    let marked = [&b"\xEF\xBB\xBF"[..], bytes].concat();
+    match load_mesh_from_reader(path, &marked[..], limits) {
+        Ok(with_mark) => assert!(&with_mark == m, "a byte-order mark changed the mesh"),
+        // The mark adds 3 bytes: a file at the size limit may now pass it.
+        Err(SceneError::LimitExceeded { .. }) => {}
+        Err(e) => panic!("a byte-order mark made a valid file fail: {e}"),
     }
 }
 

@@ -121,11 +121,31 @@ fn kind(e: &SceneError) -> &'static str {
     }
 }
 
+/// For OBJ and plain PLY: the same bytes after a UTF-8 byte-order mark give the same mesh (a
+/// mark once glued itself to the first keyword and shifted every index, issue 47).
+fn check_bom(path: &Path, bytes: &[u8], m: &Mesh, limits: &LoadLimits) -> Result<(), String> {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    if !(name.ends_with(".obj") || name.ends_with(".ply")) || bytes.starts_with(b"\xEF\xBB\xBF") {
+        return Ok(());
+    }
+    let marked = [&b"\xEF\xBB\xBF"[..], bytes].concat();
+    match load_mesh_from_reader(path, &marked[..], limits) {
+        Ok(with_mark) if &with_mark == m => Ok(()),
+        Ok(_) => Err("a byte-order mark changed the mesh".into()),
+        // The mark adds 3 bytes: a file at the size limit may now pass it.
+        Err(SceneError::LimitExceeded { .. }) => Ok(()),
+        Err(e) => Err(format!("a byte-order mark made a valid file fail: {e}")),
+    }
+}
+
 /// Loads `bytes` as the file `path` and judges the result.
 fn check_load(path: &Path, bytes: &[u8], limits: &LoadLimits) -> Result<Verdict, String> {
     match load_mesh_from_reader(path, bytes, limits) {
         Ok(m) => Ok(match check_mesh(path, &m, limits)? {
-            None => Verdict::Valid,
+            None => {
+                check_bom(path, bytes, &m, limits)?;
+                Verdict::Valid
+            }
             Some(kind) => Verdict::Error(kind),
         }),
         Err(e) => {

@@ -26,6 +26,8 @@ pub fn obj_seeds() -> Vec<Vec<u8>> {
         b"v -1.5 0.25e1 3\r\nv 2 -0.5 1.0 1.0\r\nv 0.5 1E1 -2\r\nv 1 1 1\r\nv 0 2 2\r\n\
           f 1 2 3 4 5\r\nf -1 -2 -3\r\nl 1 2\r\np 3\r\n"
             .to_vec(),
+        // A byte-order mark (issue 47: it shifted every index).
+        b"\xEF\xBB\xBFv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 1 1\nf 1 2 3\n".to_vec(),
     ];
     // A larger mesh: a 6 × 6 grid of quads.
     let mut grid = String::new();
