@@ -309,14 +309,26 @@ pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
     math::pow(normal_cosine(n, m), power)
 }
 
-/// [`normal_weight`] of `N` pixels' normal pairs ([`crate::lanes`]), the same bits.
+/// [`normal_weight`] of `N` pixels' unit normals `n` and neighbours' unnormalised directions `u`
+/// ([`packing::unpack_direction`], [`crate::lanes`]): `(max(0, n·u)² / (u·u))^(power/2)`, the
+/// squared cosine clamped to 1 so the power keeps its square-and-multiply path. No square root
+/// per direction.
 #[inline(always)]
 pub fn normal_weights<const N: usize>(
     n: Lanes<Vec3, N>,
-    m: Lanes<Vec3, N>,
+    u: Lanes<Vec3, N>,
     power: f32,
 ) -> Lanes<f32, N> {
-    n.zip(m, normal_cosine).pow(power)
+    squared_cosines(n, u).pow(0.5 * power)
+}
+
+/// `min(max(0, n·u)² / (u·u), 1)`: the squared cosine between unit `n` and direction `u`.
+#[inline(always)]
+pub fn squared_cosines<const N: usize>(n: Lanes<Vec3, N>, u: Lanes<Vec3, N>) -> Lanes<f32, N> {
+    n.zip(u, |n, u| {
+        let d = math::max(n.dot(u), 0.0);
+        math::min(d * d / u.dot(u), 1.0)
+    })
 }
 
 /// What [`normal_weight`] raises to its power: `max(0, n·m)`.

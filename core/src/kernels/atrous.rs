@@ -333,11 +333,7 @@ fn tap<const N: usize>(
     let per_offset = 1.0 / offset_len;
     let m =
         Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_direction);
-    let cosine2 = c.normal.zip(m, |n, u| {
-        let d = math::max(n.dot(u), 0.0);
-        // At most 1: a cosine that rounds above it would send the power down its general path.
-        math::min(d * d / u.dot(u), 1.0)
-    });
+    let cosine2 = surface::squared_cosines(c.normal, m);
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let mut e = Lanes::<f32, N>::from_index(|l| {

@@ -31,7 +31,7 @@ use super::buckets::rate_to_bucket;
 use super::gradient::GradientSample;
 use super::ReprojectIo;
 use super::{pixel_index, plane_index};
-use crate::camera::Camera;
+use crate::camera::{Camera, PixelRays};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
@@ -152,21 +152,30 @@ impl Default for ReprojectParams {
     }
 }
 
-/// Whether the previous-frame texel at view depth `depth`, position `t` and normal `m` shows the
-/// current surface of normal `n`, whose last-frame position was `prev`.
+/// Whether the previous-frame texel at view depth `depth`, position `t` and normal direction `u`
+/// (any length but 0: [`packing::unpack_direction`]) shows the current surface of unit normal
+/// `n`, whose last-frame position was `prev`: `n·m ≥ normal_threshold` and
+/// `|m·(prev − t)| ≤ plane_threshold · depth` for the unit normal `m = u / |u|`, compared squared
+/// so that `u` needs no normalisation.
 #[inline]
 pub fn same_surface(
     n: Vec3,
     prev: Vec3,
     depth: f32,
     t: Vec3,
-    m: Vec3,
+    u: Vec3,
     p: &ReprojectParams,
 ) -> bool {
-    let n_ok = n.dot(m) >= p.normal_threshold;
-    let dist = math::abs(m.dot(prev - t));
+    let (nu, uu) = (n.dot(u), u.dot(u));
+    let thr = p.normal_threshold;
+    let (above, within) = (nu * nu >= thr * thr * uu, nu * nu <= thr * thr * uu);
+    // `nu ≥ thr·|u|`: for a threshold ≥ 0 a non-negative cosine at least that large; below 0,
+    // any non-negative cosine or a negative one no larger in magnitude.
+    let n_ok = ((nu >= 0.0) & above) | ((thr < 0.0) & ((nu >= 0.0) | within));
+    let reach = p.plane_threshold * math::max(depth, 1e-6);
+    let ud = u.dot(prev - t);
     // `&`, not `&&`: no branch, so a row of lanes is vector code.
-    surface::has_surface(depth) & n_ok & (dist <= p.plane_threshold * math::max(depth, 1e-6))
+    surface::has_surface(depth) & n_ok & (ud * ud <= reach * reach * uu)
 }
 
 /// Ray rate a pixel asks for, from its shortest history and largest variance over the planes.
@@ -246,6 +255,11 @@ fn footprint<const N: usize>(
         ],
         any: Lanes::splat(false),
     };
+    // `Camera::unproject` of the texels, with the rays set up once.
+    let (origin, rays) = (
+        prev_camera.origin(),
+        PixelRays::new(prev_camera, p.width, p.height),
+    );
     let mut k = 0;
     while k < 4 {
         let (dx, dy) = ((k & 1) as f32, (k >> 1) as f32);
@@ -266,11 +280,12 @@ fn footprint<const N: usize>(
         });
         let texel = t.map(|[x, y]| pixel_index(x as u32, y as u32, p.width) as u32);
         let pd = Lanes::<f32, N>::gather(prev_depth, texel);
-        let m = Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_normal);
+        let m =
+            Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_direction);
         let same = Lanes::<bool, N>::from_index(|l| {
             let l = l as usize;
             let [x, y] = t.0[l];
-            let q = prev_camera.unproject(x, y, pd.0[l], p.width, p.height);
+            let q = origin + rays.dir(x, y) * pd.0[l];
             used.0[l] & same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
         });
         f.texel[k] = texel;
@@ -491,6 +506,32 @@ mod tests {
 
     const W: u32 = 8;
     const H: u32 = 4;
+
+    /// The squared comparisons of [`same_surface`] decide as the unit normal's would, for every
+    /// threshold sign, on directions of any length.
+    #[test]
+    fn same_surface_needs_no_unit_normal() {
+        let n = Vec3::new(0.0, 0.0, 1.0);
+        let (prev, t) = (Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.3, -0.2, 5.0));
+        for thr in [-0.9f32, -0.2, 0.0, 0.5, 0.9] {
+            let p = ReprojectParams {
+                normal_threshold: thr,
+                plane_threshold: 0.02,
+                ..Default::default()
+            };
+            for i in 0..200 {
+                let a = i as f32 * 0.0317;
+                let m = Vec3::new(a.cos() * 0.8, a.sin() * 0.3, (a * 1.7).cos()).normalize();
+                let offset = Vec3::new(0.0, 0.0, (i % 7) as f32 * 0.03 - 0.09);
+                let unit =
+                    n.dot(m) >= thr && m.dot(prev - (t + offset)).abs() <= p.plane_threshold * 5.0;
+                for len in [0.6f32, 1.0, 1.7] {
+                    let got = same_surface(n, prev, 5.0, t + offset, m * len, &p);
+                    assert_eq!(got, unit, "thr {thr} i {i} len {len}");
+                }
+            }
+        }
+    }
 
     /// Reprojected history of a wall at view depth 5 facing the camera, which moved half a pixel
     /// (every pixel's last position is `x + 0.5`), when last frame an occluder at depth 2 stood in

@@ -169,10 +169,10 @@ fn estimate<const N: usize>(
                 let q = Lanes::<PackedPayload, N>::load_row(payload, plane_row, qx0, w)
                     .map(|q| q.unpack());
                 let qd = Lanes::<f32, N>::load_row(depth, row, qx0, w);
-                let m = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
-                    .map(packing::unpack_normal);
+                let u = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
+                    .map(packing::unpack_direction);
                 let offset = math::sqrt((dx * dx + dy * dy) as f32);
-                let w_n = surface::normal_weights(n, m, normal_power);
+                let w_n = surface::normal_weights(n, u, normal_power);
                 let qg = guide_row::<N>(guide, guided, row, qx0, w);
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
