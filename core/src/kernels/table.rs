@@ -113,7 +113,7 @@ crate::kernel_table! {
 
     /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
     /// pixel (planes are looped inside).
-    reproject => REPROJECT, ReprojectBindings, ReprojectIo: lanes(16) reproject::reproject,
+    reproject => REPROJECT, ReprojectBindings, ReprojectIo: lanes(16, avx512 16) reproject::reproject,
     threads(8, 8, 1), params reproject::ReprojectParams {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
