@@ -8,6 +8,7 @@ mod config;
 mod images;
 mod parse;
 mod record;
+mod recycle;
 mod references;
 mod report;
 mod sequence;

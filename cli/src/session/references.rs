@@ -1,6 +1,7 @@
 //! Ground-truth references of a sequence's frames: loaded from the on-disk cache, else traced on
 //! the backend and stored, so that runs and benches trace each reference once.
 
+use super::recycle::BufferPool;
 use super::{mean, planes_to_image};
 use crate::backend::Backend;
 use crate::progress::Progress;
@@ -55,6 +56,8 @@ pub struct References {
     /// Show the progress of each reference traced.
     pub progress: bool,
     buffers: RefCell<render::ReferenceBuffers>,
+    /// The renderers' buffers of the sequences run on the same executor ([`super::run_sequence`]).
+    pub(super) pool: RefCell<BufferPool>,
 }
 
 impl References {
@@ -68,6 +71,7 @@ impl References {
             cache,
             progress,
             buffers: RefCell::default(),
+            pool: RefCell::default(),
         }
     }
 

@@ -1,6 +1,7 @@
 //! The render-and-measure loop over a frame sequence: renders each frame through the denoiser,
 //! measures every part against its reference and collects the timings.
 
+use super::recycle::Recycling;
 use super::{
     fresh_mask, mean_finite, moving_mask, oracle_changes, parts, planes_to_image, Config,
     Detection, FrameRecord, FrameReference, FrameView, LoadedScene, PartFrame, PartMetrics,
@@ -54,15 +55,30 @@ pub fn run_sequence(
     let pixels = (width * height) as usize;
     let sc = &scene.scene;
     let settings = opts.config.settings(opts.base, opts.rpp, opts.signal);
-    let mut renderer = Renderer::new(exec, width, height, opts.signal, sc.lights.len(), settings)
-        .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
+    // The renderer's buffers come from those of earlier sequences on this executor (all done
+    // now, their renderers dropped), so a bench's memory stays flat across its cells.
+    let mut pool = refs.pool.borrow_mut();
+    pool.release();
+    let mut rec = Recycling {
+        exec,
+        pool: &mut pool,
+    };
+    let mut renderer = Renderer::new(
+        &mut rec,
+        width,
+        height,
+        opts.signal,
+        sc.lights.len(),
+        settings,
+    )
+    .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
     // The frame's planes, all signals' (the renderer sets them from the signal's layout).
     let frame_planes = renderer.denoiser().settings().planes as usize;
     // The detector's λ, to score it against the oracle's mask.
     let score_detector = opts.measure && settings.gradient.detect_radius > 0;
     if score_detector {
         renderer
-            .keep_changes(exec)
+            .keep_changes(&mut rec)
             .map_err(|e| anyhow!("keeping the detector's output: {e}"))?;
     }
     let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
@@ -84,7 +100,7 @@ pub fn run_sequence(
         for p in &parts {
             references.push(if with_references {
                 Some(refs.get(
-                    exec,
+                    rec.exec,
                     ReferenceRequest {
                         scene_key: &scene.key,
                         frame: &f,
@@ -100,11 +116,11 @@ pub fn run_sequence(
         let oracle = (opts.config.is_oracle() || score_detector)
             .then(|| oracle_frame(pixels * frame_planes, &parts, &references, &prev_references));
         let changes = oracle.as_deref().filter(|_| opts.config.is_oracle());
-        exec.clear_timings();
+        rec.clear_timings();
         let start = Instant::now();
         let out = renderer
             .render_with_changes(
-                exec,
+                &mut rec,
                 &f,
                 Readback {
                     overlays: opts.overlays,
@@ -115,7 +131,7 @@ pub fn run_sequence(
         let ms_frame = start.elapsed().as_secs_f64() * 1e3;
         let mut per_pass: HashMap<&'static str, f64> = HashMap::new();
         let mut order = Vec::new();
-        for t in exec.timings() {
+        for t in rec.timings() {
             if !per_pass.contains_key(t.entry) {
                 order.push(t.entry);
             }
