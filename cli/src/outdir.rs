@@ -151,6 +151,12 @@ fn remove_listed(dir: &Path, manifest: &Path) -> Result<usize> {
         if !valid_name(name) {
             continue;
         }
+        // A subdirectory replaced by a link since would lead the removal out of `dir`.
+        if let Some((sub, _)) = name.split_once('/') {
+            if !std::fs::symlink_metadata(dir.join(sub)).is_ok_and(|m| m.is_dir()) {
+                continue;
+            }
+        }
         let path = dir.join(name);
         let plain = std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_dir());
         if plain {
@@ -243,5 +249,13 @@ mod tests {
         std::fs::write(d.join(".vrrt-run-manifest"), listed).unwrap();
         drop(OutDir::prepare(&d, "run").unwrap());
         assert!(victim.is_file());
+        // A listed file under a subdirectory that became a link out of the directory.
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(outside.path(), d.join("report")).unwrap();
+            std::fs::write(d.join(".vrrt-run-manifest"), "report/victim.txt\n").unwrap();
+            drop(OutDir::prepare(&d, "run").unwrap());
+            assert!(victim.is_file());
+        }
     }
 }
