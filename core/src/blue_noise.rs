@@ -72,7 +72,9 @@ pub const SIZE: u32 = 64;
 pub const LEN: usize = (SIZE * SIZE) as usize;
 
 /// Threshold in `[0, 1)` of pixel `(x, y)` in frame `frame`, from a mask of [`LEN`] thresholds.
-#[inline]
+// Always inlined: called per lane from the lanes runners, it takes their instructions
+// (a call is compiled for the baseline, where `floor` is a library call).
+#[inline(always)]
 pub fn blue_noise(mask: &[f32], x: u32, y: u32, frame: u32) -> f32 {
     let v = mask[((y % SIZE) * SIZE + (x % SIZE)) as usize];
     // Frame offset in 2^-24 units of the golden ratio, so large frame numbers stay exact.

@@ -65,7 +65,9 @@ pub struct ApplyParams {
 /// realised by a blue-noise test (1.5 is one ray, plus a second where the noise is below 1/2).
 /// Each group reads the mask shifted by its own offset, so groups at the same fractional rate
 /// trace different pixels instead of all stacking on the same ones.
-#[inline]
+// Always inlined: called per lane from the lanes runners, it takes their instructions
+// (a call is compiled for the baseline, where `floor` is a library call).
+#[inline(always)]
 pub fn resolve_rays(
     x: u32,
     y: u32,

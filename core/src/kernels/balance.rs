@@ -191,7 +191,9 @@ pub fn mapped_bucket(b: u32, t: u32, mode: u32) -> u32 {
 /// Expected rays of a pixel requesting bucket `b < BUCKET_COUNT` in ring `ring`: the granted
 /// bucket's rate, plus the partial step in ring `ring_threshold - 1`. Fractional;
 /// [`super::apply`] realises it.
-#[inline]
+// Always inlined: called per lane from the lanes runners, it takes their instructions
+// (a call is compiled for the baseline, where `floor` is a library call).
+#[inline(always)]
 pub fn granted_rate(b: u32, ring: u32, d: &Balance) -> f32 {
     if d.mode == MODE_FIXED {
         return d.fixed_rate;

@@ -75,7 +75,9 @@ pub fn ring_count(width: u32, height: u32) -> u32 {
 
 /// Ring of pixel `(x, y)`: the distance in tiles to the nearest screen edge (higher = closer to
 /// the centre), clamped to `ring_count - 1`.
-#[inline]
+// Always inlined: called per lane from the lanes runners, it takes their instructions
+// (a call is compiled for the baseline, where `floor` is a library call).
+#[inline(always)]
 pub fn ring_id(x: u32, y: u32, width: u32, height: u32) -> u32 {
     let nx = width.div_ceil(RING_TILE[0]);
     let ny = height.div_ceil(RING_TILE[1]);
