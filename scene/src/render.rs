@@ -564,7 +564,7 @@ pub fn reference<E: Executor>(
     reference_with(exec, &mut buffers, f, width, height, signal, spp, progress)
 }
 
-/// [`reference`] with the buffers of `buffers`, which must have been used on `exec` only: the
+/// [`reference()`] with the buffers of `buffers`, which must have been used on `exec` only: the
 /// geometry is uploaded again only when the frame's differs, the per-pixel buffers made again
 /// only for another size or signal.
 #[allow(clippy::too_many_arguments)]

@@ -15,6 +15,8 @@
 //! validation layers on and any validation error fails the test. Without a Vulkan adapter the GPU rows print
 //! "skipped: no Vulkan adapter", unless `VRRT_REQUIRE_VULKAN=1`.
 
+mod gpu;
+
 use std::time::Instant;
 use vrrt_cli::backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
@@ -42,23 +44,6 @@ const MIN_PSNR: f64 = 60.0;
 struct Frame {
     denoised: Vec<f32>,
     rays_traced: u64,
-}
-
-/// The GPU backends that open, with validation on (as `tests/equivalence.rs` opens them).
-fn gpu_backends() -> Vec<Backend> {
-    let require = std::env::var("VRRT_REQUIRE_VULKAN").is_ok_and(|v| v == "1");
-    let mut out = Vec::new();
-    for kind in [BackendKind::Wgpu, BackendKind::Ash] {
-        match Backend::open(kind, true) {
-            Ok((b, _)) => {
-                println!("{kind:?}: {}", b.device());
-                out.push(b);
-            }
-            Err(e) if require => panic!("{kind:?}: {e} (VRRT_REQUIRE_VULKAN=1)"),
-            Err(e) => println!("{kind:?}: skipped: no Vulkan adapter ({e})"),
-        }
-    }
-    out
 }
 
 /// The three signals, with the CLI's defaults (AO radius 1, default reflection settings).
@@ -201,7 +186,7 @@ fn every_backend_agrees_with_the_cpu_over_the_animated_sequence() {
     let start = Instant::now();
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
     check_sequence_events(&scene);
-    let mut backends = gpu_backends();
+    let mut backends = gpu::backends();
     let mut failures = Vec::new();
     for signal in signals() {
         let t = Instant::now();
@@ -235,15 +220,7 @@ fn every_backend_agrees_with_the_cpu_over_the_animated_sequence() {
             failures.extend(s.failures);
         }
     }
-    for b in &backends {
-        if b.validation_errors() > 0 {
-            failures.push(format!(
-                "{}: {} validation errors",
-                b.name(),
-                b.validation_errors()
-            ));
-        }
-    }
+    failures.extend(gpu::validation_failures(&backends));
     println!("\ntotal {:.1} s", start.elapsed().as_secs_f64());
     // The bound of issue 45 stays at 60 dB: a frame below it is a finding, not a tolerance to tune.
     assert!(

@@ -9,26 +9,14 @@
 //! test. Without a Vulkan adapter the GPU rows print "skipped: no Vulkan adapter", unless
 //! `VRRT_REQUIRE_VULKAN=1`.
 
-use vrrt_cli::backend::{Backend, BackendKind};
+mod gpu;
+
 use vrrt_core::plan::Executor;
 use vrrt_tests::{cases, compare, run_case, Tolerance};
 
-fn gpu_backends() -> Vec<Backend> {
-    let require = std::env::var("VRRT_REQUIRE_VULKAN").is_ok_and(|v| v == "1");
-    let mut out = Vec::new();
-    for kind in [BackendKind::Wgpu, BackendKind::Ash] {
-        match Backend::open(kind, true) {
-            Ok((b, _)) => out.push(b),
-            Err(e) if require => panic!("{kind:?}: {e} (VRRT_REQUIRE_VULKAN=1)"),
-            Err(e) => println!("{kind:?}: skipped: no Vulkan adapter ({e})"),
-        }
-    }
-    out
-}
-
 #[test]
 fn every_kernel_matches_the_cpu_backend() {
-    let mut backends = gpu_backends();
+    let mut backends = gpu::backends();
     println!(
         "{:<44} {:<6} {:>8} {:>6} {:>6} {:>8} {:>9} {:>6} {:>9}",
         "case", "backend", "words", "int≠", "float≠", "max ulp", "max rel", "half", "decided≠"
@@ -71,14 +59,6 @@ fn every_kernel_matches_the_cpu_backend() {
             }
         }
     }
-    for b in &backends {
-        if b.validation_errors() > 0 {
-            failures.push(format!(
-                "{}: {} validation errors",
-                b.name(),
-                b.validation_errors()
-            ));
-        }
-    }
+    failures.extend(gpu::validation_failures(&backends));
     assert!(failures.is_empty(), "mismatches:\n{}", failures.join("\n"));
 }
