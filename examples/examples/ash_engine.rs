@@ -24,7 +24,7 @@ use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::Pass;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
-    validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,
+    validation, values, FRAMES, HALF_STEPS, HEIGHT, PIXELS, WIDTH,
 };
 
 type Error = Box<dyn std::error::Error>;
@@ -75,7 +75,7 @@ fn run(app: &App) -> Result<(), Error> {
     let readback = app.host_buffer(output_bytes, vk::BufferUsageFlags::TRANSFER_DST)?;
 
     let reference = cpu_frames();
-    let mut worst = 0.0f32;
+    let mut worst = 0;
     for (frame, want) in (0..FRAMES).zip(&reference) {
         d.begin_frame(&mut ex, frame_info(frame))?;
         let images = gbuffer(frame);
@@ -149,12 +149,12 @@ fn run(app: &App) -> Result<(), Error> {
         }?;
         let mut denoised = vec![PackedFiltered::default(); PIXELS];
         unsafe { readback.read(bytemuck::cast_slice_mut(&mut denoised)) };
-        // Not bit-exact on every GPU (Vulkan allows looser division and square roots).
+        // Not bit-exact: the GPU's math is its own ([`assert_close`]).
         let err = assert_close(
             &format!("frame {frame}"),
             &values(&denoised),
             &want.denoised,
-            1e-4,
+            HALF_STEPS,
         );
         worst = worst.max(err);
     }
@@ -167,7 +167,9 @@ fn run(app: &App) -> Result<(), Error> {
     }
     let errors = VALIDATION_ERRORS.load(Ordering::Relaxed);
     assert_eq!(errors, 0, "{errors} validation errors (printed above)");
-    println!("ok: {FRAMES} frames match the CPU backend (largest relative difference {worst:e})");
+    println!(
+        "ok: {FRAMES} frames match the CPU backend (largest difference {worst} binary16 steps)"
+    );
     Ok(())
 }
 

@@ -12,7 +12,7 @@ use vrrt_core::denoiser::Denoiser;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
-    validation, values, FRAMES, HEIGHT, PIXELS, WIDTH,
+    validation, values, FRAMES, HALF_STEPS, HEIGHT, PIXELS, WIDTH,
 };
 use vrrt_wgpu::WgpuExecutor;
 
@@ -62,7 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let buffer = |gpu: &WgpuExecutor, id| gpu.buffer(id).expect("denoiser buffer").clone();
 
     let reference = cpu_frames();
-    let mut worst = 0.0f32;
+    let mut worst = 0;
     for (frame, want) in (0..FRAMES).zip(&reference) {
         d.begin_frame(&mut gpu, frame_info(frame))?;
         // The application's G-buffer pass writes the denoiser's input buffers (here uploads).
@@ -100,17 +100,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let denoised: Vec<PackedFiltered> =
             bytemuck::pod_collect_to_vec(&readback.get_mapped_range(..)?);
         readback.unmap();
-        // Not bit-exact on every GPU (Vulkan allows looser division and square roots).
+        // Not bit-exact: the GPU's math is its own ([`assert_close`]).
         let err = assert_close(
             &format!("frame {frame}"),
             &values(&denoised),
             &want.denoised,
-            1e-4,
+            HALF_STEPS,
         );
         worst = worst.max(err);
     }
     let errors = gpu.validation_errors();
     assert_eq!(errors, 0, "{:?}", gpu.validation_log().messages());
-    println!("ok: {FRAMES} frames match the CPU backend (largest relative difference {worst:e})");
+    println!(
+        "ok: {FRAMES} frames match the CPU backend (largest difference {worst} binary16 steps)"
+    );
     Ok(())
 }
