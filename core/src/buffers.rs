@@ -143,9 +143,8 @@ pub fn denoiser_buffers(
         size("blockers", 1, bytes(penumbra, 4), "f32"),
         size("penumbra", 1, bytes(penumbra, 4), "f32"),
         // Bound in place of a buffer a pass does not read in this configuration (accumulation's
-        // surfaces without an own-surface clamp, the refill's history without verification), so
-        // the pass neither waits on nor counts the bytes it skips; two, since a pass binds each
-        // buffer once.
+        // surfaces without an own-surface clamp), so the pass neither waits on nor counts the
+        // bytes it skips; two, since a pass binds each buffer once.
         size("unread", 2, 16, "u32"),
     ]
 }

@@ -99,25 +99,23 @@ impl Denoiser {
             args: self.refill_args,
         };
         exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
-        {
-            for list in 0..s.groups() {
-                let p = refill::CapParams {
-                    pixels: w * h,
-                    list,
-                    share: self.reset_share(),
-                    least: self.reset_least(),
-                };
-                let pass = kernels::RefillCapBindings {
-                    decision: self.decision,
-                    args: self.refill_args,
-                    work: self.refill_work(),
-                };
-                let groups = Groups::Indirect {
-                    buffer: self.refill_args,
-                    offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
-                };
-                exec.dispatch(&pass.pass(&p, groups))?;
-            }
+        for list in 0..s.groups() {
+            let p = refill::CapParams {
+                pixels: w * h,
+                list,
+                share: self.reset_share(),
+                least: self.reset_least(),
+            };
+            let pass = kernels::RefillCapBindings {
+                decision: self.decision,
+                args: self.refill_args,
+                work: self.refill_work(),
+            };
+            let groups = Groups::Indirect {
+                buffer: self.refill_args,
+                offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
+            };
+            exec.dispatch(&pass.pass(&p, groups))?;
         }
         Ok(())
     }
