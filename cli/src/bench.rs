@@ -145,6 +145,8 @@ pub struct Cell {
     pub detection: Option<session::Detection>,
     /// Rays traced per frame.
     pub rays_per_frame: f64,
+    /// Most rays any frame traced beyond its budget (negative: every frame stayed under).
+    pub max_overshoot: f64,
     /// Median over repeats of the mean ms per frame.
     pub ms_per_frame: f64,
     /// Max − min over repeats of the mean ms per frame.
@@ -179,7 +181,7 @@ impl Cell {
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
 
-const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse";
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse,max_overshoot";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -318,6 +320,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             static_relmse: r.mean_of(|f| f.static_relmse),
                             detection: r.detection(),
                             rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
+                            max_overshoot: r
+                                .records
+                                .iter()
+                                .map(|f| f.overshoot())
+                                .fold(f64::NEG_INFINITY, f64::max),
                             ms_per_frame: ms[ms.len() / 2],
                             ms_spread: ms[ms.len() - 1] - ms[0],
                             passes: r.pass_means(&r.records),
@@ -394,7 +401,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{},{:.0}",
             c.key(","),
             c.size.0,
             c.size.1,
@@ -414,7 +421,8 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             fmt(c.static_relmse, 7),
             fmt(c.detection.map_or(f64::NAN, |d| d.miss_rate()), 4),
             fmt(c.detection.map_or(f64::NAN, |d| d.false_positive_rate()), 5),
-            spectrum::columns(c)
+            spectrum::columns(c),
+            c.max_overshoot
         );
         session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');

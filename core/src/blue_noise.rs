@@ -79,8 +79,14 @@ pub fn blue_noise(mask: &[f32], x: u32, y: u32, frame: u32) -> f32 {
     let v = mask[((y % SIZE) * SIZE + (x % SIZE)) as usize];
     // Frame offset in 2^-24 units of the golden ratio, so large frame numbers stay exact.
     let offset = ((frame.wrapping_mul(10_368_890) & 0x00ff_ffff) as f32) * (1.0 / 16_777_216.0);
+    // `t − floor(t)` for `t` in `[0, 2)`, without a floor (a library call in the CPU's scalar
+    // runners).
     let t = v + offset;
-    t - math::floor(t)
+    if t >= 1.0 {
+        t - 1.0
+    } else {
+        t
+    }
 }
 
 /// Builds the void-and-cluster mask (deterministic; ~20 ms).

@@ -1,11 +1,12 @@
-//! Equivalence cases of the load balancer (`balance`, `apply`), split off to keep `cases` short.
+//! Equivalence cases of the load balancer (`balance`, `trim`, `apply`), split off to keep `cases`
+//! short.
 
 use crate::cases::{groups, histories, value, EXTREME_LENGTHS, PLANES};
 use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::kernels::{apply, balance, buckets, refill};
+use vrrt_core::kernels::{apply, balance, buckets, refill, trim};
 use vrrt_core::payload::{PackedSample, Sample};
 
 /// Random requests of two plane groups (group-stacked) and their bucket histograms, as
@@ -43,6 +44,8 @@ const BALANCE: &[Word] = &[
     Word::F32,
     Word::F32,
     Word::F32,
+    Word::U32,
+    Word::U32,
 ];
 
 fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
@@ -102,13 +105,96 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
-pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+/// Random requests, the balancer's parameters and its decisions for them, each with a random
+/// trim cut (none in a quarter of them).
+fn decided(
+    rng: &mut Pcg32,
+    w: u32,
+    h: u32,
+) -> (Vec<u32>, balance::BalanceParams, Vec<balance::Balance>) {
     let (requests, counts) = histogram(rng, w, h);
     let p = balance_params(rng, w, h);
     let rates = balance::group_rates(&counts, &p);
-    let decisions: Vec<balance::Balance> = (0..p.groups)
-        .map(|g| balance::solve(&counts, g, rates[g as usize], 0.0, &p))
+    let decisions = (0..p.groups)
+        .map(|g| balance::Balance {
+            cut: rng.random_range(0..trim::BINS * 4).min(trim::BINS * 2) / 2,
+            ..balance::solve(&counts, g, rates[g as usize], 0.0, &p)
+        })
         .collect();
+    (requests, p, decisions)
+}
+
+pub(crate) fn trim_count_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, p, decisions) = decided(rng, w, h);
+    // Counts accumulate into whatever the buffer holds.
+    let hist: Vec<u32> = (0..p.groups * trim::HIST_LEN)
+        .map(|_| rng.random_range(0..3))
+        .collect();
+    let params = trim::TrimParams {
+        width: w,
+        height: h,
+        frame_index: rng.random(),
+    };
+    Case {
+        name: format!(
+            "trim_count {w}x{h} groups {} mode {}",
+            p.groups, decisions[0].mode
+        ),
+        kernel: &vrrt_core::kernels::TRIM_COUNT,
+        buffers: vec![
+            BufferSpec::from_pod(&requests, INTS),
+            BufferSpec::from_pod(&decisions, BALANCE),
+            BufferSpec::from_pod(&vrrt_core::blue_noise::generate_mask(), FLOATS),
+            // A pixel's rays and its last ray's bin compare a blue-noise threshold with a float
+            // rate: decided.
+            BufferSpec::from_pod(&hist, INTS).decided(),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&vrrt_core::kernels::TRIM_COUNT, w, h, p.groups),
+    }
+}
+
+pub(crate) fn trim_cut_case(rng: &mut Pcg32, _w: u32, _h: u32) -> Case {
+    let groups_n = rng.random_range(1..=balance::MAX_GROUPS);
+    let hist: Vec<u32> = (0..groups_n * trim::HIST_LEN)
+        .map(|i| {
+            if i % trim::HIST_LEN == trim::BINS {
+                rng.random_range(0..40_000)
+            } else {
+                rng.random_range(0..40)
+            }
+        })
+        .collect();
+    let decisions: Vec<balance::Balance> = (0..groups_n)
+        .map(|_| balance::Balance {
+            budget: [0.0, 0.5, 123.7, 20_000.0, 1e9][rng.random_range(0..5)],
+            cut: 7,
+            traced: 7,
+            ..balance::Balance::default()
+        })
+        .collect();
+    let params = trim::CutParams {
+        groups: groups_n,
+        policy: [
+            balance::POLICY_BALANCE,
+            balance::POLICY_FIXED,
+            balance::POLICY_KEEP,
+        ][rng.random_range(0..3)],
+    };
+    Case {
+        name: format!("trim_cut groups {groups_n} policy {}", params.policy),
+        kernel: &vrrt_core::kernels::TRIM_CUT,
+        buffers: vec![
+            BufferSpec::from_pod(&hist, INTS),
+            BufferSpec::from_pod(&decisions, BALANCE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [1, 1, 1],
+    }
+}
+
+pub(crate) fn apply_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (requests, p, decisions) = decided(rng, w, h);
     let n = (w * h) as usize;
     let samples: Vec<PackedSample> = (0..n * PLANES as usize)
         .map(|_| Sample {

@@ -41,6 +41,12 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         crate::balance_cases::balance_case,
         Tolerance::DEFAULT,
     ),
+    ("trim_count", crate::balance_cases::trim_count_case, DECIDED),
+    (
+        "trim_cut",
+        crate::balance_cases::trim_cut_case,
+        Tolerance::DEFAULT,
+    ),
     ("apply", crate::balance_cases::apply_case, DECIDED),
     ("refill", crate::balance_cases::refill_case, DECIDED),
     (

@@ -37,7 +37,7 @@ use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
-    reproject, variance,
+    reproject, trim, variance,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -154,6 +154,8 @@ pub struct Denoiser {
     requests: BufferId,
     counts: BufferId,
     decision: BufferId,
+    /// The trim's histograms ([`trim`]).
+    trim: BufferId,
     noise: BufferId,
     args: BufferId,
     refill_args: BufferId,
@@ -242,6 +244,7 @@ impl Denoiser {
             requests: id("requests")[0],
             counts: id("counts")[0],
             decision: id("decision")[0],
+            trim: id("trim")[0],
             noise,
             args: id("args")[0],
             refill_args,

@@ -158,7 +158,31 @@ impl Denoiser {
         };
         exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
 
+        // The realised rays trimmed to each group's budget (`trim`): histogram, then cut.
         let app = self.apply_params();
+        let clear = fill::FillParams {
+            len: groups * trim::HIST_LEN,
+            value: 0,
+        };
+        let hist = kernels::FillBindings { buf: self.trim };
+        exec.dispatch(&hist.over_grid(&clear, clear.len, 1, 1))?;
+        let trim_count = kernels::TrimCountBindings {
+            requests: self.requests,
+            decision: self.decision,
+            noise: self.noise,
+            hist: self.trim,
+        };
+        exec.dispatch(&trim_count.over_grid(&app.trim(), w, h, groups))?;
+        let cut = trim::CutParams {
+            groups,
+            policy: bal.policy,
+        };
+        let trim_cut = kernels::TrimCutBindings {
+            hist: self.trim,
+            decision: self.decision,
+        };
+        exec.dispatch(&trim_cut.over_grid(&cut, groups, 1, 1))?;
+
         let apply = kernels::ApplyBindings {
             requests: self.requests,
             decision: self.decision,

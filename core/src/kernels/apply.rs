@@ -6,15 +6,14 @@
 //! Seed: vrrt-call-of-duty-2026, "VRRT Apply / Produce ray args" (`VrrtApply`) and "Undersampling"
 //! (fractional rates realised by a spatio-temporal blue-noise test, `rate > noise ? 1 : 0`).
 //! Pixels that trace nothing get an empty [`crate::payload::Sample`] in every plane here, so accumulation sees
-//! "no ray" instead of last frame's sample.
+//! "no ray" instead of last frame's sample. The realised rays are trimmed to the budget
+//! ([`super::trim`], which runs first and decides which last rays go).
 
-use super::balance::{granted_rate, Balance};
-use super::buckets::{ring_id, BUCKET_COUNT};
+use super::balance::Balance;
+use super::trim;
 use super::ApplyIo;
 use crate::atomic;
-use crate::blue_noise::blue_noise;
 use crate::lanes::{self, clamp_column, Lanes};
-use crate::math;
 use crate::payload::PackedSample;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -61,12 +60,9 @@ pub struct ApplyParams {
     pub plane_groups: u32,
 }
 
-/// Rays pixel `(x, y)` traces for plane group `group`: its granted rate, whose fractional part is
-/// realised by a blue-noise test (1.5 is one ray, plus a second where the noise is below 1/2).
-/// Each group reads the mask shifted by its own offset, so groups at the same fractional rate
-/// trace different pixels instead of all stacking on the same ones.
-// Always inlined: called per lane from the lanes runners, it takes their instructions
-// (a call is compiled for the baseline, where `floor` is a library call).
+/// Rays pixel `(x, y)` traces for plane group `group`: its granted rate realised by a blue-noise
+/// test, less the last ray where the trim takes it ([`trim::trimmed_rays`]: the group's rays
+/// never exceed its budget).
 #[inline(always)]
 pub fn resolve_rays(
     x: u32,
@@ -77,20 +73,20 @@ pub fn resolve_rays(
     d: &Balance,
     noise: &[f32],
 ) -> u32 {
-    if bucket >= BUCKET_COUNT {
-        return 0;
-    }
-    let rate = granted_rate(bucket, ring_id(x, y, p.width, p.height), d);
-    let whole = math::floor(rate);
-    let (nx, ny) = (
-        x + group * GROUP_NOISE_SHIFT[0],
-        y + group * GROUP_NOISE_SHIFT[1],
-    );
-    whole as u32 + (rate - whole > blue_noise(noise, nx, ny, p.frame_index)) as u32
+    trim::trimmed_rays(x, y, group, bucket, &p.trim(), d, noise)
 }
 
-/// Offset of the blue-noise mask per plane group (coprime with the mask's edge, far apart).
-pub const GROUP_NOISE_SHIFT: [u32; 2] = [23, 41];
+impl ApplyParams {
+    /// What [`trim`] realises rays with.
+    #[inline(always)]
+    pub fn trim(&self) -> trim::TrimParams {
+        trim::TrimParams {
+            width: self.width,
+            height: self.height,
+            frame_index: self.frame_index,
+        }
+    }
+}
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]). Appends
 /// each tracing pixel and its rays to the group's list, `work[group · pixels..]` ([`work_entry`]),

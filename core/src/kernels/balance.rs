@@ -120,6 +120,10 @@ pub struct Balance {
     pub budget: f32,
     /// Rays of every requesting pixel in [`MODE_FIXED`].
     pub fixed_rate: f32,
+    /// Priority bin below which a pixel's last ray is trimmed ([`super::trim::cut`]; 0 for none).
+    pub cut: u32,
+    /// Rays the group traces after the trim ([`super::trim::cut`]).
+    pub traced: u32,
 }
 
 /// The bucket a pixel requesting bucket `b` in ring `ring` is granted.

@@ -20,6 +20,7 @@ pub mod refill;
 pub mod reflect;
 pub mod reproject;
 mod table;
+pub mod trim;
 pub mod variance;
 
 pub use table::*;

@@ -156,6 +156,26 @@ crate::kernel_table! {
         refill: update u32,
     }
 
+    /// The histogram of the priorities of every tracing pixel's last ray, and the rays, per
+    /// plane group (z) ([`trim::clear`], [`trim::count`], [`trim::flush`]); `hist` has
+    /// `trim::HIST_LEN` words per group, added to (fill it first).
+    trim_count => TRIM_COUNT, TrimCountBindings, TrimCountIo: workgroup trim::Local,
+    phases [trim::clear, trim::count, trim::flush],
+    threads(16, 16, 1), params trim::TrimParams {
+        requests: read Request,
+        decision: read Balance,
+        noise: read f32,
+        hist: atomic u32,
+    }
+
+    /// [`trim::cut`]: each plane group's cut from its histogram, into its decision; one
+    /// invocation per group.
+    trim_cut => TRIM_CUT, TrimCutBindings, TrimCutIo: fn trim::cut,
+    threads(64, 1, 1), params trim::CutParams {
+        hist: read u32,
+        decision: update Balance,
+    }
+
     /// [`apply::apply`]: rays per pixel, rng offsets and the compacted work list.
     apply => APPLY, ApplyBindings, ApplyIo: lanes(16, avx512 64) apply::apply,
     threads(8, 8, 1), params apply::ApplyParams {
