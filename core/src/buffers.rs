@@ -5,7 +5,7 @@
 use crate::camera::View;
 use crate::denoiser::grid_size;
 use crate::kernels::gradient::GradientSample;
-use crate::kernels::{apply, balance, buckets, classify, reflect, trim};
+use crate::kernels::{apply, balance, buckets, classify, refill, reflect, trim};
 use crate::payload::{PackedFiltered, PackedPayload, PackedSample, COUNTERS_LEN};
 use crate::plan::BindingLimit;
 use crate::settings::Settings;
@@ -35,7 +35,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 27;
+pub const DENOISER_BUFFERS: usize = 28;
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -120,8 +120,15 @@ pub fn denoiser_buffers(
             "Balance",
         ),
         size("trim", 1, bytes(groups * trim::HIST_LEN as u64, 4), "u32"),
+        size(
+            "refill_hist",
+            1,
+            bytes(groups * refill::FIT_BINS as u64, 4),
+            "u32",
+        ),
         size("args", 1, bytes(groups * apply::ARGS_LEN as u64, 4), "u32"),
-        // The refill lists' arguments: this frame's, read by the next frame's balancer.
+        // The refill lists' arguments: this frame's, read by the next frame's balancer
+        // (`balance::refill_reserve`).
         size(
             "refill_args",
             1,

@@ -9,7 +9,7 @@ use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
-use vrrt_core::kernels::apply::{work_entry, ARGS_LEN, LIST_GROUP};
+use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
@@ -399,8 +399,9 @@ impl Renderer {
                 .map(|(d, &c)| f(d) as f64 * c)
                 .sum()
         };
+        // What the frame may trace, its refill lists included (`Balance::allowed`).
         let (budget, requested, granted) = (
-            per_plane(|d| d.budget),
+            per_plane(|d| d.allowed as f32),
             per_plane(|d| d.requested),
             per_plane(|d| d.granted),
         );
@@ -410,15 +411,12 @@ impl Renderer {
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         // The readbacks waited for the frame, so its timings are in.
         let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
-        // The refill lists' rays (`Denoiser::detect_changes`), `refill_list_rays` per entry and
+        // The refill lists' rays (`Denoiser::detect_changes`), as `refill::fit` gave them, per
         // plane of their group: in the total, and with the prepass's when they are the
         // detector's (not a reset frame's penumbrae).
-        let refill: Vec<u32> = read(exec, d.refill_args(), (groups * ARGS_LEN) as usize)?;
         let refill_rays: u64 = (0..groups)
             .map(|g| {
-                let count = refill[(g * ARGS_LEN) as usize];
-                count as u64
-                    * d.refill_list_rays(count, &decisions[g as usize]) as u64
+                decisions[g as usize].refill_traced as u64
                     * group_planes(settings.plane_groups, planes, g) as u64
             })
             .sum();

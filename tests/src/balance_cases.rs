@@ -46,6 +46,12 @@ const BALANCE: &[Word] = &[
     Word::F32,
     Word::U32,
     Word::U32,
+    Word::F32,
+    Word::U32,
+    Word::U32,
+    Word::U32,
+    Word::U32,
+    Word::U32,
 ];
 
 fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
@@ -66,12 +72,7 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
         refill_rays: rng.random_range(1..=16),
         // Last frame's lists were a reset frame's, but at 1×1.
-        reset_share: if w == 1 {
-            0.0
-        } else {
-            [0.5, 1.0][rng.random_range(0..2)]
-        },
-        reset_least: rng.random_range(0..=3),
+        after_reset: (w > 1 && rng.random_range(0..2) == 0) as u32,
         shift: rng.random_range(0..4),
     }
 }
@@ -90,8 +91,8 @@ pub(crate) fn balance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let params = balance_params(rng, w, h);
     Case {
         name: format!(
-            "balance {w}x{h} rpp {} groups {} shift {:#b} reset share {}",
-            params.rays_per_pixel, params.groups, params.shift, params.reset_share
+            "balance {w}x{h} rpp {} groups {} shift {:#b} after reset {}",
+            params.rays_per_pixel, params.groups, params.shift, params.after_reset
         ),
         kernel: &vrrt_core::kernels::BALANCE,
         buffers: vec![
@@ -168,6 +169,7 @@ pub(crate) fn trim_cut_case(rng: &mut Pcg32, _w: u32, _h: u32) -> Case {
     let decisions: Vec<balance::Balance> = (0..groups_n)
         .map(|_| balance::Balance {
             budget: [0.0, 0.5, 123.7, 20_000.0, 1e9][rng.random_range(0..5)],
+            paid: [0.0, 17.5][rng.random_range(0..2)],
             cut: 7,
             traced: 7,
             ..balance::Balance::default()
@@ -180,6 +182,7 @@ pub(crate) fn trim_cut_case(rng: &mut Pcg32, _w: u32, _h: u32) -> Case {
             balance::POLICY_FIXED,
             balance::POLICY_KEEP,
         ][rng.random_range(0..3)],
+        reset_share: [0.0, 0.0, 0.5][rng.random_range(0..3)],
     };
     Case {
         name: format!("trim_cut groups {groups_n} policy {}", params.policy),
@@ -262,7 +265,15 @@ fn refill_params(rng: &mut Pcg32, w: u32, h: u32, lists: u32) -> refill::RefillP
         verify_sigma: [0.0, 1.0, 1.5][rng.random_range(0..3)],
         verify_history: [1.0, 4.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
+        frame_index: rng.random(),
     }
+}
+
+/// A refill histogram (two groups) that the lists add to: some counts there already.
+fn refill_hist(rng: &mut Pcg32) -> Vec<u32> {
+    (0..2 * refill::FIT_BINS)
+        .map(|_| rng.random_range(0..3))
+        .collect()
 }
 
 /// `refill`: a reset frame's lists of the shadows' mixed windows.
@@ -289,6 +300,8 @@ pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
                 .unordered()
                 .decided(),
             BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
+            // Counts of the listed pixels: decided as the lists are.
+            BufferSpec::from_pod(&refill_hist(rng), INTS).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::REFILL, w, h, lists),
@@ -320,14 +333,25 @@ pub(crate) fn detect_refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
                 .unordered()
                 .decided(),
             BufferSpec::from_pod(&[0u32, 0, 1, 1, 0, 0, 1, 1], INTS).decided(),
+            BufferSpec::from_pod(&refill_hist(rng), INTS).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&vrrt_core::kernels::DETECT_REFILL, w, h, lists),
     }
 }
 
-/// `refill_cap`: a reset frame's refill lists (two groups, some entries already at 16 rays),
-/// their reserve from the decisions, one list capped.
+/// Decisions as [`refill::fit`] leaves them: rays below and from a cut bin, 0 for skipped.
+fn fitted_decisions(rng: &mut Pcg32) -> [balance::Balance; 2] {
+    [0; 2].map(|_| balance::Balance {
+        refill_lo: rng.random_range(0..=2),
+        refill_hi: rng.random_range(1..=16),
+        refill_cut: rng.random_range(0..=refill::FIT_BINS),
+        ..Default::default()
+    })
+}
+
+/// `refill_cap`: refill lists (two groups, some entries already at 16 rays), their rays from
+/// fitted decisions, one list capped.
 pub(crate) fn refill_cap_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let pixels = w * h;
     let counts = [0, 1].map(|_| rng.random_range(0..=pixels));
@@ -347,22 +371,63 @@ pub(crate) fn refill_cap_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let params = refill::CapParams {
         pixels,
         list: rng.random_range(0..2),
-        share: [0.0, 0.4, 1.0, 3.0][rng.random_range(0..4)],
-        least: [0, 1, 2, 17][rng.random_range(0..4)],
+        frame_index: rng.random(),
     };
     let list = params.list as usize;
     Case {
         name: format!(
-            "refill_cap {w}x{h} list {} of {} share {} least {}",
-            params.list, counts[list], params.share, params.least
+            "refill_cap {w}x{h} list {} of {}",
+            params.list, counts[list]
         ),
         kernel: &vrrt_core::kernels::REFILL_CAP,
         buffers: vec![
-            BufferSpec::from_pod(&last_decisions(rng), BALANCE),
+            BufferSpec::from_pod(&fitted_decisions(rng), BALANCE),
             BufferSpec::from_pod(&args, INTS),
             BufferSpec::from_pod(&work, INTS),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: [counts[list].div_ceil(64), 1, 1],
+    }
+}
+
+/// `refill_fit`: two groups' lists of random counts and histograms, fitted into random rooms.
+pub(crate) fn refill_fit_case(rng: &mut Pcg32, _w: u32, _h: u32) -> Case {
+    let mut hist = vec![0u32; 2 * refill::FIT_BINS as usize];
+    let mut args = [0u32, 0, 1, 1, 0, 0, 1, 1];
+    for g in 0..2 {
+        let count = [0, 1, 50, 3000][rng.random_range(0..4)];
+        for _ in 0..count {
+            hist[g * refill::FIT_BINS as usize + rng.random_range(0..refill::FIT_BINS) as usize] +=
+                1;
+        }
+        args[4 * g] = count;
+    }
+    let decisions = [0, 1].map(|_| {
+        let traced = rng.random_range(0..20_000);
+        balance::Balance {
+            traced,
+            allowed: traced + [0, 3, 200, 5000, 100_000][rng.random_range(0..5)],
+            ..Default::default()
+        }
+    });
+    let params = refill::FitParams {
+        groups: 2,
+        rays: rng.random_range(1..=16),
+        least: rng.random_range(0..=3),
+        unbounded: (rng.random_range(0..4) == 0) as u32,
+    };
+    Case {
+        name: format!(
+            "refill_fit counts {} {} rays {} least {}",
+            args[0], args[4], params.rays, params.least
+        ),
+        kernel: &vrrt_core::kernels::REFILL_FIT,
+        buffers: vec![
+            BufferSpec::from_pod(&args, INTS),
+            BufferSpec::from_pod(&hist, INTS),
+            BufferSpec::from_pod(&decisions, BALANCE),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: [1, 1, 1],
     }
 }

@@ -55,6 +55,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         DECIDED,
     ),
     (
+        "refill_fit",
+        crate::balance_cases::refill_fit_case,
+        Tolerance::DEFAULT,
+    ),
+    (
         "refill_cap",
         crate::balance_cases::refill_cap_case,
         Tolerance::DEFAULT,

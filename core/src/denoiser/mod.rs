@@ -156,6 +156,8 @@ pub struct Denoiser {
     decision: BufferId,
     /// The trim's histograms ([`trim`]).
     trim: BufferId,
+    /// The refill lists' histograms ([`refill::fit`]).
+    refill_hist: BufferId,
     noise: BufferId,
     args: BufferId,
     refill_args: BufferId,
@@ -245,6 +247,7 @@ impl Denoiser {
             counts: id("counts")[0],
             decision: id("decision")[0],
             trim: id("trim")[0],
+            refill_hist: id("refill_hist")[0],
             noise,
             args: id("args")[0],
             refill_args,
@@ -423,16 +426,18 @@ impl Denoiser {
     }
 
     /// The refill lists ([`Self::detect_changes`]): the detector's dropped pixels that traced
-    /// nothing, `gradient.refill_rays` rays each, one list per plane group at `group × pixels`
-    /// (as [`Self::work`]). Valid from [`Self::detect_changes`] to [`Self::resolve`], in the
-    /// filter buffer that holds neither the detector's `λ` nor, by then, a live work list.
+    /// nothing, with the rays [`refill::fit`] gave them, one list per plane group at
+    /// `group × pixels` (as [`Self::work`]); an entry that did not fit is
+    /// [`refill::SKIPPED`] and traces nothing. Valid from [`Self::detect_changes`] to
+    /// [`Self::resolve`], in the filter buffer that holds neither the detector's `λ` nor, by
+    /// then, a live work list.
     pub fn refill_work(&self) -> BufferId {
         self.filtered[1]
     }
 
     /// Indirect dispatch arguments of the refill lists (as [`Self::args`]); the counts
-    /// (`[4 · group]`) stay readable until the next frame's [`Self::plan_rays`], which takes them
-    /// off its budget.
+    /// (`[4 · group]`) stay readable until the next frame's [`Self::plan_rays`], which sets rays
+    /// aside for its own lists from them.
     pub fn refill_args(&self) -> BufferId {
         self.refill_args
     }
@@ -560,18 +565,6 @@ impl Denoiser {
     /// The fewest rays of a reset frame's refill entry ([`refill::CapParams::least`]).
     pub(super) fn reset_least(&self) -> u32 {
         rates::reset_least(&self.settings.rates, self.reset_refill_on())
-    }
-
-    /// Rays of each entry of this frame's refill lists ([`Self::refill_args`]) when a group's
-    /// list has `count` and its decision was `decision`: a reset frame's share its reserve
-    /// ([`refill::reset_rays`]).
-    pub fn refill_list_rays(&self, count: u32, decision: &balance::Balance) -> u32 {
-        if self.refills_reset() {
-            let reserve = refill::reserve(decision, self.reset_share());
-            refill::reset_rays(count, reserve, self.reset_least())
-        } else {
-            self.settings.gradient.refill_rays
-        }
     }
 
     /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera

@@ -129,25 +129,13 @@ impl Denoiser {
             rays_per_pixel: frame_budget(&s.rates, self.since_reset, self.reset_refill_on()),
             ring_count: buckets::ring_count(w, h),
             raise: s.rates.spend_saved_rays as u32,
-            policy: if s.rates.supersample_target <= 0.0 {
-                balance::POLICY_FIXED
-            } else if s.rates.load_balance {
-                balance::POLICY_BALANCE
-            } else {
-                balance::POLICY_KEEP
-            },
+            policy: self.policy(),
             groups,
             plane_groups: s.plane_groups,
             planes: s.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.gradient.refill_rays,
-            // Last frame's lists were a reset frame's: their rays came from its reserve.
-            reset_share: if self.since_reset == 1 {
-                self.reset_share()
-            } else {
-                0.0
-            },
-            reset_least: self.reset_least(),
+            after_reset: (self.since_reset == 1 && self.reset_share() > 0.0) as u32,
             shift: self.shifting_groups(importance_group),
         };
         let balance = kernels::BalanceBindings {
@@ -176,6 +164,11 @@ impl Denoiser {
         let cut = trim::CutParams {
             groups,
             policy: bal.policy,
+            reset_share: if self.refills_reset() {
+                self.reset_share()
+            } else {
+                0.0
+            },
         };
         let trim_cut = kernels::TrimCutBindings {
             hist: self.trim,
@@ -192,6 +185,19 @@ impl Denoiser {
             samples: self.samples,
         };
         exec.dispatch(&apply.over_grid(&app, w, h, groups))
+    }
+
+    /// The balancer's policy: the SVGF baseline's fixed rate without VRRT requests, balanced
+    /// rates, or every request granted.
+    pub(super) fn policy(&self) -> u32 {
+        let r = &self.settings.rates;
+        if r.supersample_target <= 0.0 {
+            balance::POLICY_FIXED
+        } else if r.load_balance {
+            balance::POLICY_BALANCE
+        } else {
+            balance::POLICY_KEEP
+        }
     }
 
     /// Whether this frame applies the still rule (`rates.still_sigma`): nothing moved, the rule

@@ -47,6 +47,7 @@ impl Denoiser {
             return Ok(false);
         }
         // The lists are all the detector feeds: one pass, `λ` tested where it is computed.
+        self.clear_refill_hist(exec)?;
         let fused = refill::DetectRefillParams {
             detect: p,
             refill: self.refill_params(false),
@@ -58,9 +59,59 @@ impl Denoiser {
             changes: self.changes_buffer(),
             work: self.refill_work(),
             args: self.refill_args,
+            hist: self.refill_hist,
         };
         exec.dispatch(&pass.over_grid(&fused, w, h, s.groups()))?;
+        self.fit_refill_lists(exec, false)?;
         Ok(true)
+    }
+
+    /// Zeroes the refill lists' histograms before the lists are made.
+    fn clear_refill_hist<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let clear = fill::FillParams {
+            len: self.settings.groups() * refill::FIT_BINS,
+            value: 0,
+        };
+        let fill = kernels::FillBindings {
+            buf: self.refill_hist,
+        };
+        exec.dispatch(&fill.over_grid(&clear, clear.len, 1, 1))
+    }
+
+    /// Fits this frame's refill lists (`reset`: a reset frame's) into what the frame may still
+    /// trace ([`refill::fit`]) and writes each entry's rays ([`refill::cap`]).
+    fn fit_refill_lists<E: Executor>(&mut self, exec: &mut E, reset: bool) -> Result<(), E::Error> {
+        let s = self.settings;
+        let p = refill::FitParams {
+            groups: s.groups(),
+            rays: self.refill_params(reset).rays,
+            least: if reset { self.reset_least() } else { 1 },
+            unbounded: (self.policy() == balance::POLICY_KEEP) as u32,
+        };
+        let fit = kernels::RefillFitBindings {
+            args: self.refill_args,
+            hist: self.refill_hist,
+            decision: self.decision,
+        };
+        exec.dispatch(&fit.over_grid(&p, s.groups(), 1, 1))?;
+        for list in 0..s.groups() {
+            let p = refill::CapParams {
+                pixels: self.width * self.height,
+                list,
+                frame_index: self.frame.index,
+            };
+            let pass = kernels::RefillCapBindings {
+                decision: self.decision,
+                args: self.refill_args,
+                work: self.refill_work(),
+            };
+            let groups = Groups::Indirect {
+                buffer: self.refill_args,
+                offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
+            };
+            exec.dispatch(&pass.pass(&p, groups))?;
+        }
+        Ok(())
     }
 
     /// The refill lists' parameters (`reset`: a reset frame's, whose listed pixels take up to
@@ -83,41 +134,26 @@ impl Denoiser {
             verify_sigma: s.gradient.shadow_verify_sigma,
             verify_history: s.gradient.shadow_verify_history,
             min_variance: s.gradient.detect_min_variance,
+            frame_index: self.frame.index,
         }
     }
 
     /// A reset frame's refill lists (no detector): the pixels of the shadows' mixed windows,
-    /// their rays set by [`refill::cap`].
+    /// their rays set by [`refill::fit`] from the reserve the frame set aside.
     fn dispatch_reset_refill<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h) = (self.width, self.height);
+        self.clear_refill_hist(exec)?;
         let p = self.refill_params(true);
         let pass = kernels::RefillBindings {
             requests: self.requests,
             samples: self.samples,
             work: self.refill_work(),
             args: self.refill_args,
+            hist: self.refill_hist,
         };
         exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
-        for list in 0..s.groups() {
-            let p = refill::CapParams {
-                pixels: w * h,
-                list,
-                share: self.reset_share(),
-                least: self.reset_least(),
-            };
-            let pass = kernels::RefillCapBindings {
-                decision: self.decision,
-                args: self.refill_args,
-                work: self.refill_work(),
-            };
-            let groups = Groups::Indirect {
-                buffer: self.refill_args,
-                offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
-            };
-            exec.dispatch(&pass.pass(&p, groups))?;
-        }
-        Ok(())
+        self.fit_refill_lists(exec, true)
     }
 
     /// Where the detector's `λ` goes: the kept buffer, or a filter buffer the filter writes only

@@ -25,8 +25,9 @@ pub const ARGS_LEN: u32 = 4;
 
 /// Bits of a [`work_entry`] holding the pixel index: images up to 2^28 pixels (16384²).
 pub const WORK_PIXEL_BITS: u32 = 28;
-/// Most pixels an image may have, so every pixel index fits a [`work_entry`].
-pub const MAX_PIXELS: u64 = 1 << WORK_PIXEL_BITS;
+/// Most pixels an image may have, so every pixel index fits a [`work_entry`] (the last index is
+/// left out: with all bits set it is `refill::SKIPPED`).
+pub const MAX_PIXELS: u64 = (1 << WORK_PIXEL_BITS) - 1;
 
 /// The work-list word of pixel `pix` tracing `rays` rays (1 to [`MAX_RATE`](super::buckets::MAX_RATE)): the pixel in the low
 /// [`WORK_PIXEL_BITS`], `rays - 1` above.

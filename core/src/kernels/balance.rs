@@ -85,14 +85,11 @@ pub struct BalanceParams {
     /// Least share of the rays a group gets under [`POLICY_BALANCE`], as a fraction of its equal
     /// share (0..=1); 1 gives every group `rays_per_pixel` ([`group_rates`]).
     pub signal_floor: f32,
-    /// Rays of each entry of last frame's refill lists (`refill`, [`super::refill`]).
+    /// Rays of an entry of the detector's refill lists when they fit (`gradient.refill_rays`,
+    /// [`super::refill`]).
     pub refill_rays: u32,
-    /// Nonzero: last frame's lists were a reset frame's, whose entries traced
-    /// [`super::refill::reset_rays`] of the reserve [`super::refill::reserve`] of last frame's
-    /// decision (`out`, read before it is rewritten) at this share.
-    pub reset_share: f32,
-    /// The least rays of those entries ([`super::refill::CapParams::least`]).
-    pub reset_least: u32,
+    /// Nonzero: last frame's lists were a reset frame's ([`refill_reserve`]).
+    pub after_reset: u32,
     /// Bit `g` set: group `g` moves every request by the same step, down over budget
     /// ([`MODE_SHIFT`]) and up under it ([`MODE_LIFT`]), instead of capping the largest
     /// ([`MODE_OVER`]) or raising the smallest ([`MODE_UNDER`]), the seed's.
@@ -124,6 +121,20 @@ pub struct Balance {
     pub cut: u32,
     /// Rays the group traces after the trim ([`super::trim::cut`]).
     pub traced: u32,
+    /// Rays of the group's budget set aside for this frame's refill lists ([`refill_reserve`]),
+    /// outside `budget`.
+    pub paid: f32,
+    /// Rays the group may trace this frame, main pass and refill lists together:
+    /// `budget + paid`, and on a reset frame its lists' reserve ([`super::trim::cut`]).
+    pub allowed: u32,
+    /// Rays of a refill entry below [`Self::refill_cut`] ([`super::refill::fit`]; 0: skipped).
+    pub refill_lo: u32,
+    /// Rays of a refill entry from [`Self::refill_cut`] on.
+    pub refill_hi: u32,
+    /// The refill entries' priority bin from which they get `refill_hi`.
+    pub refill_cut: u32,
+    /// Rays the group's refill list traces.
+    pub refill_traced: u32,
 }
 
 /// The bucket a pixel requesting bucket `b` in ring `ring` is granted.
@@ -306,8 +317,7 @@ pub struct Search {
 impl Search {
     /// What the totals of the histogram at `base` decide: the fixed or kept decision, or a
     /// search for thresholds.
-    /// `spent`: rays of the group's budget already spent (last frame's refill list,
-    /// [`super::refill`]).
+    /// `spent`: rays of the group's budget set aside for the refill lists ([`refill_reserve`]).
     pub fn new(
         counts: &[u32],
         base: u32,
@@ -332,6 +342,7 @@ impl Search {
                 requested,
                 granted: requested,
                 budget,
+                paid: rays_per_pixel * active as f32 - budget,
                 ..Balance::default()
             },
             ..Search::default()
@@ -344,7 +355,7 @@ impl Search {
                 granted: budget,
                 budget,
                 fixed_rate: rays_per_pixel,
-                ..Balance::default()
+                ..s.decision
             };
             return s;
         }
@@ -472,25 +483,26 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     if g < groups(p) {
         let rates = group_rates(io.counts, p);
         let count = io.refill[(g * super::apply::ARGS_LEN) as usize];
-        let spent = refill_spent(count, &io.out[g as usize], p);
+        let spent = refill_reserve(count, p);
         let base = g * COUNTS_LEN;
         local.search[g as usize] = Search::new(io.counts, base, rates[g as usize], spent, p);
     }
 }
 
-/// Rays of last frame's `count` refill entries this frame's budget pays: all of them, or what a
-/// reset frame's lists spent beyond the reserve its decision `last` held.
+/// Rays a group sets aside for this frame's refill lists, from last frame's `count` entries.
+///
+/// Why: the lists are made after the main pass, from what its rays showed, and they must fit
+/// what is left of the frame ([`super::refill::fit`]); the main pass is fitted to the budget
+/// less this. Lists change little from one frame to the next, and what is set aside but not
+/// needed goes to the lists' own entries (more rays each), so a quarter more than last frame's
+/// rays keeps most frames from cutting them. A reset frame's lists (the shadows' mixed
+/// windows) say nothing of what the detector will list next: one ray for each of them.
 #[inline]
-pub fn refill_spent(count: u32, last: &Balance, p: &BalanceParams) -> f32 {
-    if p.reset_share == 0.0 {
-        return (count * p.refill_rays) as f32;
-    }
-    let reserve = super::refill::reserve(last, p.reset_share);
-    let used = count * super::refill::reset_rays(count, reserve, p.reset_least);
-    if used > reserve {
-        (used - reserve) as f32
+pub fn refill_reserve(count: u32, p: &BalanceParams) -> f32 {
+    if p.after_reset != 0 {
+        count as f32
     } else {
-        0.0
+        1.25 * (count * p.refill_rays) as f32
     }
 }
 

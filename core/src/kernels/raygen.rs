@@ -352,7 +352,9 @@ pub fn shadow_pixel(
     (finish(sum, sum_sq, first, rays), penumbra)
 }
 
-/// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]).
+/// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]);
+/// none past the list's end or for an entry the refill lists had no room for
+/// ([`super::refill::SKIPPED`]).
 #[inline]
 pub(crate) fn work_item(
     id: UVec3,
@@ -364,7 +366,11 @@ pub(crate) fn work_item(
     if id.x >= args[(list * apply::ARGS_LEN) as usize] {
         return None;
     }
-    Some(apply::work_item(work[(list * pixels + id.x) as usize]))
+    let entry = work[(list * pixels + id.x) as usize];
+    if entry == super::refill::SKIPPED {
+        return None;
+    }
+    Some(apply::work_item(entry))
 }
 
 /// One invocation per work-list entry: AO samples of every plane of that pixel.

@@ -6,9 +6,10 @@
 //! history (`λ` above the threshold) such a pixel would have no estimate at all and the à-trous
 //! filter would fill it from its far taps (on the dragon, two pixels whose reference is 0 came
 //! out at 8.7 and 10.3, pulled from a highlight 24 rows away). A few rays give it an estimate of
-//! its own, as a fresh pixel's request would have. Its rays come out of the ray budget: the
-//! balancer takes the lists' counts times their rays off the next frame's budget
-//! ([`super::balance`]).
+//! its own, as a fresh pixel's request would have. Its rays come out of the frame's own budget:
+//! the balancer sets rays aside for the lists (`balance::refill_reserve`, from last frame's
+//! lists), and [`fit`] shares what the main pass left among the entries, so the frame never
+//! traces more than its budget, however many pixels the detector lists.
 //!
 //! The shadow planes also list the pixels to verify: those that traced fewer rays than a listed
 //! pixel gets and whose own rays disagree with their history ([`super::detect::pixel_z`]). One
@@ -18,7 +19,7 @@
 //! ([`super::accumulate`]) drops the history if the rays together still disagree.
 //!
 //! A reset frame (first frame, camera cut) has no history and no detector; there the lists hold
-//! the shadow planes' pixels whose 3×3 window of rays is mixed, and [`cap`] shares the rays the
+//! the shadow planes' pixels whose 3×3 window of rays is mixed, and [`fit`] shares the rays the
 //! frame set aside (`rates.reset_refill`) among them: the penumbrae get the cut's extra rays that
 //! a second ray everywhere would spend on lit and umbra pixels.
 
@@ -26,7 +27,8 @@ use super::apply::{self, append, ARGS_LEN};
 use super::balance::Balance;
 use super::buckets::{BUCKET_COUNT, MAX_RATE};
 use super::detect::DetectParams;
-use super::{DetectRefillIo, RefillCapIo, RefillIo};
+use super::{DetectRefillIo, RefillCapIo, RefillFitIo, RefillIo};
+use crate::atomic;
 use crate::lanes::{self, Lanes};
 use crate::payload::{PackedPayload, PackedSample};
 use bytemuck::{Pod, Zeroable};
@@ -60,6 +62,8 @@ pub struct RefillParams {
     pub verify_history: f32,
     /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
     pub min_variance: f32,
+    /// Frame number: varies which entries [`fit`] keeps when the lists do not fit ([`priority`]).
+    pub frame_index: u32,
 }
 
 /// A reset frame's lists (no history, no detector: [`detect_refill`] makes the others): one call
@@ -73,12 +77,13 @@ pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
         samples,
         work,
         args,
+        hist,
     } = io;
     if id.x >= p.width || id.y >= p.height {
         return;
     }
     let listed = reset_listed::<N>(id, p, samples);
-    list(id, p, requests, listed, (work, args));
+    list(id, p, requests, listed, (work, args, hist));
 }
 
 /// The detector fused with the lists it feeds ([`super::detect::detect`], then the lists):
@@ -97,6 +102,7 @@ pub fn detect_refill<const N: usize>(id: UVec3, p: &DetectRefillParams, io: Dete
         changes,
         work,
         args,
+        hist,
     } = io;
     let r = &p.refill;
     let (w, h) = (r.width, r.height);
@@ -115,7 +121,7 @@ pub fn detect_refill<const N: usize>(id: UVec3, p: &DetectRefillParams, io: Dete
         }
         z += 1;
     }
-    list(id, r, requests, seen.listed(), (work, args));
+    list(id, r, requests, seen.listed(), (work, args, hist));
 }
 
 /// Push constants of [`detect_refill`]: the detector's and the lists'.
@@ -197,14 +203,15 @@ impl<const N: usize> Seen<N> {
 }
 
 /// Appends the `listed` pixels that asked for rays and lie inside the image to group `id.z`'s
-/// list, with `p.rays` rays each.
+/// list, with `p.rays` rays each, and counts each in its [`priority`] bin of the group's
+/// histogram (`hist`, [`FIT_BINS`] words per group, zeroed before) for [`fit`].
 #[inline(always)]
 fn list<const N: usize>(
     id: UVec3,
     p: &RefillParams,
     requests: &[u32],
     listed: Lanes<bool, N>,
-    (work, args): (&mut [u32], &mut [u32]),
+    (work, args, hist): (&mut [u32], &mut [u32], &mut [u32]),
 ) {
     let (w, pixels) = (p.width, p.width * p.height);
     let row = id.y * w;
@@ -213,6 +220,10 @@ fn list<const N: usize>(
     lanes::each_lane!(l in N {
         let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
         refills.0[l] = id.x + (l as u32) < w && asked && listed.0[l];
+        if refills.0[l] {
+            let b = priority(row + id.x + l as u32, p.frame_index);
+            atomic::add(&mut hist[(id.z * FIT_BINS + b) as usize], 1);
+        }
     });
     append(
         work,
@@ -278,21 +289,6 @@ fn reset_listed<const N: usize>(
     listed
 }
 
-/// Push constants of [`cap`].
-#[repr(C)]
-#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct CapParams {
-    /// Pixels of the image (the stride of the groups' lists).
-    pub pixels: u32,
-    /// The refill list capped (a plane group's).
-    pub list: u32,
-    /// The share of the list's group's decision budget set aside for it ([`reserve`]).
-    pub share: f32,
-    /// Fewest rays of an entry: what a pixel may have traced in the main pass (so a re-trace
-    /// never holds fewer).
-    pub least: u32,
-}
-
 /// Rays a reset frame set aside for a group's refill list: `share` of what its main pass was
 /// granted (`decision.budget`, rays over the pixels that asked, sky excluded), so the two add up
 /// to the frame's boosted budget.
@@ -301,30 +297,107 @@ pub fn reserve(decision: &Balance, share: f32) -> u32 {
     (decision.budget * share) as u32
 }
 
-/// Rays of each of the `count` entries of a reset frame's refill list: its `reserve` shared
-/// equally, `least` to [`MAX_RATE`] (integer division, so every backend and the balancer
-/// agree).
+/// Bins of the refill lists' histogram ([`priority`]).
+pub const FIT_BINS: u32 = 256;
+
+/// A work-list entry that traces nothing: what [`cap`] leaves of an entry the lists had no room
+/// for (raygen skips it, `raygen::work_item`).
+pub const SKIPPED: u32 = u32::MAX;
+
+/// The bin of pixel `pix`'s entry in frame `frame`: a hash, so the entries that go when the lists
+/// do not fit are spread over the image and change from frame to frame, and the histogram, not
+/// the order of the appends, decides which (the same on every backend and run).
 #[inline]
-pub fn reset_rays(count: u32, reserve: u32, least: u32) -> u32 {
-    let r = reserve.checked_div(count).unwrap_or(0);
-    let least = if least < 1 { 1 } else { least };
-    if r > MAX_RATE {
-        MAX_RATE
-    } else if r < least {
-        if least < MAX_RATE {
-            least
-        } else {
-            MAX_RATE
-        }
-    } else {
-        r
-    }
+pub fn priority(pix: u32, frame: u32) -> u32 {
+    crate::sampling::pcg_hash(pix ^ crate::sampling::pcg_hash(frame)) >> 24
 }
 
-/// One invocation per entry of a reset frame's refill list `p.list` (dispatched indirectly from
-/// its arguments, after [`refill`]): the entry's rays become [`reset_rays`] of the list's count.
-/// How many pixels are mixed is known only once the list is complete; sharing the reserve keeps
-/// the frame at its budget, whether a cut shows a few penumbrae or many.
+/// Push constants of [`fit`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FitParams {
+    /// Plane groups (one invocation each).
+    pub groups: u32,
+    /// Rays of an entry when the lists fit (`RefillParams::rays`: the detector's
+    /// `gradient.refill_rays`, a reset frame's [`MAX_RATE`]).
+    pub rays: u32,
+    /// Fewest rays of a kept entry: a reset frame's are what a pixel may have traced in the
+    /// main pass, so a re-trace never holds fewer (`rates::reset_least`); 1 for the detector's.
+    pub least: u32,
+    /// Nonzero: the balancer grants every request (`balance::POLICY_KEEP`), with no budget to
+    /// hold; the entries keep `rays`.
+    pub unbounded: u32,
+}
+
+/// One invocation per plane group, after its refill list is complete: how many rays its
+/// entries get so that the frame's rays stay within what it may trace
+/// ([`Balance::allowed`], less the main pass's [`Balance::traced`]). Entries in bins from
+/// [`Balance::refill_cut`] get [`Balance::refill_hi`] rays, the others [`Balance::refill_lo`]
+/// (0: skipped); [`cap`] writes them.
+///
+/// Why a cap: the lists are made after the main pass traced, from what its rays showed, so their
+/// size is known only now. The balancer sets last frame's lists' rays aside for them (and a reset
+/// frame its reserve), which is enough as long as they do not grow; where they do, the room is
+/// shared: equally, the remainder one ray each to the entries of the highest bins, and with less
+/// than `least` for every entry, `least` each to as many entries as fit.
+pub fn fit(id: UVec3, p: &FitParams, io: RefillFitIo<'_>) {
+    let RefillFitIo {
+        args,
+        hist,
+        decision,
+    } = io;
+    let g = id.x;
+    if g >= p.groups {
+        return;
+    }
+    let count = args[(g * ARGS_LEN) as usize];
+    let d = &mut decision[g as usize];
+    // Written out: the shader target has no saturating subtraction.
+    #[allow(clippy::implicit_saturating_sub)]
+    let room = if d.allowed > d.traced {
+        d.allowed - d.traced
+    } else {
+        0
+    };
+    let base = (g * FIT_BINS) as usize;
+    let least = if p.least > 1 { p.least } else { 1 };
+    let (lo, hi, keep) = if p.unbounded != 0 || count == 0 {
+        (p.rays, p.rays, count)
+    } else if room / count >= MAX_RATE {
+        (MAX_RATE, MAX_RATE, count)
+    } else if room / count >= least {
+        let lo = room / count;
+        (lo, lo + 1, room - lo * count)
+    } else {
+        (0, least, room / least)
+    };
+    // The lowest bin from which the entries, counted from the top, are at most `keep`.
+    let mut cut = FIT_BINS;
+    let mut above = 0;
+    while cut > 0 && above + hist[base + cut as usize - 1] <= keep {
+        above += hist[base + cut as usize - 1];
+        cut -= 1;
+    }
+    d.refill_lo = lo;
+    d.refill_hi = hi;
+    d.refill_cut = cut;
+    d.refill_traced = lo * (count - above) + hi * above;
+}
+
+/// Push constants of [`cap`].
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CapParams {
+    /// Pixels of the image (the stride of the groups' lists).
+    pub pixels: u32,
+    /// The refill list capped (a plane group's).
+    pub list: u32,
+    /// Frame number ([`priority`]).
+    pub frame_index: u32,
+}
+
+/// One invocation per entry of refill list `p.list` (dispatched indirectly from its arguments,
+/// after [`fit`]): the entry's rays become what [`fit`] gave its bin, or [`SKIPPED`] for none.
 pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
     let RefillCapIo {
         decision,
@@ -337,8 +410,17 @@ pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
     }
     let i = (p.list * p.pixels + id.x) as usize;
     let (pix, _) = apply::work_item(work[i]);
-    let reserve = reserve(&decision[p.list as usize], p.share);
-    work[i] = apply::work_entry(pix as u32, reset_rays(count, reserve, p.least));
+    let d = &decision[p.list as usize];
+    let rays = if priority(pix as u32, p.frame_index) >= d.refill_cut {
+        d.refill_hi
+    } else {
+        d.refill_lo
+    };
+    work[i] = if rays == 0 {
+        SKIPPED
+    } else {
+        apply::work_entry(pix as u32, rays)
+    };
 }
 
 #[cfg(test)]
@@ -384,6 +466,7 @@ mod tests {
             changes: &mut [f32::NAN],
             work: &mut work,
             args: &mut args,
+            hist: &mut [0; FIT_BINS as usize],
         };
         detect_refill::<1>(UVec3::ZERO, &p, io);
         work[..args[0] as usize]
@@ -411,6 +494,7 @@ mod tests {
             .map(|&l| Sample::uniform(if l { 1.0 } else { 0.0 }, 1).pack())
             .collect();
         let (mut work, mut args) = ([0u32; 12], [0u32, 0, 1, 1]);
+        let mut hist = [0u32; FIT_BINS as usize];
         let p = RefillParams {
             width: 4,
             height: 3,
@@ -426,6 +510,7 @@ mod tests {
                     samples: &samples,
                     work: &mut work,
                     args: &mut args,
+                    hist: &mut hist,
                 };
                 refill::<1>(UVec3::new(x, y, 0), &p, io);
             }
@@ -450,22 +535,94 @@ mod tests {
         assert!(reset_listed_pixels(edge, 0).is_empty());
     }
 
+    /// A list of `count` entries (pixels `0..count`) fitted into `room` rays at `rays` each,
+    /// `least` at least, then capped: the rays of every entry.
+    fn fitted(count: u32, room: u32, rays: u32, least: u32) -> std::vec::Vec<u32> {
+        let frame = 17;
+        let mut hist = [0u32; FIT_BINS as usize];
+        for pix in 0..count {
+            hist[priority(pix, frame) as usize] += 1;
+        }
+        let args = [count, 0, 1, 1];
+        let mut decision = [Balance {
+            allowed: 1000 + room,
+            traced: 1000,
+            ..Balance::default()
+        }];
+        let p = FitParams {
+            groups: 1,
+            rays,
+            least,
+            unbounded: 0,
+        };
+        let io = RefillFitIo {
+            args: &args,
+            hist: &hist,
+            decision: &mut decision,
+        };
+        fit(UVec3::ZERO, &p, io);
+        let mut work: std::vec::Vec<u32> =
+            (0..count).map(|pix| apply::work_entry(pix, rays)).collect();
+        let p = CapParams {
+            pixels: count,
+            list: 0,
+            frame_index: frame,
+        };
+        for i in 0..count {
+            let io = RefillCapIo {
+                decision: &decision,
+                args: &args,
+                work: &mut work,
+            };
+            cap(UVec3::new(i, 0, 0), &p, io);
+        }
+        let rays: std::vec::Vec<u32> = work
+            .iter()
+            .map(|&e| {
+                if e == SKIPPED {
+                    0
+                } else {
+                    apply::work_item(e).1
+                }
+            })
+            .collect();
+        assert_eq!(rays.iter().sum::<u32>(), decision[0].refill_traced);
+        rays
+    }
+
     #[test]
-    fn a_reset_list_shares_its_reserve() {
-        assert_eq!(reset_rays(100, 800, 1), 8);
-        assert_eq!(
-            reset_rays(100, 850, 1),
-            8,
-            "rounded down: never over the reserve"
-        );
-        assert_eq!(reset_rays(100, 5000, 1), MAX_RATE);
-        assert_eq!(reset_rays(100, 50, 1), 1);
-        assert_eq!(
-            reset_rays(100, 50, 2),
-            2,
-            "never fewer than the main pass traced"
-        );
-        assert_eq!(reset_rays(100, 50, 40), MAX_RATE);
-        assert_eq!(reset_rays(0, 50, 0), 1);
+    fn refill_lists_fit_the_room_left() {
+        for (count, room) in [
+            (0, 0),
+            (10, 40),
+            (10, 39),
+            (10, 25),
+            (10, 9),
+            (10, 0),
+            (300, 1000),
+            (300, 200),
+            (7, 500),
+        ] {
+            for least in [1, 3] {
+                let rays = fitted(count, room, 4, least);
+                let total: u32 = rays.iter().sum();
+                assert!(total <= room, "{count} entries, room {room}: {total} rays");
+                // Kept entries hold at least `least` (a reset frame's re-trace never holds fewer
+                // than its main pass) and at most MAX_RATE.
+                assert!(rays
+                    .iter()
+                    .all(|&r| r == 0 || (least..=MAX_RATE).contains(&r)));
+                // The room is used: what is left is less than one more entry's least.
+                if count > 0 && room < count * MAX_RATE {
+                    assert!(
+                        room - total < least.max(1) * count.min(room + 1),
+                        "{count} {room} {total}"
+                    );
+                }
+            }
+        }
+        // Room for every entry's rays and more: the rest goes to the entries.
+        assert_eq!(fitted(10, 60, 4, 1).iter().sum::<u32>(), 60);
+        assert!(fitted(10, 1000, 4, 1).iter().all(|&r| r == MAX_RATE));
     }
 }

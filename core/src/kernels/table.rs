@@ -195,6 +195,7 @@ crate::kernel_table! {
         samples: read PackedSample,
         work: write WorkEntry,
         args: atomic u32,
+        hist: atomic u32,
     }
 
     /// [`refill::detect_refill`]: the change detector and the refill lists in one pass (each
@@ -207,6 +208,7 @@ crate::kernel_table! {
         changes: write f32,
         work: write WorkEntry,
         args: atomic u32,
+        hist: atomic u32,
     }
 
     /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.
@@ -348,7 +350,16 @@ crate::kernel_table! {
         guide: write f32,
     }
 
-    /// [`refill::cap`]: a reset frame's refill list, its reserve shared among its entries;
+    /// [`refill::fit`]: the rays of each plane group's refill entries, so the frame stays within
+    /// what it may trace; one invocation per group, after the lists.
+    refill_fit => REFILL_FIT, RefillFitBindings, RefillFitIo: fn refill::fit,
+    threads(64, 1, 1), params refill::FitParams {
+        args: read u32,
+        hist: read u32,
+        decision: update Balance,
+    }
+
+    /// [`refill::cap`]: each entry of a refill list gets the rays [`refill::fit`] gave its bin;
     /// dispatch as `raygen_ao`, over the refill list.
     refill_cap => REFILL_CAP, RefillCapBindings, RefillCapIo: fn refill::cap,
     threads(64, 1, 1), params refill::CapParams {

@@ -62,6 +62,9 @@ pub struct CutParams {
     /// The balancer's policy: [`POLICY_KEEP`] grants every request as asked, with no budget
     /// to hold, so nothing is trimmed.
     pub policy: u32,
+    /// On a reset frame whose refill lists spend a reserve, its share of the main pass's budget
+    /// (`refill::reserve`); else 0.
+    pub reset_share: f32,
 }
 
 /// Rays pixel `(x, y)` of plane group `group` realises from its granted rate before any trim,
@@ -223,8 +226,9 @@ pub fn cut_bin(hist: &[u32], base: usize, excess: u32) -> (u32, u32) {
     (c, taken)
 }
 
-/// One invocation per plane group: the group's cut ([`Balance::cut`]) from its histogram, and
-/// the rays it then traces ([`Balance::traced`]).
+/// One invocation per plane group: the group's cut ([`Balance::cut`]) from its histogram, the
+/// rays it then traces ([`Balance::traced`]), and the rays the frame may trace with its refill
+/// lists ([`Balance::allowed`]).
 #[inline]
 pub fn cut(id: UVec3, p: &CutParams, io: TrimCutIo<'_>) {
     let TrimCutIo { hist, decision } = io;
@@ -244,6 +248,8 @@ pub fn cut(id: UVec3, p: &CutParams, io: TrimCutIo<'_>) {
     };
     d.cut = c;
     d.traced = total - taken;
+    d.allowed = math::max(math::floor(d.budget + d.paid), 0.0) as u32
+        + super::refill::reserve(d, p.reset_share);
 }
 
 #[cfg(test)]
@@ -284,7 +290,15 @@ mod tests {
             hist: &hist,
             decision: &mut out,
         };
-        cut(UVec3::ZERO, &CutParams { groups: 1, policy }, io);
+        cut(
+            UVec3::ZERO,
+            &CutParams {
+                groups: 1,
+                policy,
+                reset_share: 0.0,
+            },
+            io,
+        );
         let rays = decisions
             .iter()
             .enumerate()

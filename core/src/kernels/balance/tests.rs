@@ -14,8 +14,7 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
         planes: 1,
         signal_floor: 1.0,
         refill_rays: 1,
-        reset_share: 0.0,
-        reset_least: 1,
+        after_reset: 0,
         shift: 0,
     }
 }
@@ -368,8 +367,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             planes: groups,
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
             refill_rays: 1 + next(8),
-            reset_share: [0.0, 0.0, 0.5][next(3) as usize],
-            reset_least: next(3),
+            after_reset: (next(3) == 0) as u32,
             shift: next(16),
         };
         let rates = group_rates(&c, &p);
@@ -387,7 +385,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             .collect();
         let serial: Vec<Balance> = (0..groups)
             .map(|g| {
-                let spent = refill_spent(refill[4 * g as usize], &last[g as usize], &p);
+                let spent = refill_reserve(refill[4 * g as usize], &p);
                 solve(&c, g, rates[g as usize], spent, &p)
             })
             .collect();
@@ -425,24 +423,17 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
 }
 
 #[test]
-fn a_reset_frames_lists_are_paid_from_its_reserve() {
-    let last = Balance {
-        budget: 1000.0,
-        ..Balance::default()
-    };
+fn last_frames_lists_set_rays_aside() {
     let detector = BalanceParams {
         refill_rays: 4,
         ..params(1.0, 1, 1)
     };
-    // The detector's lists: every ray off this frame's budget.
-    assert_eq!(refill_spent(30, &last, &detector), 120.0);
-    // A reset frame's: 100 entries shared 500 reserved rays (5 each), none owed.
+    // The detector's lists: their rays and a quarter more.
+    assert_eq!(refill_reserve(30, &detector), 150.0);
+    // A reset frame's: one ray per entry.
     let reset = BalanceParams {
-        reset_share: 0.5,
-        reset_least: 1,
+        after_reset: 1,
         ..detector
     };
-    assert_eq!(refill_spent(100, &last, &reset), 0.0);
-    // 800 entries at the least 1 ray spent 300 beyond the reserve.
-    assert_eq!(refill_spent(800, &last, &reset), 300.0);
+    assert_eq!(refill_reserve(100, &reset), 100.0);
 }
