@@ -25,8 +25,13 @@ mod spectrum;
 pub struct BenchArgs {
     /// Quick matrix: room, 160x90, 48 frames, budgets 0.5 and 1, cpu, 1 repeat; signals other
     /// than AO only through svgf, vrrt and vrrt-noskip.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "production")]
     pub quick: bool,
+    /// Production-size matrix: room, bunny and dragon at 640x360, AO, shadows and reflections,
+    /// svgf, svgf-clamp and vrrt at 1 rpp, 96 frames (past every scene's camera cut), cpu, 1
+    /// repeat. Options given win over it.
+    #[arg(long)]
+    pub production: bool,
     /// Scenes, comma separated (default room,bunny,dragon; quick: room). The mesh scenes need
     /// `vrrt fetch` first: without their meshes the bench stops before rendering anything.
     #[arg(long, value_delimiter = ',')]
@@ -177,6 +182,66 @@ impl Cell {
     }
 }
 
+/// What a matrix runs where its options are not given: `--quick`'s, `--production`'s or the
+/// full one's.
+struct Matrix {
+    scenes: &'static [&'static str],
+    configs: &'static [Config],
+    budgets: &'static [f32],
+    backends: &'static [BackendKind],
+    signals: &'static [SignalKind],
+    size: (u32, u32),
+    frames: u32,
+    repeats: u32,
+}
+
+impl Matrix {
+    fn of(args: &BenchArgs) -> Matrix {
+        let full = Matrix {
+            scenes: &DEFAULT_SCENES,
+            configs: &Config::ALL,
+            budgets: &[0.25, 0.5, 1.0, 2.0, 4.0],
+            backends: &[BackendKind::Cpu, BackendKind::Wgpu, BackendKind::Ash],
+            signals: &[SignalKind::Ao, SignalKind::Reflections],
+            size: (256, 144),
+            frames: 96,
+            repeats: 3,
+        };
+        if args.quick {
+            Matrix {
+                scenes: &["room"],
+                budgets: &[0.5, 1.0],
+                backends: &[BackendKind::Cpu],
+                size: (160, 90),
+                frames: 48,
+                repeats: 1,
+                ..full
+            }
+        } else if args.production {
+            Matrix {
+                configs: &[Config::Svgf, Config::SvgfClamp, Config::Vrrt],
+                budgets: &[1.0],
+                backends: &[BackendKind::Cpu],
+                signals: &[SignalKind::Ao, SignalKind::Shadows, SignalKind::Reflections],
+                size: (640, 360),
+                repeats: 1,
+                ..full
+            }
+        } else {
+            full
+        }
+    }
+}
+
+/// `given` without repeats, or `default` when none was given.
+fn or_default<T: PartialEq + Clone>(given: &[T], default: &[T]) -> Vec<T> {
+    if given.is_empty() {
+        default.to_vec()
+    } else {
+        distinct(given)
+    }
+}
+
 /// Configurations of the quick matrix for signals other than AO: the SVGF baseline, VRRT and its
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
@@ -189,47 +254,29 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         return crate::passes::run(args);
     }
     let q = args.quick;
-    let scenes = if !args.scenes.is_empty() {
-        distinct(&args.scenes)
-    } else if q {
-        vec!["room".to_string()]
-    } else {
-        // Every scene is loaded (a missing mesh is an error naming `vrrt fetch`) before any
-        // rendering, below.
-        DEFAULT_SCENES.map(String::from).to_vec()
+    let m = Matrix::of(args);
+    let pick = |given: &[String], default: &[&str]| -> Vec<String> {
+        if given.is_empty() {
+            default.iter().map(|s| s.to_string()).collect()
+        } else {
+            distinct(given)
+        }
     };
-    let configs = if args.configs.is_empty() {
-        Config::ALL.to_vec()
-    } else {
-        distinct(&args.configs)
-    };
-    let budgets = if !args.budgets.is_empty() {
-        distinct(&args.budgets)
-    } else if q {
-        vec![0.5, 1.0]
-    } else {
-        vec![0.25, 0.5, 1.0, 2.0, 4.0]
-    };
+    // Every scene is loaded (a missing mesh is an error naming `vrrt fetch`) before any
+    // rendering, below.
+    let scenes = pick(&args.scenes, m.scenes);
+    let configs = or_default(&args.configs, m.configs);
+    let budgets = or_default(&args.budgets, m.budgets);
     let explicit_backends = !args.backends.is_empty();
-    let backends = if explicit_backends {
-        distinct(&args.backends)
-    } else if q {
-        vec![BackendKind::Cpu]
-    } else {
-        vec![BackendKind::Cpu, BackendKind::Wgpu, BackendKind::Ash]
-    };
-    let size = args.size.unwrap_or(if q { (160, 90) } else { (256, 144) });
-    let frames = args.frames.unwrap_or(if q { 48 } else { 96 });
-    let repeats = args.repeats.unwrap_or(if q { 1 } else { 3 });
+    let backends = or_default(&args.backends, m.backends);
+    let size = args.size.unwrap_or(m.size);
+    let frames = args.frames.unwrap_or(m.frames);
+    let repeats = args.repeats.unwrap_or(m.repeats);
     check_common(frames, args.spp, args.ao_radius)?;
     if !(1..=MAX_REPEATS).contains(&repeats) {
         bail!("--repeats must be between 1 and {MAX_REPEATS}, got {repeats}");
     }
-    let signals = if args.signals.is_empty() {
-        vec![SignalKind::Ao, SignalKind::Reflections]
-    } else {
-        distinct(&args.signals)
-    };
+    let signals = or_default(&args.signals, m.signals);
     let file = load_settings(args.settings.as_deref())?;
     let base = file.denoiser;
     let limits = args.limits.limits();
@@ -613,4 +660,35 @@ fn plots(out: &OutDir, cells: &[Cell]) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        bench: BenchArgs,
+    }
+
+    fn matrix(args: &[&str]) -> Matrix {
+        let cli = Cli::try_parse_from(std::iter::once("vrrt").chain(args.iter().copied()));
+        Matrix::of(&cli.unwrap().bench)
+    }
+
+    #[test]
+    fn the_production_matrix_is_the_three_scenes_at_640x360() {
+        let m = matrix(&["--production"]);
+        assert_eq!(m.scenes, DEFAULT_SCENES);
+        assert_eq!((m.size, m.frames, m.budgets), ((640, 360), 96, &[1.0][..]));
+        assert_eq!(m.signals.len(), 3);
+        assert_eq!(m.configs, [Config::Svgf, Config::SvgfClamp, Config::Vrrt]);
+        assert_eq!(m.backends, [BackendKind::Cpu]);
+        // The quick one is unchanged, and the two do not mix.
+        let q = matrix(&["--quick"]);
+        assert_eq!((q.scenes, q.size, q.frames), (&["room"][..], (160, 90), 48));
+        assert!(Cli::try_parse_from(["vrrt", "--quick", "--production"]).is_err());
+    }
 }
