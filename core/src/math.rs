@@ -107,7 +107,8 @@ pub fn is_finite(x: f32) -> bool {
 ///
 /// The native instruction on the GPU; on the host LLVM's floor, which the AVX2 and AVX-512
 /// runners of [`crate::lanes`] kernels turn into the vector rounding instruction (a hand-written
-/// floor by truncation and selects cost à-trous 13% and reprojection 16% at 1280×720).
+/// floor by truncation and selects slowed à-trous and reprojection: see
+/// `docs/results/per-pass.md`).
 #[inline]
 pub fn floor(x: f32) -> f32 {
     #[cfg(target_arch = "spirv")]

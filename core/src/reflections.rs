@@ -59,9 +59,9 @@ pub struct ReflectionSettings {
     /// Ambient irradiance at reflected hits (>= 0; default 0.1).
     pub ambient: f32,
     /// Extra lobe directions per ray that only test for the lights (0..=15; default 7; 0 = the
-    /// lights' part from the ray's own direction alone): unbiased, and at 7 the bunny's first
-    /// frame at 1 rpp has 2.5x less error for about twice the reflection raygen's time on the
-    /// CPU ([`crate::kernels::reflect`], "Light probes").
+    /// lights' part from the ray's own direction alone): unbiased, and they beat more rays at
+    /// about equal time ([`crate::kernels::reflect`], "Light probes";
+    /// `docs/algorithms/reflections.md`).
     pub light_probes: u32,
     /// Window radius of the hit-distance guide (`kernels::reflect::reflect_guide`; 0..=3;
     /// default 2, a 5×5 mean: on the bunny's first frame a 3×3 one guides worse).

@@ -113,7 +113,7 @@ pub enum SamplePattern {
     /// [`crate::blue_noise::screen_point`]: a screen-space blue-noise point per pixel, shifted
     /// each frame along R2, so neighbours' samples spread over the square whatever history they
     /// carry, and a still pixel's samples over frames stratify. The default: lower relMSE on
-    /// the moving scenes (README, "Blue noise through reprojection").
+    /// the moving scenes (`docs/algorithms/blue-noise.md`).
     #[default]
     ScreenBlue,
 }

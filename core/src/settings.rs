@@ -159,28 +159,27 @@ pub struct RateSettings {
     /// ahead, and the next `reset_payback` frames spend it less (0..=1; default 1; balanced rates
     /// only, and none under `budget_ms`, whose frames must keep to their time). Every pixel is
     /// fresh then and holds only this frame's rays, which stay in the history the next frames
-    /// add to: spent early they count in every frame, the cut's included (bunny AO, first frame:
-    /// relMSE 0.0122 at 1 ray, 0.0079 at 2). The cost is a frame of twice the rays at the cut.
+    /// add to: spent early they count in every frame, the cut's included (see
+    /// `docs/algorithms/fresh-pixels.md`). The cost is a frame of twice the rays at the cut.
     /// Reflections alone take none (`frame::Frame::new`).
     pub reset_boost: f32,
     /// Frames over which a reset's `reset_boost` is paid back (0 = no boost; 0..=64; default 8:
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows
-    /// lag, room shadows' fresh relMSE 0.0879 at 1, 0.0608 at 8).
+    /// lag; see `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
     /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on
     /// every pixel (0..=1; default 1; shadows alone, `Frame` sets 0 otherwise): the pixels whose
-    /// 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`).
-    /// Shadows' fresh relMSE, bunny / dragon / room, 0.0163 / 0.0587 / 0.0600 → 0.0111 /
-    /// 0.0236 / 0.0492 (0.75: 0.0144 / 0.0291 / 0.0556), whole sequences within ±1%.
+    /// 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
+    /// `docs/algorithms/penumbra-guide.md`).
     pub reset_refill: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
     /// History length (rays) from which a pixel counts as converged and may undersample
     /// (1..=`temporal.max_history`; default 16, the supersampling target: a pixel that has
     /// refilled its history stops asking and may give rays away). The seed waits for full history
-    /// (`max_history`); the shorter wait frees rays sooner for disocclusions (room scene, 96
-    /// frames: relMSE 0.00515 → 0.00455 at 1 ray), at some risk on slowly changing signals, which
-    /// temporal gradients cover.
+    /// (`max_history`); the shorter wait frees rays sooner for disocclusions, at some risk on
+    /// slowly changing signals, which the change detector covers (see
+    /// `docs/algorithms/undersampling.md`).
     pub undersample_after: f32,
     /// Undersampling thresholds on the variance of the estimate (signal units squared), increasing;
     /// a 0 ends the list (each >= 0; default `[1e-4, 1e-3, 1e-2, 0]`).
@@ -235,10 +234,9 @@ pub struct GradientSettings {
     /// Its `λ` drops or shortens history as `threshold` says.
     pub detect_radius: u32,
     /// Significance, in standard deviations, from which a detected change counts fully (>= 1;
-    /// default 1: room at 1 rpp, moving-region relMSE of shadows 0.556 at 3, 0.490 at 2, 0.466
-    /// at 1.5; with the refill lists, 1 is better than 1.5 on every signal of room, bunny and
-    /// dragon; without them the dragon's reflections had a frame at relMSE 2.0). The AO planes
-    /// take `ao_detect_sigma`.
+    /// default 1: at 1.5σ and above moving shadows lag more; with the refill lists, 1 is
+    /// better than 1.5 on every signal of room, bunny and dragon, see
+    /// `docs/algorithms/change-detector.md`). The AO planes take `ao_detect_sigma`.
     pub detect_sigma: f32,
     /// Per-ray variance the detector assumes at least (signal units squared, >= 0; default
     /// 1e-4): a converged pixel's history may read 0.
@@ -247,25 +245,23 @@ pub struct GradientSettings {
     /// and that traced none (`kernels::refill`; default on); the rays come off the next frame's
     /// budget.
     pub refill: bool,
-    /// Rays of each refilled pixel (1..=16; default 4: room shadows at 1 rpp, moving relMSE
-    /// 0.340 with one ray, 0.305 with 2, 0.289 with 4, 0.290 with 8; the other scenes and signals
-    /// within 2%). A dropped pixel is a fresh one, and a fresh one asks for up to 16.
+    /// Rays of each refilled pixel (1..=16; default 4: with fewer, moving shadows lag; more gain
+    /// nothing, see `docs/algorithms/change-detector.md`). A dropped pixel is a fresh one, and a
+    /// fresh one asks for up to 16.
     pub refill_rays: u32,
     /// `detect_radius` of the shadow planes ([`Settings::shadow_planes`]) when the detector is
     /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history
-    /// lags. Room/bunny/dragon at 1 rpp, moving relMSE 0.416/0.206/0.914 at radius 2 and
-    /// threshold 0.5, 0.340/0.140/0.679 at these defaults. AO's soft, faint changes need the
-    /// larger window to be significant (radius 1: bunny AO 0.0070 → 0.0080).
+    /// lags. AO's soft, faint changes need the larger window to be significant (see
+    /// `docs/algorithms/change-detector.md`).
     pub shadow_detect_radius: u32,
     /// The detector's `threshold` on the shadow planes ([`Settings::shadow_planes`]; 0..=1;
     /// default 0.3). The prepass's `λ` keeps `threshold` on every plane.
     pub shadow_threshold: f32,
     /// `detect_sigma` of the AO planes ([`Settings::ao_planes`]; >= 1; default 2). AO changes only
     /// where geometry moves, and reprojection already cuts the history of partial footprints
-    /// there, so a 1σ detector mostly shortened converged history by chance: bunny AO at 1 rpp,
-    /// static-region relMSE 11% above no detector at 1σ, +3.3% at 1.5σ, +1.4% at 2σ; room AO
-    /// whole-sequence 0.00344 → 0.00338, dragon 0.00762 → 0.00783.
+    /// there, so a 1σ detector mostly shortened converged history by chance (see
+    /// `docs/algorithms/change-detector.md`).
     pub ao_detect_sigma: f32,
     /// Verification of the shadow planes ([`Settings::shadow_planes`]; >= 0, 0 = off; default
     /// 1.5): a pixel that traced fewer than `refill_rays` and whose own rays lie this many
@@ -284,9 +280,8 @@ pub struct GradientSettings {
     /// default 1.25): where `λ` drops history, the pixel's own rays (the refill lists give it
     /// some) must lie this many standard deviations from it (`kernels::detect::pixel_z`), or the
     /// history is kept whole. The 1σ window reads noise as a change now and then, and a converged
-    /// reflection dropped by chance comes back as blotches: dragon reflections at 1 rpp, static
-    /// regions against no detector +34% / +10% / +6% / −0.3% at 112x63 / 128x72 / 160x90 /
-    /// 192x108 without it, +15% / −3% / −9% / −13% with it.
+    /// reflection dropped by chance comes back as blotches (see
+    /// `docs/algorithms/change-detector.md`).
     pub reflection_confirm_sigma: f32,
 }
 
@@ -307,23 +302,22 @@ pub struct FilterSettings {
     /// Normal edge-stopping exponent of the AO planes ([`Settings::ao_planes`]; >= 0; default 8;
     /// SVGF as published: `normal_power`). AO is a cosine-weighted integral over the hemisphere,
     /// so it turns slowly with the normal; at 128 a curved mesh at 128x72 rejects neighbours a
-    /// few degrees apart and a 1-ray pixel keeps its own ray (bunny's first frame, 1 rpp: relMSE
-    /// 0.0227 at 128, 0.0126 at 8).
+    /// few degrees apart and a 1-ray pixel keeps its own ray (see
+    /// `docs/algorithms/fresh-pixels.md`).
     pub ao_normal_power: f32,
     /// Plane-distance tolerance in pixel footprints (> 0; default 2).
     pub plane_tolerance: f32,
     /// Window radius of the spatial variance estimate in pixels (0..=5; default 1, i.e. 3×3:
     /// SVGF's 7×7 mixes an umbra or a thin shadow with the lit surface around it into one large
-    /// variance, and the filter then blurs the edge away; room, 160x90, first frame at 1 ray:
-    /// shadows relMSE 0.268 → 0.065, AO 0.0102 → 0.0087).
+    /// variance, and the filter then blurs the edge away; see `docs/algorithms/fresh-pixels.md`).
     pub spatial_radius: u32,
     /// History shorter than this (rays) blends in the spatial variance estimate (>= 0; default 4).
     pub spatial_until: f32,
     /// `spatial_until` of the AO planes (>= 0; default 8; SVGF as published: `spatial_until`).
     /// From `spatial_until` rays on a pixel's σ is its own rays' alone, and a few binary rays
-    /// that agree give σ = 0 and no filtering: AO's first frame at 4 rays (bunny, 128x72) was
-    /// worse than at 2 (relMSE 0.0087 against 0.0079; 0.0035 with 8 here). Shadows keep 4: at
-    /// 8 the room's and the dragon's whole sequences were 47% and 23% worse.
+    /// that agree give σ = 0 and no filtering: AO's first frame at 4 rays was worse than at 2.
+    /// Shadows keep 4: at 8 their whole sequences got worse (see
+    /// `docs/algorithms/fresh-pixels.md`).
     pub ao_spatial_until: f32,
     /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
     /// largest standard deviation of the estimate (signal units) below this (each iteration
@@ -337,10 +331,9 @@ pub struct FilterSettings {
     /// À-trous on the AO planes takes its taps in point-symmetric pairs, each pair at the
     /// geometric mean of its two weights (default on; SVGF as published: off). Next to a crease
     /// or a contact the edge-stopping weights keep only the brighter side of the window, and its
-    /// mean is biased toward it; a symmetric window cancels a linear gradient (AO, 1 rpp, bunny
-    /// whole-sequence relMSE 0.00396 → 0.00296). Shadows and reflections keep one-sided
-    /// windows: their edges are in the signal, not the geometry, and pairs moved their
-    /// whole-sequence relMSE by −4% to +6% and the room's fresh reflections by +55%.
+    /// mean is biased toward it; a symmetric window cancels a linear gradient. Shadows and
+    /// reflections keep one-sided windows: their edges are in the signal, not the geometry, and
+    /// pairs made the room's fresh reflections worse (see `docs/algorithms/fresh-pixels.md`).
     pub ao_symmetric_taps: bool,
     /// σ of the hit-distance guide of the reflections, in stops of hit distance (`log2`; >= 0,
     /// 0 = off; default 1.6). The G-buffer does not show the edges inside a reflected image and
@@ -348,18 +341,17 @@ pub struct FilterSettings {
     pub guide_sigma: f32,
     /// `sigma_luminance` of the plane the guide steers (> 0; default 3). Where the guide stops
     /// the filter at the reflected image's edges, the luminance test need not, and at 1 rpp its
-    /// σ from a few rays cuts the blur the flat parts need (bunny reflections' fresh relMSE
-    /// 0.0046 at 1, 0.0040 at 3).
+    /// σ from a few rays cuts the blur the flat parts need (see
+    /// `docs/algorithms/reflections.md`).
     pub guided_sigma_luminance: f32,
     /// Reach of à-trous on the penumbra plane in penumbra widths (`k`: a tap `r` pixels from a
     /// pixel whose penumbra is `W` pixels wide weighs `exp(−(r / (k·W))²)`; >= 0, 0 = off;
     /// default 0.5): at 1 rpp the luminance test tells neither a wide penumbra nor a contact
-    /// shadow's edge from noise, the blockers can (`kernels::penumbra`). Shadows' fresh relMSE,
-    /// bunny / dragon / room, 0.0182 / 0.0590 / 0.0608 → 0.0163 / 0.0587 / 0.0600 (reach 1:
-    /// 0.0160 / 0.0632 / 0.0633; 0.35: 0.0165 / 0.0578 / 0.0585).
+    /// shadow's edge from noise, the blockers can (`kernels::penumbra`; the sweep is in
+    /// `docs/algorithms/penumbra-guide.md`).
     pub penumbra_reach: f32,
     /// `sigma_luminance` of the penumbra plane (> 0; default 2): within the reach the luminance
-    /// test need not stop the taps (bunny shadows' fresh relMSE 0.0189 at 1, 0.0163 at 2).
+    /// test need not stop the taps (see `docs/algorithms/penumbra-guide.md`).
     pub penumbra_sigma_luminance: f32,
     /// Window radius of the penumbra guide's mean (0..=3; default 2).
     pub penumbra_radius: u32,

@@ -283,8 +283,8 @@ impl Renderer {
 
     /// Records and submits one frame's passes and reads nothing back: for timing runs
     /// (`vrrt bench --passes`), where a readback after every frame leaves a GPU idle between
-    /// frames long enough for its clocks to fall (an H100 drops from 1980 to 345 MHz). The
-    /// budget in milliseconds is not updated.
+    /// frames long enough for its clocks to fall (see `docs/results/per-pass.md`). The budget in
+    /// milliseconds is not updated.
     pub fn render_unread<E: Executor>(
         &mut self,
         exec: &mut E,

@@ -162,8 +162,7 @@ fn reflections_converge_to_the_reference_of_the_same_estimator() {
 
 /// SVGF at `rpp` with the per-pixel sample pattern, under which ray reuse was established: with
 /// screen-blue samples neighbours already stratify, and at 1 rpp reuse raises the denoised error
-/// here (relMSE 0.0221 against 0.0205 without; per-pixel: 0.0196 against 0.0197; README, "Blue
-/// noise through reprojection").
+/// here (see docs/algorithms/blue-noise.md).
 fn svgf_per_pixel(rpp: f32) -> Settings {
     let s = Settings::svgf(rpp);
     Settings {
@@ -213,10 +212,9 @@ fn ray_reuse_lowers_error_at_equal_rays() {
     );
     assert!(reuse.samples * 3.0 < none.samples);
     assert!(reuse.history < none.history);
-    // After the filter the two are within about a percent: reuse must not cost the denoised
-    // image more. Before the light probes reuse was 0.998x (3×3 spatial variance window) and
-    // 1.004x (7×7); the probes take the light hits' noise that reuse averaged away, and reuse
-    // is now 1.011x (0.01885 against 0.01865).
+    // After the filter the two are close: reuse must not cost the denoised image more. The light
+    // probes take the light hits' noise that reuse averaged away, so after the filter reuse
+    // barely differs (see docs/algorithms/reflections.md).
     assert!(reuse.denoised < none.denoised * 1.02);
     // Sparse rays (a quarter of the pixels trace each frame): reuse fills the others.
     let sparse = run(
@@ -264,7 +262,7 @@ fn parallax_reprojection_follows_the_reflection() {
     let frames = [20, 27, 35];
     let refs = references(&scene, &frames, reflections(0, true), 256);
     // Reprojection alone: the change detector would drop much of the history the wrong motion
-    // smears (surface 1.25x worse instead of 1.5x with it on), hiding what is measured here.
+    // smears, hiding what is measured here.
     let settings = Settings {
         gradient: GradientSettings {
             detect_radius: 0,
@@ -327,7 +325,7 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     };
     let layout = signal.layout(scene.lights.len());
     assert_eq!(layout.planes, 3);
-    // Eight frames: one frame's relMSE of the shadows varies 2-3x from frame to frame.
+    // Eight frames: one frame's relMSE of the shadows varies a lot from frame to frame.
     let frames: Vec<u32> = (33..=40).collect();
     let last = *frames.last().unwrap();
     let refs = references(&scene, &frames, signal, 256);
@@ -379,16 +377,11 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     for (name, (together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
         println!("{name}: relMSE {together:.5} in one frame with the others, {single:.5} alone");
     }
-    // With its own requests each signal gets what it asks for (frames 33-40: AO 0.00252 vs
-    // 0.00215 alone, shadows 0.0393 vs 0.0352, reflections 0.0081 vs 0.0089); one shared
-    // request per pixel was up to 1.9x worse than alone (shadows, frame 40: 0.162). The shadows'
-    // verification rays drop history where it was wrong, and the rays those pixels then ask for
-    // come partly out of AO's share: AO 0.00245 -> 0.00252, shadows 0.0415 -> 0.0393. With the
-    // balancer's shift on AO's requests (`rates.shift_requests`): AO 0.00221 vs 0.00200 alone,
-    // shadows 0.0381 vs 0.0354, reflections 0.0064 vs 0.0078; shifted on the shadows' too (floor
-    // of half a ray), the shadows were 0.0442 vs 0.0353. With AO's own filter settings and the
-    // reset boost: AO 0.00186 vs 0.00171, shadows 0.0374 vs 0.0346, reflections 0.0070 vs 0.0078;
-    // with the reflections' light probes: AO 0.00182, shadows 0.0381, reflections 0.0047 vs 0.0058.
+    // With its own requests each signal gets what it asks for; one shared request per pixel
+    // (coupled rates) was far worse than alone for the shadows. The shadows' verification rays
+    // drop history where it was wrong, and the rays those pixels then ask for come partly out of
+    // AO's share. The balancer's shift stays off the shadows' requests: shifted, they broke this
+    // bound (docs/algorithms/balancer.md; the figures are in docs/algorithms/reflections.md).
     for (name, &(together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
         assert!(together < single * 1.2, "{name}: {together} vs {single}");
     }

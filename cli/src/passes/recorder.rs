@@ -103,8 +103,7 @@ const COPY_ROW: u32 = 4096;
 /// Timed repeats of the copy, after the untimed spin-up.
 pub const COPY_REPEATS: usize = 5;
 /// Untimed copies run at least this long first: pipeline creation, first touch of the pages,
-/// and a GPU's clocks, which rise only under sustained load (an idle H100 runs at 345 MHz and
-/// takes a few hundred milliseconds to reach 1980).
+/// and a GPU's clocks, which rise only under sustained load (see `docs/results/per-pass.md`).
 pub const SPIN_UP: std::time::Duration = std::time::Duration::from_millis(1500);
 
 /// A measured memory bandwidth.

@@ -181,9 +181,8 @@ impl Frame {
             .filter(|_| settings.filter.penumbra_reach > 0.0);
         if matches!(signal, Signal::Reflections(_)) {
             // Alone, reflections pay the cut's extra rays back over the longest window: over 8
-            // frames their moving highlights starve after it (dragon, 128x72, 1 rpp: moving
-            // relMSE 0.0931 without the boost, 0.1065 over 8, 0.0995 over 64), while the fresh
-            // pixels gain from it either way (bunny 0.00457 → 0.00388, dragon 0.0234 → 0.0174).
+            // frames their moving highlights starve after it, while the fresh pixels gain from
+            // it either way (see docs/algorithms/fresh-pixels.md).
             settings.rates.reset_payback = crate::settings::MAX_RESET_PAYBACK;
         }
         if !matches!(signal, Signal::Shadows) {

@@ -142,7 +142,7 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
 /// work list (`work[group · pixels..]`, counted in `args[4 · group]`, whose `args[4 · group + 1]`
 /// ends as the number of [`LIST_GROUP`]-wide groups). The row reserves its slots with one
 /// atomic add: invocations contending for one counter are what a CPU core pays for (two threads
-/// adding per pixel were 4x slower than one).
+/// adding per pixel were slower than one; see `docs/results/per-pass.md`).
 #[inline(always)]
 pub fn append<const N: usize>(
     work: &mut [u32],

@@ -158,9 +158,9 @@ pub fn granted_bucket(b: u32, ring: u32, d: &Balance) -> u32 {
 /// that order, while capping them (the seed's) hands a pixel disoccluded this frame the same one
 /// ray as its neighbours with ten, whenever all of them are short of history (the frames after
 /// a camera cut). Below one ray the step goes on to [`SHIFT_FLOOR`], half a ray: a request
-/// that fell to nothing would stop the change detector, which reads each pixel's new rays (room
-/// AO 160x90, whole relMSE: 0.00264 without a floor, 0.00266 at half a ray, 0.00311 at one ray,
-/// where nothing is left over for the disoccluded pixels).
+/// that fell to nothing would stop the change detector, which reads each pixel's new rays, and
+/// a floor of one ray leaves nothing over for the disoccluded pixels (see
+/// `docs/algorithms/balancer.md`).
 /// Under budget the same reasoning lifts every request alike, where raising the smallest to
 /// `t` (the seed's) spends the rays left over on converged pixels, whose history is longest.
 #[inline]

@@ -7,8 +7,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
 /// Words each invocation copies: a GPU starts workgroups at a limited rate, and one word per
-/// 64-wide workgroup invocation held an H100 to 840 GB/s where four reach 2.5 TB/s (its
-/// memory's copy rate, 2.66 TB/s by CUDA's own copy).
+/// 64-wide workgroup invocation kept an H100 far below its memory's copy rate, which four reach
+/// (see `docs/results/per-pass.md`).
 pub const WORDS_PER_INVOCATION: u32 = 4;
 /// Invocations of a workgroup (`kernels::COPY`).
 const GROUP: u32 = 64;

@@ -2,10 +2,10 @@
 //! drops and that traced no ray this frame; raygen traces them before accumulation.
 //!
 //! Why: the detector ([`super::detect`]) can only run after raygen, since it tests this frame's
-//! rays. Undersampling leaves 45–49% of a converged image untraced each frame, so where it drops
+//! rays. Undersampling leaves much of a converged image untraced each frame, so where it drops
 //! history (`λ` above the threshold) such a pixel would have no estimate at all and the à-trous
-//! filter would fill it from its far taps (on the dragon, two pixels whose reference is 0 came
-//! out at 8.7 and 10.3, pulled from a highlight 24 rows away). A few rays give it an estimate of
+//! filter would fill it from its far taps, pulling in a highlight many rows away (see
+//! docs/algorithms/change-detector.md, "Refill lists"). A few rays give it an estimate of
 //! its own, as a fresh pixel's request would have. Its rays come out of the frame's own budget:
 //! the balancer sets rays aside for the lists (`balance::refill_reserve`, from last frame's
 //! lists), and [`fit`] shares what the main pass left among the entries, so the frame never
@@ -239,8 +239,8 @@ fn list<const N: usize>(
 /// On a reset frame: whether each lane's pixel traced fewer than `p.rays` on a shadow plane of
 /// group `id.z` whose 3×3 window holds traced samples that differ: a penumbra or a shadow's
 /// edge, where one or two binary rays are the noisiest and the filter has no history to lean
-/// on. Lit and umbra windows (all 1, all 0) need no more. On the bunny's first frame at 1 rpp
-/// a fifth of the pixels; re-traced with the boost's rays, its relMSE falls 0.0155 → 0.0083.
+/// on. Lit and umbra windows (all 1, all 0) need no more (see
+/// `docs/algorithms/penumbra-guide.md`).
 #[inline(always)]
 fn reset_listed<const N: usize>(
     id: UVec3,

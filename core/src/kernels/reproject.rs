@@ -402,7 +402,8 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
             // A history longer than this frame allows (kept on still frames) is cut back; a
             // partial footprint keeps its share `s` of it (module docs). Not the reflections'
             // parallax footprint: the reflected image's motion lands on other surfaces far more
-            // often, and its history is no worse for it (room reflections: +5% relMSE when cut).
+            // often, and its history is no worse for it (cut, the room's reflections got worse;
+            // see docs/algorithms/change-detector.md).
             let share = if z == p.parallax_plane { 1.0 } else { s };
             let full = math::min(count.0[l] / s, p.max_history) * share;
             let count = if changed.0[l] {

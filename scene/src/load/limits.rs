@@ -64,11 +64,10 @@ impl Limit {
 }
 
 /// The limits a mesh load runs under. The defaults keep one scene under 4 GB of peak memory
-/// (a mesh scene takes about 280 bytes a triangle with its references, measured on a
-/// 12-million-triangle OBJ, so 2²³ triangles peak near 2.4 GB) while taking any scanned model of
-/// a few million triangles; raise them for larger scenes (Stanford's 28-million-triangle Lucy
-/// needs `--max-vertices 33554432 --max-triangles 33554432 --max-bvh-memory 8G` and about
-/// 8 GB).
+/// (what a mesh scene takes per triangle with its references is measured in
+/// `docs/reliability.md`) while taking any scanned model of a few million triangles; raise them
+/// for larger scenes (Stanford's 28-million-triangle Lucy needs `--max-vertices 33554432
+/// --max-triangles 33554432 --max-bvh-memory 8G` and more memory).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct LoadLimits {
     /// Largest file read, in bytes (default 1 GiB; `--max-file-size`).

@@ -4,10 +4,9 @@
 //!
 //! Written by hand rather than with `tobj`: tobj 4.0.5 panics (integer overflow, debug builds)
 //! on an out-of-range relative normal or texture index such as `f 1//-5` and returns wrong
-//! normals for huge ones in release builds, makes triangles of `l` polylines, and on a generated
-//! 1M-triangle grid peaks at 161.5 MiB of heap before any conversion where this parser peaks at
-//! 90.1 MiB in all (210.5 against 96.1 MiB with normals), at about the same speed. It also keeps
-//! no line numbers for errors.
+//! normals for huge ones in release builds, makes triangles of `l` polylines, and peaks at more
+//! heap before any conversion than this parser does in all, at about the same speed (see
+//! `docs/reliability.md`). It also keeps no line numbers for errors.
 
 use super::{Limit, LoadLimits};
 use crate::error::SceneError;

@@ -17,7 +17,7 @@ use crate::kernels::buckets::COUNTS_LEN;
 /// Why requests and not a Neyman split by each signal's relative variance: history is clamped
 /// in rays, so past the refill a signal's steady-state noise barely depends on its rays a frame;
 /// the rays pay off where history is young, which is what the requests count. On the
-/// multi-signal room frame (README "Per-signal ray rates") every split by measured variance
+/// multi-signal room frame (`docs/algorithms/balancer.md`) every split by measured variance
 /// tried ended worse than equal shares.
 pub fn group_rates(counts: &[u32], p: &BalanceParams) -> [f32; MAX_GROUPS as usize] {
     let equal = [p.rays_per_pixel; MAX_GROUPS as usize];

@@ -28,8 +28,8 @@ pub struct GuideParams {
 /// noisy to stop the filter, so the dark reflection is blurred into the bright one around it.
 /// The rays' hit distances do see that edge (the object is near, the wall behind it far), and
 /// their log is steady enough, averaged over a few pixels, for an edge-stopping weight
-/// (`FilterSettings::guide_sigma`): measured on the bunny's first frame, a bilateral on the raw
-/// samples guided by it has half the error of one without.
+/// (`FilterSettings::guide_sigma`): on the bunny's first frame a bilateral on the raw samples
+/// guided by it has much less error than one without (`docs/algorithms/reflections.md`).
 pub fn reflect_guide(id: UVec3, p: &GuideParams, io: ReflectGuideIo<'_>) {
     let ReflectGuideIo { hits, guide } = io;
     if id.x >= p.width || id.y >= p.height {
