@@ -242,12 +242,13 @@ pub struct GradientSettings {
     /// 1e-4): a converged pixel's history may read 0.
     pub detect_min_variance: f32,
     /// Trace `refill_rays`, in the same frame, for each pixel whose history the detector drops
-    /// and that traced none (`kernels::refill`; default on); the rays come off the next frame's
-    /// budget.
+    /// and that traced none (`kernels::refill`; default on); the rays come out of the frame's own
+    /// budget, set aside from last frame's lists (`kernels::refill::fit`, `docs/ray-budget.md`).
     pub refill: bool,
-    /// Rays of each refilled pixel (1..=16; default 4: with fewer, moving shadows lag; more gain
-    /// nothing, see `docs/algorithms/change-detector.md`). A dropped pixel is a fresh one, and a
-    /// fresh one asks for up to 16.
+    /// Rays of each refilled pixel when the lists fit what the frame set aside (1..=16;
+    /// default 4: with fewer, moving shadows lag; more gain nothing, see
+    /// `docs/algorithms/change-detector.md`); the lists share what is left over or missing. A
+    /// dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
     /// `detect_radius` of the shadow planes ([`Settings::shadow_planes`]) when the detector is
     /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the

@@ -6,10 +6,9 @@ use super::*;
 impl Denoiser {
     /// The plane groups whose requests the balancer shifts (`balance::BalanceParams::shift`): with
     /// `rates.shift_requests`, every group but the reflections' importance-scaled one and those
-    /// holding a shadow plane. Shifted, the shadows gain alone (room, 160x90: moving relMSE
-    /// 0.207 → 0.183) but lose in the shared frame, where their refills and verification rays
-    /// compete with the other signals' (frames 33–40 of `tests/tests/reflections.rs`: 1.25x their
-    /// error alone, against 1.1x with the seed's rule).
+    /// holding a shadow plane. Shifted, the shadows gain alone but lose in the shared frame,
+    /// where their refills and verification rays compete with the other signals' (measured in
+    /// `docs/algorithms/balancer.md`).
     fn shifting_groups(&self, importance_group: u32) -> u32 {
         let s = &self.settings;
         if !s.rates.shift_requests {
@@ -214,9 +213,8 @@ impl Denoiser {
     /// moving average, which keeps improving after the clamp; `n` rays a frame settle at the
     /// variance of a `2N + n`-ray mean (`σ² · α / (2 − α) / n` with `α = n / (N + n)`). A still
     /// pixel that drops to the floor holds a plain mean instead, and at `N` rays it is worth half
-    /// of what the same pixel would reach by tracing on: on the static room (160x90, 2 rays,
-    /// frames 96–127) that cost save mode +19% relMSE against the plan with nothing skipped.
-    /// Still history stays valid, so it may grow to `2N` before the pixel stops tracing; the
+    /// of what the same pixel would reach by tracing on, which cost save mode on the static room
+    /// (`docs/algorithms/adaptive-plan.md`). Still history stays valid, so it may grow to `2N` before the pixel stops tracing; the
     /// first frame that moves cuts it back to `N` (`reproject`).
     pub(super) fn history_clamp(&self) -> f32 {
         let n = self.settings.temporal.max_history;
