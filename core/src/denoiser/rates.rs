@@ -145,36 +145,8 @@ impl Denoiser {
         };
         exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
 
-        // The realised rays trimmed to each group's budget (`trim`): histogram, then cut.
+        self.trim(exec)?;
         let app = self.apply_params();
-        let clear = fill::FillParams {
-            len: groups * trim::HIST_LEN,
-            value: 0,
-        };
-        let hist = kernels::FillBindings { buf: self.trim };
-        exec.dispatch(&hist.over_grid(&clear, clear.len, 1, 1))?;
-        let trim_count = kernels::TrimCountBindings {
-            requests: self.requests,
-            decision: self.decision,
-            noise: self.noise,
-            hist: self.trim,
-        };
-        exec.dispatch(&trim_count.over_grid(&app.trim(), w, h, groups))?;
-        let cut = trim::CutParams {
-            groups,
-            policy: bal.policy,
-            reset_share: if self.refills_reset() {
-                self.reset_share()
-            } else {
-                0.0
-            },
-        };
-        let trim_cut = kernels::TrimCutBindings {
-            hist: self.trim,
-            decision: self.decision,
-        };
-        exec.dispatch(&trim_cut.over_grid(&cut, groups, 1, 1))?;
-
         let apply = kernels::ApplyBindings {
             requests: self.requests,
             decision: self.decision,
@@ -197,6 +169,40 @@ impl Denoiser {
         } else {
             balance::POLICY_KEEP
         }
+    }
+
+    /// Trims the rays apply will realise to each group's budget ([`trim`]): the histogram of
+    /// the last rays' priorities, then each group's cut, into its decision.
+    fn trim<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let groups = self.settings.groups();
+        let clear = fill::FillParams {
+            len: groups * trim::HIST_LEN,
+            value: 0,
+        };
+        let hist = kernels::FillBindings { buf: self.trim };
+        exec.dispatch(&hist.over_grid(&clear, clear.len, 1, 1))?;
+        let trim_count = kernels::TrimCountBindings {
+            requests: self.requests,
+            decision: self.decision,
+            noise: self.noise,
+            hist: self.trim,
+        };
+        let p = self.apply_params().trim();
+        exec.dispatch(&trim_count.over_grid(&p, self.width, self.height, groups))?;
+        let cut = trim::CutParams {
+            groups,
+            policy: self.policy(),
+            reset_share: if self.refills_reset() {
+                self.reset_share()
+            } else {
+                0.0
+            },
+        };
+        let trim_cut = kernels::TrimCutBindings {
+            hist: self.trim,
+            decision: self.decision,
+        };
+        exec.dispatch(&trim_cut.over_grid(&cut, groups, 1, 1))
     }
 
     /// Whether this frame applies the still rule (`rates.still_sigma`): nothing moved, the rule
