@@ -318,8 +318,8 @@ pub fn priority(pix: u32, frame: u32) -> u32 {
 pub struct FitParams {
     /// Plane groups (one invocation each).
     pub groups: u32,
-    /// Rays of an entry when the lists fit (`RefillParams::rays`: the detector's
-    /// `gradient.refill_rays`, a reset frame's [`MAX_RATE`]).
+    /// Rays of an entry where no budget bounds the lists (`unbounded`): `RefillParams::rays`,
+    /// the detector's `gradient.refill_rays` or a reset frame's [`MAX_RATE`].
     pub rays: u32,
     /// Fewest rays of a kept entry: a reset frame's are what a pixel may have traced in the
     /// main pass, so a re-trace never holds fewer (`rates::reset_least`); 1 for the detector's.
@@ -335,11 +335,12 @@ pub struct FitParams {
 /// [`Balance::refill_cut`] get [`Balance::refill_hi`] rays, the others [`Balance::refill_lo`]
 /// (0: skipped); [`cap`] writes them.
 ///
-/// Why a cap: the lists are made after the main pass traced, from what its rays showed, so their
-/// size is known only now. The balancer sets last frame's lists' rays aside for them (and a reset
-/// frame its reserve), which is enough as long as they do not grow; where they do, the room is
-/// shared: equally, the remainder one ray each to the entries of the highest bins, and with less
-/// than `least` for every entry, `least` each to as many entries as fit.
+/// Why a fit: the lists are made after the main pass traced, from what its rays showed, so their
+/// size is known only now. The balancer sets rays aside for them from last frame's lists (and a
+/// reset frame its reserve). Whatever the room, it is shared: equally (up to [`MAX_RATE`] each),
+/// the remainder one ray each to the entries of the highest bins, and with less than `least` for
+/// every entry, `least` each to as many entries as fit; rays set aside but not needed go to the
+/// entries instead of being lost.
 pub fn fit(id: UVec3, p: &FitParams, io: RefillFitIo<'_>) {
     let RefillFitIo {
         args,
