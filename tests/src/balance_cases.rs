@@ -77,7 +77,8 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
     }
 }
 
-/// Last frame's decisions, which the balancer reads for a reset frame's reserve.
+/// Last frame's decisions, left in the balancer's output: it overwrites them without reading
+/// them.
 fn last_decisions(rng: &mut Pcg32) -> [balance::Balance; 2] {
     [0; 2].map(|_| balance::Balance {
         budget: rng.random_range(0.0..20000.0),

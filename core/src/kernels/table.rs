@@ -146,12 +146,13 @@ crate::kernel_table! {
     /// The load balancer ([`balance::setup`], [`balance::sums`], [`balance::pick`],
     /// [`balance::rings`], [`balance::write`]: [`balance::solve`] with its sums spread over one
     /// workgroup); `counts` from `count_buckets`; `refill` holds last frame's refill lists'
-    /// arguments, whose counts come off the budget, and is reset with `args`; one workgroup.
+    /// arguments, from whose counts rays are set aside for this frame's lists
+    /// ([`balance::refill_reserve`]), and is reset with `args`; one workgroup.
     balance => BALANCE, BalanceBindings, BalanceIo: workgroup balance::Shared,
     phases [balance::setup, balance::sums, balance::pick, balance::rings, balance::write],
     threads(128, 1, 1), params balance::BalanceParams {
         counts: read u32,
-        out: update Balance,
+        out: write Balance,
         args: write u32,
         refill: update u32,
     }

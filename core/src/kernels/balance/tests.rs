@@ -376,7 +376,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
         for g in 0..groups as usize {
             refill[4 * g] = next(3) * next(200);
         }
-        // Last frame's decisions: a reset frame's reserve is a share of their budgets.
+        // Last frame's decisions, left in the output: the balancer overwrites them unread.
         let last: Vec<Balance> = (0..groups)
             .map(|_| Balance {
                 budget: (next(1000) * 7) as f32,
