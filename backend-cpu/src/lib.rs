@@ -1,15 +1,15 @@
 //! The CPU backend: the same kernel functions the GPU runs, called natively.
 //!
-//! Workgroups run in parallel on rayon's pool; within a workgroup, invocations run in order (and
-//! kernels with barriers run phase by phase, see `vrrt_core::plan::KernelDesc::cpu`). Storage
+//! Runs of workgroups ([`GroupSpan`]) run in parallel on rayon's pool; within a workgroup,
+//! invocations run in order (and kernels with barriers run phase by phase, see
+//! `vrrt_core::plan::KernelDesc::cpu`). Storage
 //! buffers are plain `Vec<u32>`, so the CPU backend is also the easiest way to use VRRT-rs from a
 //! Rust program: create buffers, write slices, dispatch, read back.
 
 use rayon::prelude::*;
 use std::time::Instant;
-use vrrt_core::glam::UVec3;
 use vrrt_core::plan::{
-    BufferId, CpuBindings, ExecError, Executor, Groups, Pass, PassTiming, RawBuffer,
+    BufferId, CpuBindings, ExecError, Executor, GroupSpan, Groups, Pass, PassTiming, RawBuffer,
 };
 
 /// Errors of the CPU backend: only those every backend shares (the CPU has no device that could
@@ -102,19 +102,13 @@ impl Executor for CpuExecutor {
         // SAFETY: every pointer comes from a distinct live Vec<u32> (aliasing checked above) that
         // is not touched until the dispatch returns.
         let bindings = unsafe { CpuBindings::new(&raw, pass.params, pass.kernel.workgroup_size) };
-        let [gx, gy, gz] = groups;
-        let total = gx as u64 * gy as u64 * gz as u64;
         let run = pass.kernel.cpu;
-        let group = |g: u64| {
-            let group = UVec3::new(
-                (g % gx as u64) as u32,
-                ((g / gx as u64) % gy as u64) as u32,
-                (g / (gx as u64 * gy as u64)) as u32,
-            );
+        let spans: Vec<GroupSpan> =
+            GroupSpan::split(groups, rayon::current_num_threads()).collect();
+        spans.into_par_iter().for_each(|span| {
             // SAFETY: bindings match the kernel (validated); see `CpuBindings`.
-            unsafe { run(group, &bindings) };
-        };
-        (0..total).into_par_iter().for_each(group);
+            unsafe { run(span, &bindings) };
+        });
         self.timings.push(PassTiming {
             entry: pass.kernel.entry,
             ms: start.elapsed().as_secs_f64() * 1e3,

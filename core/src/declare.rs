@@ -16,8 +16,9 @@
 //! - `fn path`: one call per invocation, `f(id, &params, bindings..)`;
 //! - `lanes(N) path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
-//!   `f::<N>` per row of `N / width` workgroups side by side (compiled for AVX2 too, chosen at
-//!   run time), so the GPU keeps its workgroup shape whatever width suits the CPU.
+//!   `f::<N>` per row of `N / width` workgroups side by side, walking a run of workgroups
+//!   ([`GroupSpan`](crate::plan::GroupSpan)) row by row (compiled for AVX2 too, chosen at run
+//!   time), so the GPU keeps its workgroup shape whatever width suits the CPU.
 //!   `lanes(N, avx512 M)` adds a runner compiled for AVX-512 that calls `f::<M>`, taken where
 //!   the CPU has it (each width measured per kernel: AVX-512's 32 registers hold wider rows);
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
@@ -198,66 +199,73 @@ macro_rules! kernel_table {
         }
     };
 
-    // ---- the native runner of one workgroup ----
+    // ---- the native runner of a run of workgroups ----
     (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
-        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            b.for_each_invocation(group, |id| {
-                $kfn(id, &params, $io { $($bn: &$($m)? *$bn),* });
-            });
+            for group in span.groups() {
+                b.for_each_invocation(group, |id| {
+                    $kfn(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                });
+            }
         }
         run
     }};
     (@cpu [lanes $lanes:tt [$($wide:tt)?] ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident
         [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
-        // `lanes(8)` over 8-wide workgroups takes one workgroup per call (`% 1`).
-        #[allow(clippy::modulo_one)]
         #[inline(always)]
         unsafe fn lanes<const L: usize>(
-            group: $crate::glam::UVec3,
+            span: $crate::plan::GroupSpan,
             b: &$crate::plan::CpuBindings<'_>,
         ) {
-            // One call covers a row of `L / width` workgroups side by side: the first of them
-            // runs it, the others return. Pixels past the image's right edge are the kernel's
-            // to mask, as on the GPU. Plain loops, no closure: the kernel must inline into
-            // `lanes_avx2`/`lanes_avx512` to get their instructions.
-            const { assert!(L % $x == 0, "lanes a multiple of the workgroup width") };
-            if group.x % (L as u32 / $x) != 0 {
-                return;
-            }
+            // Each call covers `L` pixels of a row, `L / width` workgroups side by side; the
+            // run's rows are walked one after another across the whole run (`GroupSpan`).
+            // Pixels past the image's right edge are the kernel's to mask, as on the GPU. Plain
+            // loops, no closure: the kernel must inline into `lanes_avx2`/`lanes_avx512` to get
+            // their instructions.
+            const {
+                assert!(
+                    L % $x == 0 && $crate::plan::GroupSpan::ALIGN as usize % (L / $x) == 0,
+                    "lanes a multiple of the workgroup width that divides a run's alignment"
+                )
+            };
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            let base = group * $crate::glam::UVec3::new($x, $y, $z);
+            let (x_start, x_end) = (span.x_start * $x, span.x_end * $x);
             for z in 0..$z {
                 for y in 0..$y {
-                    let id = base + $crate::glam::UVec3::new(0, y, z);
-                    $($kfn)::+::<L>(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                    let mut x = x_start;
+                    while x < x_end {
+                        let id = $crate::glam::UVec3::new(x, span.y * $y + y, span.z * $z + z);
+                        $($kfn)::+::<L>(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                        x += L as u32;
+                    }
                 }
             }
         }
         // The same code compiled for AVX2 (8 lanes in one register) and F16C, chosen at run time.
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         #[target_feature(enable = "avx2,f16c")]
-        unsafe fn lanes_avx2(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn lanes_avx2(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
-            unsafe { lanes::<$lanes>(group, b) }
+            unsafe { lanes::<$lanes>(span, b) }
         }
         $crate::kernel_table!(@avx512 [$($wide)?]);
-        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
-                $crate::kernel_table!(@run_avx512 [$($wide)?] group b);
+                $crate::kernel_table!(@run_avx512 [$($wide)?] span b);
                 if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("f16c") {
                     // SAFETY: the CPU has AVX2 and F16C; the rest is the caller's contract.
-                    return unsafe { lanes_avx2(group, b) };
+                    return unsafe { lanes_avx2(span, b) };
                 }
             }
             // SAFETY: the caller's contract.
-            unsafe { lanes::<$lanes>(group, b) }
+            unsafe { lanes::<$lanes>(span, b) }
         }
         run
     }};
@@ -267,31 +275,33 @@ macro_rules! kernel_table {
     (@avx512 [$wide:tt]) => {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         #[target_feature(enable = "avx2,avx512f,avx512bw,avx512dq,avx512vl")]
-        unsafe fn lanes_avx512(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn lanes_avx512(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
-            unsafe { lanes::<$wide>(group, b) }
+            unsafe { lanes::<$wide>(span, b) }
         }
     };
-    (@run_avx512 [] $group:ident $b:ident) => {};
-    (@run_avx512 [$wide:tt] $group:ident $b:ident) => {
+    (@run_avx512 [] $span:ident $b:ident) => {};
+    (@run_avx512 [$wide:tt] $span:ident $b:ident) => {
         if std::is_x86_feature_detected!("avx512f")
             && std::is_x86_feature_detected!("avx512bw")
             && std::is_x86_feature_detected!("avx512dq")
             && std::is_x86_feature_detected!("avx512vl")
         {
             // SAFETY: the CPU has AVX-512; the rest is the caller's contract.
-            return unsafe { lanes_avx512($group, $b) };
+            return unsafe { lanes_avx512($span, $b) };
         }
     };
     (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
-        unsafe fn run(group: $crate::glam::UVec3, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
-            let mut local: $wg = bytemuck::Zeroable::zeroed();
-            $crate::kernel_table!(@cpu_phases b group params local
-                [$io { $($bn: &$($m)? *$bn),* }] $(($phase))+);
+            for group in span.groups() {
+                let mut local: $wg = bytemuck::Zeroable::zeroed();
+                $crate::kernel_table!(@cpu_phases b group params local
+                    [$io { $($bn: &$($m)? *$bn),* }] $(($phase))+);
+            }
         }
         run
     }};

@@ -45,11 +45,66 @@ pub struct Binding {
     pub access: Access,
 }
 
-/// Native entry of a kernel: runs every invocation of workgroup `group`.
+/// Native entry of a kernel: runs every invocation of the workgroups of `span`.
 ///
 /// # Safety
 /// `bindings` must describe buffers laid out as the kernel expects (see [`CpuBindings::new`]).
-pub type CpuGroupFn = unsafe fn(group: UVec3, bindings: &CpuBindings<'_>);
+pub type CpuGroupFn = unsafe fn(span: GroupSpan, bindings: &CpuBindings<'_>);
+
+/// A run of workgroups side by side in x, the CPU backend's unit of work: workgroups
+/// `x_start..x_end` of group row `y` and layer `z`.
+///
+/// Why runs and not single workgroups: a [`crate::lanes`] kernel then walks its rows of pixels
+/// across the whole run, one image row after another, so each buffer is read as a few long
+/// sequential streams the prefetchers follow, instead of eight rows of a narrow tile at a time
+/// (tens of short streams per workgroup, which stalled on memory).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct GroupSpan {
+    /// First workgroup in x: a multiple of [`GroupSpan::ALIGN`].
+    pub x_start: u32,
+    /// One past the last workgroup in x: a multiple of [`GroupSpan::ALIGN`], or the dispatch's
+    /// last.
+    pub x_end: u32,
+    /// Workgroup row.
+    pub y: u32,
+    /// Workgroup layer.
+    pub z: u32,
+}
+
+impl GroupSpan {
+    /// Runs start (and, but for the last of a row, end) at multiples of this many workgroups,
+    /// so a lanes kernel's calls of `L` pixels (`L / width` workgroups, which divides it) never
+    /// straddle two runs.
+    pub const ALIGN: u32 = 16;
+
+    /// Cuts a dispatch of `groups` workgroups into runs: whole rows when there are enough of
+    /// them to keep `threads` busy, else rows cut into aligned pieces (a one-dimensional
+    /// dispatch, such as a work list's).
+    pub fn split(groups: [u32; 3], threads: usize) -> impl Iterator<Item = GroupSpan> {
+        let [gx, gy, gz] = groups;
+        let rows = gy as u64 * gz as u64;
+        let wanted = 8 * threads.max(1) as u64;
+        let pieces = wanted.div_ceil(rows.max(1)).max(1);
+        let align = Self::ALIGN as u64;
+        let chunk = ((gx as u64).div_ceil(pieces).div_ceil(align) * align).max(align);
+        let per_row = (gx as u64).div_ceil(chunk);
+        (0..rows * per_row).map(move |i| {
+            let (row, piece) = (i / per_row, i % per_row);
+            let x_start = (piece * chunk) as u32;
+            GroupSpan {
+                x_start,
+                x_end: ((piece + 1) * chunk).min(gx as u64) as u32,
+                y: (row % gy as u64) as u32,
+                z: (row / gy as u64) as u32,
+            }
+        })
+    }
+
+    /// The workgroups of the run, in x order.
+    pub fn groups(self) -> impl Iterator<Item = UVec3> {
+        (self.x_start..self.x_end).map(move |x| UVec3::new(x, self.y, self.z))
+    }
+}
 
 /// Static description of one kernel.
 pub struct KernelDesc {
