@@ -13,7 +13,8 @@
 //! The tile is the à-trous workgroup (8×8), so on a GPU the skip is uniform per workgroup.
 //!
 //! The variance pass gathers each tile's worst variance as it writes it ([`tile_key`], an atomic
-//! max per pixel), so this pass reads one word per tile, not the image: what it would read again
+//! max per tile each row of pixels crosses), so this pass reads one word per tile, not the
+//! image: what it would read again
 //! (depth and the filter input, 8 bytes a pixel) is the pass's whole traffic otherwise.
 
 use super::ClassifyIo;

@@ -108,12 +108,27 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     f.store(out, plane_index(id, w, h), live);
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, id.x as i32, w);
+    // One atomic per tile the row of lanes crosses, with the largest key of its lanes, not one
+    // per pixel: on the CPU each is a locked compare-and-swap loop.
+    let (mut tile, mut key) = (0, 0);
     lanes::each_lane!(l in N {
         if live.0[l] && surface::has_surface(cd.0[l]) {
-            let tile = classify::tile_index(id.x + l as u32, id.y, w);
-            atomic::max(&mut tiles[tile], classify::tile_key(stored_variance.0[l]));
+            let t = classify::tile_index(id.x + l as u32, id.y, w);
+            if key != 0 && t != tile {
+                atomic::max(&mut tiles[tile], key);
+                key = 0;
+            }
+            tile = t;
+            let k = classify::tile_key(stored_variance.0[l]);
+            if k > key {
+                key = k;
+            }
         }
     });
+    // Keys are never 0 (`tile_key`): 0 is no lane with a surface.
+    if key != 0 {
+        atomic::max(&mut tiles[tile], key);
+    }
 }
 
 /// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
