@@ -8,12 +8,14 @@
 //! every lane loop here is a plain loop over an array that LLVM turns into vector instructions
 //! (AVX2 where the CPU has it, AVX-512 for the kernels that gain from it: see `crate::declare`).
 //! Wider rows amortise more per-pixel setup until the live values spill: à-trous runs 32 wide
-//! on AVX2 and 128 on AVX-512, variance 16 and 32, reprojection 16, the detector 16 and 32,
+//! on AVX2 and 64 on AVX-512, variance 16 and 32, reprojection 16, the detector 16 and 32,
 //! accumulation and `apply` 16 and 64 (each measured fastest).
 //!
 //! Each lane performs exactly the operations of the scalar code, in the same order; branches
 //! become selects between values both computed from the same inputs. Results are therefore the
-//! same bits for every `N`, and bit-exact across backends as before.
+//! same bits for every `N` on one target; across backends (the GPU takes its own transcendental
+//! instructions and fuses multiply-adds) they agree within the equivalence tolerances
+//! (`docs/equivalence.md`).
 
 use crate::math;
 use crate::quantize;
