@@ -53,6 +53,23 @@ impl AshExecutor {
     /// Errors: [`AshError::NoAdapter`] (displays `no Vulkan adapter: …`) when the loader is missing
     /// or no device qualifies; [`AshError::ValidationUnavailable`] when validation is asked for
     /// but the layer is not installed. Never panics for lack of Vulkan.
+    ///
+    /// ```no_run
+    /// use vrrt_ash::{AshExecutor, AshOptions};
+    /// use vrrt_core::denoiser::Denoiser;
+    /// use vrrt_core::settings::Settings;
+    ///
+    /// // Validation from `VRRT_VALIDATION=1`; ask for it explicitly while porting.
+    /// let options = AshOptions { validation: true, ..AshOptions::default() };
+    /// let mut gpu = match AshExecutor::new_headless(options) {
+    ///     Ok(gpu) => gpu,
+    ///     Err(e) => return Err(format!("no Vulkan here, use vrrt-cpu instead: {e}").into()),
+    /// };
+    /// println!("denoising on {}", gpu.adapter_info().name);
+    /// let mut denoiser = Denoiser::new(&mut gpu, 1280, 720, Settings::default())?;
+    /// // Frames as on any backend: `vrrt_core::denoiser::Denoiser`.
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new_headless(options: AshOptions) -> Result<Self, AshError> {
         let module_info = spirv::parse(spirv::SPIRV)?;
         let h = setup::create(options.validation, options.sync_validation, &module_info)?;
@@ -87,6 +104,33 @@ impl AshExecutor {
     ///
     /// Validation messages go to the engine's own messenger: [`AshExecutor::validation_errors`]
     /// is always 0 here.
+    ///
+    /// ```no_run
+    /// use vrrt_ash::ash::{vk, Device, Instance};
+    /// use vrrt_ash::{AshExecutor, RawVulkan};
+    /// use vrrt_core::denoiser::Denoiser;
+    /// use vrrt_core::settings::Settings;
+    ///
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// # let (instance, device, physical_device, queue, queue_family_index): (
+    /// #     Instance, Device, vk::PhysicalDevice, vk::Queue, u32) = unimplemented!();
+    /// // SAFETY: the engine's handles outlive the executor, its device is Vulkan 1.2 with
+    /// // `vulkanMemoryModel`, and the engine leaves the queue alone while the executor submits.
+    /// let mut gpu = unsafe {
+    ///     AshExecutor::from_raw(RawVulkan {
+    ///         instance,
+    ///         device,
+    ///         physical_device,
+    ///         queue,
+    ///         queue_family_index,
+    ///     })?
+    /// };
+    /// let denoiser = Denoiser::new(&mut gpu, 1280, 720, Settings::default())?;
+    /// // The engine's G-buffer pass renders straight into the denoiser's input buffers.
+    /// let depth: vk::Buffer = gpu.raw_buffer(denoiser.inputs().depth)?;
+    /// # Ok(())
+    /// # }
+    /// ```
     pub unsafe fn from_raw(raw: RawVulkan) -> Result<Self, AshError> {
         let module_info = spirv::parse(spirv::SPIRV)?;
         Self::build(raw, module_info, None, None)

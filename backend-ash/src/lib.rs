@@ -1,7 +1,7 @@
 //! # vrrt-ash
 //!
 //! The raw-Vulkan backend of VRRT-rs, on [`ash`]. It runs the kernels of `vrrt-core` from the one
-//! SPIR-V module built by rust-gpu (`shaders/vrrt.spv`, embedded at compile time), either on a
+//! SPIR-V module built by rust-gpu (`shaders/vrrt.spv`, shipped by `vrrt-spirv`), either on a
 //! device it creates itself ([`AshExecutor::new_headless`]) or inside an engine's device
 //! ([`AshExecutor::from_raw`] + [`AshExecutor::record_into`]).
 //!

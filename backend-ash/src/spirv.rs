@@ -4,9 +4,9 @@
 
 use crate::AshError;
 
-/// The module built by `shaders-builder` (all entry points of `vrrt-shaders`).
-pub(crate) static SPIRV: &[u8] =
-    include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/vrrt.spv"));
+/// The module built by `shaders-builder` (all entry points of `vrrt-shaders`), shipped by
+/// `vrrt-spirv`.
+pub(crate) use vrrt_spirv::SPIRV;
 
 const MAGIC: u32 = 0x0723_0203;
 const OP_ENTRY_POINT: u32 = 15;

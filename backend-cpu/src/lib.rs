@@ -17,6 +17,66 @@ use vrrt_core::plan::{
 pub type CpuError = ExecError;
 
 /// Runs plans on the CPU.
+///
+/// The denoiser on plain slices: a static wall in front of the camera whose rays all return 0.5,
+/// denoised over a few frames.
+///
+/// ```
+/// use vrrt_core::camera::{Camera, View};
+/// use vrrt_core::denoiser::{Denoiser, FrameInfo};
+/// use vrrt_core::glam::Vec3;
+/// use vrrt_core::packing::{pack_motion, pack_normal_roughness};
+/// use vrrt_core::payload::{PackedFiltered, Sample};
+/// use vrrt_core::plan::Executor;
+/// use vrrt_core::settings::Settings;
+/// use vrrt_cpu::CpuExecutor;
+///
+/// let (width, height) = (32, 24);
+/// let pixels = (width * height) as usize;
+/// let mut cpu = CpuExecutor::new();
+/// // Full VRRT at its default budget (1 ray per pixel), one signal plane (say AO).
+/// let settings = Settings { planes: 1, ..Settings::default() };
+/// let mut denoiser = Denoiser::new(&mut cpu, width, height, settings)?;
+///
+/// // The G-buffer: a wall 10 units away facing a camera that does not move.
+/// let tan_half_fov = 0.577;
+/// let camera = Camera::from_basis(Vec3::ZERO, Vec3::X, -Vec3::Y, Vec3::Z, tan_half_fov);
+/// let depth = vec![10.0f32; pixels];
+/// let normal_roughness = vec![pack_normal_roughness(-Vec3::Z, 1.0); pixels];
+/// let motion = vec![pack_motion(0.0, 0.0, 0.0); pixels];
+///
+/// for index in 0..4 {
+///     let frame = FrameInfo {
+///         index,
+///         reset: index == 0,
+///         pixel_angle: 2.0 * tan_half_fov / height as f32,
+///         view: View { camera, prev_camera: camera },
+///         ..FrameInfo::default()
+///     };
+///     denoiser.begin_frame(&mut cpu, frame)?;
+///     let inputs = denoiser.inputs();
+///     cpu.write_buffer(inputs.depth, bytemuck::cast_slice(&depth))?;
+///     cpu.write_buffer(inputs.normal_roughness, bytemuck::cast_slice(&normal_roughness))?;
+///     cpu.write_buffer(inputs.motion, bytemuck::cast_slice(&motion))?;
+///     denoiser.plan_rays(&mut cpu)?;
+///     // The application traces the rays each pixel was granted; here every ray returns 0.5.
+///     let samples: Vec<_> = denoiser
+///         .read_rays(&mut cpu)?
+///         .into_iter()
+///         .map(|rays| {
+///             let v = if rays > 0 { 0.5 } else { 0.0 };
+///             Sample { m1: v, m2: v * v, rays, first: v }.pack()
+///         })
+///         .collect();
+///     cpu.write_buffer(denoiser.samples(), bytemuck::cast_slice(&samples))?;
+///     denoiser.resolve(&mut cpu)?;
+/// }
+///
+/// let mut out = vec![PackedFiltered::default(); pixels];
+/// cpu.read_buffer(denoiser.output(), bytemuck::cast_slice_mut(&mut out))?;
+/// assert!(out.iter().all(|f| (f.unpack().value - 0.5).abs() < 1e-3));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Default)]
 pub struct CpuExecutor {
     buffers: Vec<Vec<u32>>,

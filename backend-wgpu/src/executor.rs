@@ -84,6 +84,37 @@ impl WgpuExecutor {
     /// buffers per stage it offers, its largest buffers, at least [`MIN_IMMEDIATE_SIZE`] bytes of
     /// immediates). Never panics: without a Vulkan driver the error is
     /// [`WgpuError::NoAdapter`], whose message contains `no Vulkan adapter`.
+    ///
+    /// ```no_run
+    /// use vrrt_core::denoiser::Denoiser;
+    /// use vrrt_core::payload::PackedFiltered;
+    /// use vrrt_core::plan::Executor;
+    /// use vrrt_core::settings::Settings;
+    /// use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
+    ///
+    /// let mut gpu = WgpuExecutor::new_headless(WgpuOptions::default())?;
+    /// println!("denoising on {}", gpu.adapter_info().name);
+    /// let (width, height) = (1280, 720);
+    /// let mut denoiser = Denoiser::new(&mut gpu, width, height, Settings::default())?;
+    /// # let frame = vrrt_core::denoiser::FrameInfo::default();
+    /// # let (depth, normal_roughness) = (Vec::<f32>::new(), Vec::<u32>::new());
+    /// # let motion = Vec::<[u32; 2]>::new();
+    /// # let trace = |_: &[u32]| Vec::<vrrt_core::payload::PackedSample>::new();
+    /// // Each frame: the cameras and the G-buffer (`FrameInfo`, images in the formats of
+    /// // `vrrt_core::packing`), the rays to trace, the samples, the denoised image.
+    /// denoiser.begin_frame(&mut gpu, frame)?;
+    /// let inputs = denoiser.inputs();
+    /// gpu.write_buffer(inputs.depth, bytemuck::cast_slice(&depth))?;
+    /// gpu.write_buffer(inputs.normal_roughness, bytemuck::cast_slice(&normal_roughness))?;
+    /// gpu.write_buffer(inputs.motion, bytemuck::cast_slice(&motion))?;
+    /// denoiser.plan_rays(&mut gpu)?;
+    /// let rays = denoiser.read_rays(&mut gpu)?;
+    /// gpu.write_buffer(denoiser.samples(), bytemuck::cast_slice(&trace(&rays)))?;
+    /// denoiser.resolve(&mut gpu)?;
+    /// let mut out = vec![PackedFiltered::default(); (width * height) as usize];
+    /// gpu.read_buffer(denoiser.output(), bytemuck::cast_slice_mut(&mut out))?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new_headless(options: WgpuOptions) -> Result<Self, WgpuError> {
         let mut flags = wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL;
         if options.validation {
@@ -142,6 +173,33 @@ impl WgpuExecutor {
     /// untouched: the executor catches the errors of its own operations with error scopes.
     /// Vulkan-layer errors are counted when the application's instance was created with
     /// [`wgpu::InstanceFlags::DEBUG`] (and [`wgpu::InstanceFlags::VALIDATION`] for the layer).
+    ///
+    /// ```no_run
+    /// use vrrt_core::denoiser::Denoiser;
+    /// use vrrt_core::settings::Settings;
+    /// use vrrt_wgpu::WgpuExecutor;
+    ///
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// # let adapter: wgpu::Adapter = unimplemented!();
+    /// // The application creates its device with what the denoiser needs: immediates for the
+    /// // kernels' parameters, and the storage buffers per pass its largest kernel binds.
+    /// let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+    ///     required_features: wgpu::Features::IMMEDIATES,
+    ///     required_limits: wgpu::Limits {
+    ///         max_immediate_size: vrrt_wgpu::MIN_IMMEDIATE_SIZE,
+    ///         max_storage_buffers_per_shader_stage:
+    ///             adapter.limits().max_storage_buffers_per_shader_stage,
+    ///         ..wgpu::Limits::default()
+    ///     },
+    ///     ..Default::default()
+    /// }))?;
+    /// let mut gpu = WgpuExecutor::from_device(device.clone(), queue.clone())?;
+    /// let denoiser = Denoiser::new(&mut gpu, 1280, 720, Settings::default())?;
+    /// // The application's G-buffer pass renders straight into the denoiser's input buffers.
+    /// let depth: &wgpu::Buffer = gpu.buffer(denoiser.inputs().depth).expect("allocated by new");
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Result<Self, WgpuError> {
         let missing = wgpu::Features::IMMEDIATES - device.features();
         if !missing.is_empty() {

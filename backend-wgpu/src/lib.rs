@@ -1,5 +1,5 @@
-//! The wgpu backend of VRRT-rs: runs the rust-gpu kernels of `shaders/vrrt.spv` through wgpu on
-//! Vulkan.
+//! The wgpu backend of VRRT-rs: runs the rust-gpu kernels of `vrrt-spirv` (`shaders/vrrt.spv`)
+//! through wgpu on Vulkan.
 //!
 //! The SPIR-V module is embedded at build time and translated by naga (`ShaderSource::SpirV`),
 //! which wgpu validates like any other shader; one compute pipeline per
@@ -39,9 +39,8 @@ pub use error::WgpuError;
 pub use executor::{WgpuExecutor, WgpuOptions};
 pub use vrrt_core::plan::ExecError;
 
-/// The embedded SPIR-V module (`shaders/vrrt.spv`, checked in; see `shaders-builder`).
-pub static SPIRV: &[u8] =
-    include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/vrrt.spv"));
+/// The embedded SPIR-V module, from `vrrt-spirv` (which ships `shaders/vrrt.spv`).
+pub use vrrt_spirv::SPIRV;
 
 /// Immediate (push-constant) bytes a headless device is created with, at least.
 pub const MIN_IMMEDIATE_SIZE: u32 = 128;

@@ -51,6 +51,23 @@ impl fmt::Display for BackendError {
 impl std::error::Error for BackendError {}
 
 /// An open backend.
+///
+/// What `vrrt run --backend NAME` opens, for programs that want the same choice: the `auto`
+/// rule, or a backend by name, then any denoiser or renderer on it.
+///
+/// ```
+/// use vrrt_cli::backend::{Backend, BackendKind};
+/// use vrrt_core::denoiser::Denoiser;
+/// use vrrt_core::settings::Settings;
+///
+/// // "auto" takes a hardware GPU when there is one; "cpu" runs anywhere.
+/// let kind: BackendKind = "cpu".parse()?;
+/// let (mut exec, why) = Backend::open(kind, false)?;
+/// println!("{} ({why})", exec.device());
+/// let denoiser = Denoiser::new(&mut exec, 640, 360, Settings::default())?;
+/// assert_eq!(denoiser.size(), (640, 360));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub enum Backend {
     /// CPU backend.
     Cpu(CpuExecutor),

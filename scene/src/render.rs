@@ -234,6 +234,28 @@ impl FrameOutput {
 }
 
 /// Runs a scene frame by frame through core's frame pipeline and reads the outputs back.
+///
+/// A built-in scene's ambient occlusion, denoised on the CPU backend (any `Executor` works):
+///
+/// ```
+/// use vrrt_core::settings::Settings;
+/// use vrrt_cpu::CpuExecutor;
+/// use vrrt_scene::builtin::builtin;
+/// use vrrt_scene::render::{Readback, Renderer, Signal};
+///
+/// let scene = builtin("room")?;
+/// let (width, height) = (48, 27);
+/// let mut cpu = CpuExecutor::new();
+/// let signal = Signal::Ao { max_distance: 1.0 };
+/// let mut renderer = Renderer::new(&mut cpu, width, height, signal, 0, Settings::default())?;
+/// for i in 0..3 {
+///     let out = renderer.render(&mut cpu, &scene.frame(i), Readback::default())?;
+///     assert_eq!(out.denoised.len(), (width * height) as usize);
+///     assert!(out.denoised.iter().all(|ao| (0.0..=1.0).contains(ao)));
+///     println!("frame {i}: {} rays", out.rays_traced);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Renderer {
     frame: Frame,
     gpu: GpuScene,

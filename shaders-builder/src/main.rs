@@ -1,5 +1,6 @@
 //! Builds `vrrt-shaders` (and through it `vrrt-core`) to one SPIR-V module with every entry point,
-//! and writes it to `shaders/vrrt.spv`, the artifact the host crates embed.
+//! and writes it to `shaders/vrrt.spv`, the artifact the `vrrt-spirv` crate ships to the GPU
+//! backends.
 //!
 //! `cargo run --release -- --check` rebuilds into the cache and fails if the result differs from the
 //! checked-in file (what CI runs). `--crate DIR --out FILE` builds another shader crate instead

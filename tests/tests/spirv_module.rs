@@ -2,7 +2,7 @@
 
 use vrrt_tests::spirv::entry_points;
 
-const MODULE: &[u8] = include_bytes!("../../shaders/vrrt.spv");
+use vrrt_spirv::SPIRV as MODULE;
 
 #[test]
 fn every_kernel_desc_matches_its_entry_point() {

@@ -138,6 +138,56 @@ pub enum GradientRays {
 }
 
 /// The buffers of one denoiser instance and the passes that run on them.
+///
+/// A frame is four calls, the same on every backend (`vrrt-cpu`'s `CpuExecutor`, `vrrt-wgpu`'s
+/// `WgpuExecutor`, `vrrt-ash`'s `AshExecutor`); this one traces on the host (the CPU backend's
+/// docs run it):
+///
+/// ```
+/// use vrrt_core::denoiser::{Denoiser, FrameInfo};
+/// use vrrt_core::payload::{PackedFiltered, PackedSample};
+/// use vrrt_core::plan::Executor;
+///
+/// /// One frame of the application's G-buffer, in the formats of `vrrt_core::packing`.
+/// struct GBuffer {
+///     depth: Vec<f32>,
+///     normal_roughness: Vec<u32>,
+///     motion: Vec<[u32; 2]>,
+/// }
+///
+/// /// Denoises one frame; `trace` is the application's ray tracer: `rays[i]` rays at pixel `i`
+/// /// (per plane), their moments back as one sample each.
+/// fn denoise<E: Executor>(
+///     exec: &mut E,
+///     denoiser: &mut Denoiser,
+///     frame: FrameInfo,
+///     g: &GBuffer,
+///     trace: impl FnOnce(&[u32]) -> Vec<PackedSample>,
+/// ) -> Result<Vec<f32>, E::Error> {
+///     // 1. The cameras, then the G-buffer into the denoiser's input buffers.
+///     denoiser.begin_frame(exec, frame)?;
+///     let inputs = denoiser.inputs();
+///     exec.write_buffer(inputs.depth, bytemuck::cast_slice(&g.depth))?;
+///     exec.write_buffer(inputs.normal_roughness, bytemuck::cast_slice(&g.normal_roughness))?;
+///     exec.write_buffer(inputs.motion, bytemuck::cast_slice(&g.motion))?;
+///     // 2. How many rays each pixel traces this frame, within the budget.
+///     denoiser.plan_rays(exec)?;
+///     let rays = denoiser.read_rays(exec)?;
+///     // 3. The noisy samples.
+///     exec.write_buffer(denoiser.samples(), bytemuck::cast_slice(&trace(&rays)))?;
+///     // 4. Accumulate and filter; read the denoised planes back.
+///     denoiser.resolve(exec)?;
+///     let (w, h) = denoiser.size();
+///     let len = (w * h * denoiser.settings().planes) as usize;
+///     let mut out = vec![PackedFiltered::default(); len];
+///     exec.read_buffer(denoiser.output(), bytemuck::cast_slice_mut(&mut out))?;
+///     Ok(out.iter().map(|f| f.unpack().value).collect())
+/// }
+/// ```
+///
+/// A GPU ray pass reads the work list ([`Denoiser::work`], [`Denoiser::args`]) on the device
+/// instead of `read_rays`, and engines that record their own command buffers capture the passes
+/// (see the `examples/` crate of the repository).
 #[derive(Clone, Debug)]
 pub struct Denoiser {
     settings: Settings,
