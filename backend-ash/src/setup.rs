@@ -230,6 +230,53 @@ fn features_for(
     Ok(want)
 }
 
+/// Whether `exts` lists the extension `name`.
+fn has_ext(exts: &[vk::ExtensionProperties], name: &CStr) -> bool {
+    exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name))
+}
+
+/// The validation layer and its debug messenger's extension, added to `layers` and
+/// `extensions` (and synchronization validation where asked and available): the messenger's
+/// state, and whether synchronization validation is on. Refused with a clear message, not
+/// silently skipped, when the layer or `VK_EXT_debug_utils` is missing: validation was asked for.
+fn enable_validation(
+    entry: &ash::Entry,
+    instance_exts: &[vk::ExtensionProperties],
+    sync_validation: bool,
+    layers: &mut Vec<*const c_char>,
+    extensions: &mut Vec<*const c_char>,
+) -> Result<(Option<Arc<DebugState>>, bool), AshError> {
+    // SAFETY: valid entry.
+    let available = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+    if !available
+        .iter()
+        .any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
+    {
+        return Err(AshError::ValidationUnavailable(
+            "layer VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)"
+                .into(),
+        ));
+    }
+    layers.push(VALIDATION_LAYER.as_ptr());
+    // SAFETY: valid entry, layer present.
+    let layer_exts =
+        unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+            .unwrap_or_default();
+    if !has_ext(instance_exts, ash::ext::debug_utils::NAME)
+        && !has_ext(&layer_exts, ash::ext::debug_utils::NAME)
+    {
+        return Err(AshError::ValidationUnavailable(
+            "VK_EXT_debug_utils is not available".into(),
+        ));
+    }
+    extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    let sync = sync_validation && has_ext(&layer_exts, ash::ext::validation_features::NAME);
+    if sync {
+        extensions.push(ash::ext::validation_features::NAME.as_ptr());
+    }
+    Ok((Some(Arc::new(DebugState::default())), sync))
+}
+
 /// Creates an instance (with validation if asked) and a device on the best adapter.
 pub(crate) fn create(
     validation: bool,
@@ -249,48 +296,23 @@ pub(crate) fn create(
     // SAFETY: valid entry.
     let instance_exts =
         unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
-    let has_ext = |exts: &[vk::ExtensionProperties], name: &CStr| {
-        exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name))
-    };
     let mut extensions: Vec<*const c_char> = Vec::new();
     let mut layers: Vec<*const c_char> = Vec::new();
     let mut flags = vk::InstanceCreateFlags::empty();
-    let mut sync = false;
     if has_ext(&instance_exts, ash::khr::portability_enumeration::NAME) {
         extensions.push(ash::khr::portability_enumeration::NAME.as_ptr());
         flags |= vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR;
     }
-    let debug = if validation {
-        // SAFETY: valid entry.
-        let available = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
-        if !available
-            .iter()
-            .any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
-        {
-            return Err(AshError::ValidationUnavailable(
-                "layer VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)".into(),
-            ));
-        }
-        layers.push(VALIDATION_LAYER.as_ptr());
-        // SAFETY: valid entry, layer present.
-        let layer_exts =
-            unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
-                .unwrap_or_default();
-        if !has_ext(&instance_exts, ash::ext::debug_utils::NAME)
-            && !has_ext(&layer_exts, ash::ext::debug_utils::NAME)
-        {
-            return Err(AshError::ValidationUnavailable(
-                "VK_EXT_debug_utils is not available".into(),
-            ));
-        }
-        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        if sync_validation && has_ext(&layer_exts, ash::ext::validation_features::NAME) {
-            extensions.push(ash::ext::validation_features::NAME.as_ptr());
-            sync = true;
-        }
-        Some(Arc::new(DebugState::default()))
+    let (debug, sync) = if validation {
+        enable_validation(
+            &entry,
+            &instance_exts,
+            sync_validation,
+            &mut layers,
+            &mut extensions,
+        )?
     } else {
-        None
+        (None, false)
     };
 
     let app = vk::ApplicationInfo::default()

@@ -49,28 +49,7 @@ fn record_into_engine_command_buffer() {
 
     // The engine's command pool, command buffer and fence.
     let d = engine.device().clone();
-    let (pool, cmd, fence) = unsafe {
-        let pool = d
-            .create_command_pool(
-                &vk::CommandPoolCreateInfo::default()
-                    .queue_family_index(engine.queue_family_index()),
-                None,
-            )
-            .unwrap();
-        let cmd = d
-            .allocate_command_buffers(
-                &vk::CommandBufferAllocateInfo::default()
-                    .command_pool(pool)
-                    .command_buffer_count(1),
-            )
-            .unwrap()[0];
-        (
-            pool,
-            cmd,
-            d.create_fence(&vk::FenceCreateInfo::default(), None)
-                .unwrap(),
-        )
-    };
+    let (pool, cmd, fence) = command_objects(&d, engine.queue_family_index());
     let bufs = [req, counts];
     let pass = Pass::over_grid(
         &vrrt_core::kernels::COUNT_BUCKETS,
@@ -127,28 +106,7 @@ fn record_into_engine_command_buffer() {
         engine
             .read_buffer(engine_counts, bytemuck::cast_slice_mut(&mut gpu))
             .unwrap();
-        let mut cpu = CpuExecutor::new();
-        let (r, c) = (
-            cpu.create_buffer(u64::from(w * h) * 4).unwrap(),
-            cpu.create_buffer(u64::from(COUNTS_LEN) * 4).unwrap(),
-        );
-        cpu.write_buffer(r, bytemuck::cast_slice(&requests))
-            .unwrap();
-        let cb = [r, c];
-        for _ in 0..2 * (frame + 1) {
-            cpu.dispatch(&Pass::over_grid(
-                &vrrt_core::kernels::COUNT_BUCKETS,
-                &cb,
-                bytemuck::bytes_of(&params),
-                w,
-                h,
-                1,
-            ))
-            .unwrap();
-        }
-        let mut want = vec![0u32; COUNTS_LEN as usize];
-        cpu.read_buffer(c, bytemuck::cast_slice_mut(&mut want))
-            .unwrap();
+        let want = cpu_counts(&requests, &params, 2 * (frame + 1));
         assert_eq!(gpu, want, "frame {frame}");
     }
     if ex.adapter_info().timestamps {
@@ -183,4 +141,59 @@ fn record_into_engine_command_buffer() {
         0,
         "validation reported errors (see stderr)"
     );
+}
+
+/// The engine's command pool, one command buffer from it and a fence.
+fn command_objects(
+    d: &vrrt_ash::ash::Device,
+    queue_family_index: u32,
+) -> (vk::CommandPool, vk::CommandBuffer, vk::Fence) {
+    // SAFETY: a live device; the objects are destroyed by the test before the device.
+    unsafe {
+        let pool = d
+            .create_command_pool(
+                &vk::CommandPoolCreateInfo::default().queue_family_index(queue_family_index),
+                None,
+            )
+            .unwrap();
+        let cmd = d
+            .allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(pool)
+                    .command_buffer_count(1),
+            )
+            .unwrap()[0];
+        let fence = d
+            .create_fence(&vk::FenceCreateInfo::default(), None)
+            .unwrap();
+        (pool, cmd, fence)
+    }
+}
+
+/// The counts `passes` bucket-count passes over `requests` leave on the CPU backend: what the
+/// engine's buffer must hold.
+fn cpu_counts(requests: &[u32], params: &BucketParams, passes: u32) -> Vec<u32> {
+    let (w, h) = (params.width, params.height);
+    let mut cpu = CpuExecutor::new();
+    let (r, c) = (
+        cpu.create_buffer(u64::from(w * h) * 4).unwrap(),
+        cpu.create_buffer(u64::from(COUNTS_LEN) * 4).unwrap(),
+    );
+    cpu.write_buffer(r, bytemuck::cast_slice(requests)).unwrap();
+    let cb = [r, c];
+    for _ in 0..passes {
+        cpu.dispatch(&Pass::over_grid(
+            &vrrt_core::kernels::COUNT_BUCKETS,
+            &cb,
+            bytemuck::bytes_of(params),
+            w,
+            h,
+            1,
+        ))
+        .unwrap();
+    }
+    let mut want = vec![0u32; COUNTS_LEN as usize];
+    cpu.read_buffer(c, bytemuck::cast_slice_mut(&mut want))
+        .unwrap();
+    want
 }

@@ -244,10 +244,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn every_field_round_trips() {
-        // Non-default values everywhere, awkward floats included.
-        let denoiser = Settings {
+    /// Non-default denoiser settings everywhere, awkward floats included.
+    fn unusual_settings() -> Settings {
+        Settings {
             planes: 3,
             parallax_plane: Some(2),
             guide_plane: Some(1),
@@ -326,7 +325,13 @@ mod tests {
                 penumbra_sigma_luminance: 1.25,
                 penumbra_radius: 1,
             },
-        };
+        }
+    }
+
+    #[test]
+    fn every_field_round_trips() {
+        let denoiser = unusual_settings();
+        // Non-default values everywhere, awkward floats included.
         let reflections = ReflectionSettings {
             max_roughness: 0.25,
             min_rate: 0.3,

@@ -99,14 +99,36 @@ fn room(animated: bool) -> Scene {
     let mut s = Scene::new(name, info.description);
     s.fps = 30.0;
     s.frame_count = if animated { 120 } else { 64 };
-    let freeze = |m: Motion| {
-        if animated {
-            m
-        } else {
-            Motion::Static(m.at(0.0))
-        }
+    add_room_movers(&mut s, animated);
+    add_room_fixtures(&mut s);
+    // A 1.2 m square light near the top, facing down, sweeping over the room.
+    let light = AreaLight::new(Vec3::new(-0.6, 3.8, -1.8), Vec3::Z * 1.2, Vec3::X * 1.2);
+    let sweep = Motion::Oscillate {
+        base: Affine3A::IDENTITY,
+        amplitude: Vec3::new(2.5, 0.0, 0.0),
+        period: 6.0,
+        phase: 0.0,
     };
+    s.add_light(Light {
+        base: light,
+        motion: freeze(animated, sweep),
+    });
 
+    s.camera = room_camera(animated, s.fps);
+    s
+}
+
+/// `m`, or its pose at time 0 for the static room.
+fn freeze(animated: bool, m: Motion) -> Motion {
+    if animated {
+        m
+    } else {
+        Motion::Static(m.at(0.0))
+    }
+}
+
+/// The room's moving objects, added first so their ids are fixed (see `room_ids`).
+fn add_room_movers(s: &mut Scene, animated: bool) {
     // Moving objects first, so their ids are fixed (see `room_ids`).
     let box_size = 0.8;
     let sliding = Motion::Oscillate {
@@ -119,7 +141,7 @@ fn room(animated: bool) -> Scene {
     s.add_object(
         "sliding box",
         cuboid(-half, half + Vec3::Y * box_size),
-        freeze(sliding),
+        freeze(animated, sliding),
         0.4,
     );
     let crossing = Motion::Keyframes(vec![
@@ -147,13 +169,16 @@ fn room(animated: bool) -> Scene {
     s.add_object(
         "crossing sphere",
         uv_sphere(Vec3::ZERO, 0.6, 24, 48),
-        freeze(crossing),
+        freeze(animated, crossing),
         0.2,
     );
+}
 
-    // Static room: floor, three walls (open front and top: sky shows above the walls).
+/// The room's static geometry: floor, three walls (open front and top: sky shows above the
+/// walls), pillars, a railing of thin poles and a resting sphere.
+fn add_room_fixtures(s: &mut Scene) {
     let fixed = Motion::Static(Affine3A::IDENTITY);
-    add_floor_and_walls(&mut s);
+    add_floor_and_walls(s);
     s.add_object(
         "right wall",
         quad(Vec3::new(6.0, 0.0, -5.0), Vec3::Z * 11.0, Vec3::Y * 3.5),
@@ -191,23 +216,14 @@ fn room(animated: bool) -> Scene {
         fixed,
         1.0,
     );
+}
 
-    // A 1.2 m square light near the top, facing down, sweeping over the room.
-    let light = AreaLight::new(Vec3::new(-0.6, 3.8, -1.8), Vec3::Z * 1.2, Vec3::X * 1.2);
-    let sweep = Motion::Oscillate {
-        base: Affine3A::IDENTITY,
-        amplitude: Vec3::new(2.5, 0.0, 0.0),
-        period: 6.0,
-        phase: 0.0,
-    };
-    s.add_light(Light {
-        base: light,
-        motion: freeze(sweep),
-    });
-
+/// The room's camera: a slow push, a cut at `ROOM_CUT_FRAME`, then a pan; fixed for the static
+/// room.
+fn room_camera(animated: bool, fps: f32) -> CameraPath {
     let key = room_camera_key;
-    let cut_time = ROOM_CUT_FRAME as f32 / s.fps;
-    s.camera = if animated {
+    let cut_time = ROOM_CUT_FRAME as f32 / fps;
+    if animated {
         CameraPath {
             keys: vec![
                 key(
@@ -238,8 +254,7 @@ fn room(animated: bool) -> Scene {
         }
     } else {
         CameraPath::fixed(Vec3::new(0.0, 2.2, 7.5), Vec3::new(0.0, 1.0, -3.0), 1.0)
-    };
-    s
+    }
 }
 
 /// A camera key of the room's lens (1 radian vertical field of view).

@@ -200,10 +200,7 @@ fn tree(triangles: &[Triangle], opt: &BuildOptions) -> (Vec<BvhNode>, Vec<u32>) 
     nodes.push(BvhNode::default());
     // (node index, start, end, depth)
     let mut work: Vec<(usize, usize, usize, usize)> = vec![(0, 0, n, 0)];
-    let mut bin_boxes = vec![Aabb::EMPTY; bins];
-    let mut bin_counts = vec![0usize; bins];
-    let mut right_area = vec![0.0f32; bins];
-    let mut right_count = vec![0usize; bins];
+    let mut sweep = Sweep::new(bins);
     while let Some((ni, start, end, depth)) = work.pop() {
         let range = &mut idx[start..end];
         let count = range.len();
@@ -218,44 +215,8 @@ fn tree(triangles: &[Triangle], opt: &BuildOptions) -> (Vec<BvhNode>, Vec<u32>) 
             leaf(&mut nodes);
             continue;
         }
-        // Best split over all axes: (cost, axis, bin boundary).
-        let mut best: Option<(f32, usize, usize)> = None;
         let extent = cbounds.max - cbounds.min;
-        for axis in 0..3 {
-            if !extent[axis].is_finite() || extent[axis] <= 0.0 {
-                continue;
-            }
-            let scale = bins as f32 / extent[axis];
-            bin_boxes.fill(Aabb::EMPTY);
-            bin_counts.fill(0);
-            for &i in range.iter() {
-                let b = bin_of(centroids[i as usize][axis], cbounds.min[axis], scale, bins);
-                bin_boxes[b].grow(&boxes[i as usize]);
-                bin_counts[b] += 1;
-            }
-            // Sweep from the right: area and count of bins b..bins.
-            let mut acc = Aabb::EMPTY;
-            let mut c = 0;
-            for b in (1..bins).rev() {
-                acc.grow(&bin_boxes[b]);
-                c += bin_counts[b];
-                right_area[b] = acc.area();
-                right_count[b] = c;
-            }
-            let mut acc = Aabb::EMPTY;
-            let mut c = 0;
-            for b in 1..bins {
-                acc.grow(&bin_boxes[b - 1]);
-                c += bin_counts[b - 1];
-                if c == 0 || right_count[b] == 0 {
-                    continue;
-                }
-                let cost = acc.area() * c as f32 + right_area[b] * right_count[b] as f32;
-                if best.is_none_or(|(bc, _, _)| cost < bc) {
-                    best = Some((cost, axis, b));
-                }
-            }
-        }
+        let best = sweep.best_split(range, &boxes, &centroids, &cbounds);
         let parent_area = bounds.area().max(f32::MIN_POSITIVE);
         let split = match best {
             Some((cost, axis, b)) => {
@@ -286,6 +247,78 @@ fn tree(triangles: &[Triangle], opt: &BuildOptions) -> (Vec<BvhNode>, Vec<u32>) 
         work.push((left, start, start + mid, depth + 1));
     }
     (nodes, idx)
+}
+
+/// The binned surface-area heuristic's scratch space, kept across the nodes of one build.
+struct Sweep {
+    bins: usize,
+    boxes: Vec<Aabb>,
+    counts: Vec<usize>,
+    /// Area and count of bins `b..bins`, from the sweep from the right.
+    right_area: Vec<f32>,
+    right_count: Vec<usize>,
+}
+
+impl Sweep {
+    fn new(bins: usize) -> Self {
+        Sweep {
+            bins,
+            boxes: vec![Aabb::EMPTY; bins],
+            counts: vec![0; bins],
+            right_area: vec![0.0; bins],
+            right_count: vec![0; bins],
+        }
+    }
+
+    /// The cheapest split of the triangles `range` over all axes, as (cost, axis, bin
+    /// boundary), binning their centroids within `cbounds`; `None` when every centroid
+    /// coincides.
+    fn best_split(
+        &mut self,
+        range: &[u32],
+        boxes: &[Aabb],
+        centroids: &[Vec3],
+        cbounds: &Aabb,
+    ) -> Option<(f32, usize, usize)> {
+        let bins = self.bins;
+        let mut best: Option<(f32, usize, usize)> = None;
+        let extent = cbounds.max - cbounds.min;
+        for axis in 0..3 {
+            if !extent[axis].is_finite() || extent[axis] <= 0.0 {
+                continue;
+            }
+            let scale = bins as f32 / extent[axis];
+            self.boxes.fill(Aabb::EMPTY);
+            self.counts.fill(0);
+            for &i in range.iter() {
+                let b = bin_of(centroids[i as usize][axis], cbounds.min[axis], scale, bins);
+                self.boxes[b].grow(&boxes[i as usize]);
+                self.counts[b] += 1;
+            }
+            let mut acc = Aabb::EMPTY;
+            let mut c = 0;
+            for b in (1..bins).rev() {
+                acc.grow(&self.boxes[b]);
+                c += self.counts[b];
+                self.right_area[b] = acc.area();
+                self.right_count[b] = c;
+            }
+            let mut acc = Aabb::EMPTY;
+            let mut c = 0;
+            for b in 1..bins {
+                acc.grow(&self.boxes[b - 1]);
+                c += self.counts[b - 1];
+                if c == 0 || self.right_count[b] == 0 {
+                    continue;
+                }
+                let cost = acc.area() * c as f32 + self.right_area[b] * self.right_count[b] as f32;
+                if best.is_none_or(|(bc, _, _)| cost < bc) {
+                    best = Some((cost, axis, b));
+                }
+            }
+        }
+        best
+    }
 }
 
 #[inline]

@@ -195,8 +195,11 @@ fn ao_and_shadow_conventions() {
     }
     let mean = ao_sum / n as f32;
     assert!(mean > 0.5 && mean < 0.999, "mean AO {mean}");
+}
 
-    // A bare floor: AO is exactly 1 and the light fully visible, whatever the seed.
+/// A bare floor: AO is exactly 1 and the light fully visible, whatever the seed.
+#[test]
+fn a_bare_floor_is_unoccluded_and_lit_from_above() {
     let mut floor = Scene::new("floor", "");
     floor.add_object(
         "floor",

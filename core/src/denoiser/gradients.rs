@@ -20,6 +20,21 @@ impl Denoiser {
         if s.gradient.stratum == 0 || self.frame.reset || !self.frame.moved {
             return Ok(false);
         }
+        self.gradient_project(exec, scene)?;
+        self.gradient_retrace(exec, scene)?;
+        self.gradient_reconstruct(exec)?;
+        self.gradient_ran = true;
+        Ok(true)
+    }
+
+    /// The prepass's forward projection: one previous-frame sample per stratum claims its cell
+    /// (keys cleared first), where it lands on the same surface this frame.
+    fn gradient_project<E: Executor>(
+        &self,
+        exec: &mut E,
+        scene: &GradientScene,
+    ) -> Result<(), E::Error> {
+        let s = self.settings;
         let (w, h) = (self.width, self.height);
         let (gw, gh) = self.gradient_size();
         let index_mask = gradient::index_mask(w * h);
@@ -57,6 +72,21 @@ impl Denoiser {
             keys: self.gradient_keys,
         };
         exec.dispatch(&project.over_grid(&proj, gw, gh, 1))?;
+        Ok(())
+    }
+
+    /// The prepass's re-trace: each projected sample's 0th ray again, against this frame's
+    /// scene, with last frame's rng (AO or shadow rays, as `scene` says).
+    fn gradient_retrace<E: Executor>(
+        &self,
+        exec: &mut E,
+        scene: &GradientScene,
+    ) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h) = (self.width, self.height);
+        let (gw, gh) = self.gradient_size();
+        let index_mask = gradient::index_mask(w * h);
+        let prev = self.prev_inputs();
         let mut retrace = gradient::RetraceParams {
             width: w,
             height: h,
@@ -108,6 +138,14 @@ impl Denoiser {
                 exec.dispatch(&shadow.over_grid(&retrace, gw, gh, 1))?;
             }
         }
+        Ok(())
+    }
+
+    /// The prepass's reconstruction: à-trous iterations over the cells, ping-ponging between
+    /// the two gradient buffers (`gradient_out` says which holds the result).
+    fn gradient_reconstruct<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (gw, gh) = self.gradient_size();
         let mut input = self.gradient_raw;
         for i in 0..s.gradient.iterations {
             let p = gradient::GradientAtrousParams {
@@ -122,8 +160,7 @@ impl Denoiser {
             input = out;
             self.gradient_out = (i % 2) as usize;
         }
-        self.gradient_ran = true;
-        Ok(true)
+        Ok(())
     }
 
     /// Uses `changes` (`GradientSample` per cell of [`Self::gradient_size`] and plane,

@@ -70,10 +70,17 @@ fn svgf_is_the_default_with_rates_off() {
     );
 }
 
+/// Each of `cases` (settings, the field out of range) is refused naming its stage and field.
+fn assert_named(cases: &[(Settings, &str)]) {
+    for (s, field) in cases {
+        assert_eq!(field_of(s), *field);
+    }
+}
+
 #[test]
-fn out_of_range_names_stage_and_field() {
+fn out_of_range_layout_filter_and_temporal_name_their_field() {
     let d = Settings::default();
-    let cases: [(Settings, &str); 14] = [
+    assert_named(&[
         (Settings { planes: 5, ..d }, "planes"),
         (
             Settings {
@@ -122,6 +129,13 @@ fn out_of_range_names_stage_and_field() {
             },
             "temporal.clamp_radius",
         ),
+    ]);
+}
+
+#[test]
+fn out_of_range_rates_and_gradient_name_their_field() {
+    let d = Settings::default();
+    assert_named(&[
         (
             Settings {
                 rates: RateSettings {
@@ -202,10 +216,7 @@ fn out_of_range_names_stage_and_field() {
             },
             "gradient.reflection_confirm_sigma",
         ),
-    ];
-    for (s, field) in &cases {
-        assert_eq!(field_of(s), *field);
-    }
+    ]);
 }
 
 #[test]

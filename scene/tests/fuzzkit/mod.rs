@@ -376,6 +376,64 @@ pub fn hex(bytes: &[u8]) -> String {
     })
 }
 
+impl Report {
+    /// An empty report of the run `name`.
+    fn new(name: String) -> Self {
+        Report {
+            name,
+            inputs: 0,
+            panics: 0,
+            errors: 0,
+            valid: 0,
+            kinds: BTreeMap::new(),
+            broken: 0,
+            failures: Vec::new(),
+            caught: BTreeMap::new(),
+            slowest: (0, Duration::ZERO),
+            most_memory: (0, 0),
+            elapsed: Duration::ZERO,
+        }
+    }
+
+    /// Counts input `i`'s outcome: its verdict, or the failure's signature (broken properties
+    /// are one bug per kind of message, before the details; panics one per location).
+    fn record(&mut self, i: usize, input: &[u8], verdict: Option<Verdict>, fail: Option<String>) {
+        match (verdict, fail) {
+            (Some(Verdict::Valid), _) => self.valid += 1,
+            (Some(Verdict::Error(kind)), _) => {
+                self.errors += 1;
+                *self.kinds.entry(kind).or_default() += 1;
+            }
+            (None, Some(signature)) => {
+                if signature.starts_with("panic") {
+                    self.panics += 1;
+                } else {
+                    self.broken += 1;
+                }
+                // Broken properties are one bug per kind of message (before the
+                // details); panics one per location.
+                let key = |s: &str| s.split(':').take(2).collect::<String>();
+                match self.failures.iter_mut().find(|f| {
+                    if signature.starts_with("panic") {
+                        f.signature == signature
+                    } else {
+                        key(&f.signature) == key(&signature)
+                    }
+                }) {
+                    Some(f) => f.count += 1,
+                    None => self.failures.push(Failure {
+                        signature,
+                        count: 1,
+                        first: (i, input.to_vec()),
+                        minimized: Vec::new(),
+                    }),
+                }
+            }
+            (None, None) => unreachable!(),
+        }
+    }
+}
+
 /// Runs `check(i, input)` on inputs `0..bounds.inputs` on a worker thread, each under
 /// `catch_unwind`, timed and measured (`i` may pick the form the input is tried in; minimizing
 /// keeps it). `check` returns the verdict, or `Err` for a broken property. The calling
@@ -401,20 +459,7 @@ where
         std::thread::Builder::new()
             .name(format!("fuzz-{name}"))
             .spawn(move || {
-                let mut r = Report {
-                    name,
-                    inputs: 0,
-                    panics: 0,
-                    errors: 0,
-                    valid: 0,
-                    kinds: BTreeMap::new(),
-                    broken: 0,
-                    failures: Vec::new(),
-                    caught: BTreeMap::new(),
-                    slowest: (0, Duration::ZERO),
-                    most_memory: (0, 0),
-                    elapsed: Duration::ZERO,
-                };
+                let mut r = Report::new(name);
                 let start = Instant::now();
                 for i in 0..bounds.inputs {
                     let input = inputs(i);
@@ -437,39 +482,7 @@ where
                             *r.caught.entry(at).or_default() += 1;
                         }
                     }
-                    match (verdict, fail) {
-                        (Some(Verdict::Valid), _) => r.valid += 1,
-                        (Some(Verdict::Error(kind)), _) => {
-                            r.errors += 1;
-                            *r.kinds.entry(kind).or_default() += 1;
-                        }
-                        (None, Some(signature)) => {
-                            if signature.starts_with("panic") {
-                                r.panics += 1;
-                            } else {
-                                r.broken += 1;
-                            }
-                            // Broken properties are one bug per kind of message (before the
-                            // details); panics one per location.
-                            let key = |s: &str| s.split(':').take(2).collect::<String>();
-                            match r.failures.iter_mut().find(|f| {
-                                if signature.starts_with("panic") {
-                                    f.signature == signature
-                                } else {
-                                    key(&f.signature) == key(&signature)
-                                }
-                            }) {
-                                Some(f) => f.count += 1,
-                                None => r.failures.push(Failure {
-                                    signature,
-                                    count: 1,
-                                    first: (i, input.clone()),
-                                    minimized: Vec::new(),
-                                }),
-                            }
-                        }
-                        (None, None) => unreachable!(),
-                    }
+                    r.record(i, &input, verdict, fail);
                 }
                 r.elapsed = start.elapsed();
                 // Minimizing is not a hang.

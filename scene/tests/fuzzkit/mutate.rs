@@ -250,35 +250,9 @@ impl Mutator {
                 b.extend_from_slice(&other[j..]);
             }
             // An interesting word in 1, 2, 4 or 8 bytes, either byte order.
-            10 if len > 0 => {
-                let w = *rng.pick(INTERESTING_WORDS);
-                let n = [1, 2, 4, 8][rng.below(4)];
-                let bytes = if rng.one_in(2) {
-                    w.to_le_bytes()
-                } else {
-                    w.to_be_bytes()
-                };
-                let bytes = if rng.one_in(2) {
-                    &bytes[..n]
-                } else {
-                    &bytes[8 - n..]
-                };
-                let i = rng.below(len);
-                let end = (i + n).min(len);
-                b[i..end].copy_from_slice(&bytes[..end - i]);
-            }
+            10 if len > 0 => write_word(rng, b),
             // A number replaced by an interesting one.
-            11 | 12 => {
-                let numbers = number_tokens(b);
-                let token = rng.pick(INTERESTING_TEXT).as_bytes().to_vec();
-                if numbers.is_empty() {
-                    let i = rng.below(len + 1);
-                    b.splice(i..i, token);
-                } else {
-                    let (s, e) = *rng.pick(&numbers);
-                    b.splice(s..e, token);
-                }
-            }
+            11 | 12 => replace_number(rng, b),
             // A dictionary token inserted or written over.
             13 if !self.dictionary.is_empty() => {
                 let token = rng.pick(&self.dictionary).clone();
@@ -290,35 +264,73 @@ impl Mutator {
                 }
             }
             // Line operations: duplicate, drop or swap lines.
-            14 | 15 => {
-                let mut lines: Vec<Vec<u8>> = b
-                    .split_inclusive(|&c| c == b'\n')
-                    .map(<[u8]>::to_vec)
-                    .collect();
-                if lines.is_empty() {
-                    return;
-                }
-                let i = rng.below(lines.len());
-                match rng.below(3) {
-                    0 => {
-                        let l = lines[i].clone();
-                        let at = rng.below(lines.len() + 1);
-                        lines.insert(at, l);
-                    }
-                    1 => {
-                        lines.remove(i);
-                    }
-                    _ => {
-                        let j = rng.below(lines.len());
-                        lines.swap(i, j);
-                    }
-                }
-                *b = lines.concat();
-            }
+            14 | 15 => line_operation(rng, b),
             // The chosen mutation needs bytes that are not there: grow instead.
             _ => b.push(*rng.pick(INTERESTING_BYTES)),
         }
     }
+}
+
+/// An interesting word in 1, 2, 4 or 8 bytes, either byte order, over the bytes at a random
+/// place (`b` not empty).
+fn write_word(rng: &mut Rng, b: &mut [u8]) {
+    let len = b.len();
+    let w = *rng.pick(INTERESTING_WORDS);
+    let n = [1, 2, 4, 8][rng.below(4)];
+    let bytes = if rng.one_in(2) {
+        w.to_le_bytes()
+    } else {
+        w.to_be_bytes()
+    };
+    let bytes = if rng.one_in(2) {
+        &bytes[..n]
+    } else {
+        &bytes[8 - n..]
+    };
+    let i = rng.below(len);
+    let end = (i + n).min(len);
+    b[i..end].copy_from_slice(&bytes[..end - i]);
+}
+
+/// A number of `b` replaced by an interesting one (or one inserted where there is none).
+fn replace_number(rng: &mut Rng, b: &mut Vec<u8>) {
+    let len = b.len();
+    let numbers = number_tokens(b);
+    let token = rng.pick(INTERESTING_TEXT).as_bytes().to_vec();
+    if numbers.is_empty() {
+        let i = rng.below(len + 1);
+        b.splice(i..i, token);
+    } else {
+        let (s, e) = *rng.pick(&numbers);
+        b.splice(s..e, token);
+    }
+}
+
+/// Line operations: duplicate, drop or swap lines.
+fn line_operation(rng: &mut Rng, b: &mut Vec<u8>) {
+    let mut lines: Vec<Vec<u8>> = b
+        .split_inclusive(|&c| c == b'\n')
+        .map(<[u8]>::to_vec)
+        .collect();
+    if lines.is_empty() {
+        return;
+    }
+    let i = rng.below(lines.len());
+    match rng.below(3) {
+        0 => {
+            let l = lines[i].clone();
+            let at = rng.below(lines.len() + 1);
+            lines.insert(at, l);
+        }
+        1 => {
+            lines.remove(i);
+        }
+        _ => {
+            let j = rng.below(lines.len());
+            lines.swap(i, j);
+        }
+    }
+    *b = lines.concat();
 }
 
 /// Byte ranges of the numbers in `b` (maximal runs of `0-9 . + - e E` holding a digit).
