@@ -1,7 +1,7 @@
 //! `vrrt bench`: error against cost over a matrix of denoiser configurations × ray budgets ×
 //! signals × scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
 
-use crate::backend::BackendKind;
+use crate::backend::{Backend, BackendKind};
 use crate::limits::LimitArgs;
 use crate::outdir::OutDir;
 use crate::page::Page;
@@ -9,8 +9,8 @@ use crate::plot::{self, Curve};
 use crate::progress;
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
-    self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, References,
-    SequenceOptions, SignalKind,
+    self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, LoadedScene,
+    References, SequenceOptions, SignalKind,
 };
 use anyhow::{bail, Result};
 use std::fmt::Write as _;
@@ -242,6 +242,124 @@ fn or_default<T: PartialEq + Clone>(given: &[T], default: &[T]) -> Vec<T> {
     }
 }
 
+/// Says whether OIDN is installed (it is not yet part of the matrix).
+fn print_oidn() {
+    match which("oidnDenoise") {
+        Some(p) => println!(
+            "OIDN: found at {} (not yet part of the matrix)",
+            p.display()
+        ),
+        None => println!("OIDN: not installed (pip install pyoidn==2.5.1 provides oidnDenoise)"),
+    }
+}
+
+/// One cell of the matrix to measure: a scene and signal on a backend, `repeats` times.
+struct CellRun<'a> {
+    scene: &'a LoadedScene,
+    backend: &'a str,
+    kind: SignalKind,
+    repeats: u32,
+}
+
+impl CellRun<'_> {
+    /// Renders the cell's sequence `repeats` times (the first measured, the others timed only)
+    /// and summarises it: errors from the first, the median time over all.
+    fn measure(
+        &self,
+        exec: &mut Backend,
+        mut opts: SequenceOptions,
+        refs: &References,
+        page: &mut Page,
+    ) -> Result<Cell> {
+        let mut ms = Vec::new();
+        let mut first = None;
+        let mut shots = page.sequence(exec, self.scene, &opts);
+        for _ in 0..self.repeats {
+            let r = session::run_sequence(exec, self.scene, &opts, refs, |v| shots.frame(v))?;
+            ms.push(r.mean_of(|f| f.ms_frame));
+            first.get_or_insert(r);
+            opts.measure = false;
+        }
+        let r = first.expect("at least one repeat");
+        ms.sort_by(f64::total_cmp);
+        let s = r.summary();
+        Ok(Cell {
+            scene: self.scene.key.clone(),
+            signal: self.kind,
+            config: opts.config,
+            budget: opts.rpp,
+            backend: self.backend.to_string(),
+            size: opts.size,
+            frames: opts.frames,
+            relmse: s.mean_rel_mse,
+            psnr: s.psnr_of_mean_mse,
+            ssim: s.mean_ssim,
+            flip: r.mean_of(|f| f.flip),
+            temporal: s.temporal.unwrap_or(f64::NAN),
+            moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
+            fresh_relmse: r.fresh_relmse(),
+            detector_rays_per_frame: r.mean_of(|f| f.detector_rays as f64),
+            static_relmse: r.mean_of(|f| f.static_relmse),
+            detection: r.detection(),
+            rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
+            max_overshoot: r
+                .records
+                .iter()
+                .map(|f| f.overshoot())
+                .fold(f64::NEG_INFINITY, f64::max),
+            ms_per_frame: ms[ms.len() / 2],
+            ms_spread: ms[ms.len() - 1] - ms[0],
+            passes: r.pass_means(&r.records),
+            raw_relmse: r.mean_of(|f| f.raw_relmse),
+            error_spectrum: spectrum::mean(&r.records, |f| &f.error_spectrum),
+            raw_spectrum: spectrum::mean(&r.records, |f| &f.raw_spectrum),
+        })
+    }
+}
+
+/// One line of progress: the cell just measured.
+fn announce(cell: &Cell, started: Instant) {
+    progress::println(&format!(
+        "{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
+        cell.scene,
+        cell.signal.name(),
+        cell.config.name(),
+        cell.budget,
+        cell.backend,
+        fmt(cell.relmse, 6),
+        cell.ms_per_frame,
+        started.elapsed().as_secs_f64()
+    ));
+}
+
+/// Writes `bench.csv`, `bench.md`, `spectrum.csv`, the plots and the page, and prints the
+/// tables.
+fn write_results(
+    out: &OutDir,
+    page: &mut Page,
+    cells: &[Cell],
+    started: Instant,
+    dir: &std::path::Path,
+) -> Result<()> {
+    let csv = bench_csv(cells);
+    let md = bench_md(cells) + &adaptive_md(cells) + &oracle_md(cells);
+    out.write("bench.csv", csv.as_bytes())?;
+    out.write("bench.md", md.as_bytes())?;
+    out.write("spectrum.csv", spectrum::csv(cells).as_bytes())?;
+    if let Err(e) = plots(out, cells) {
+        eprintln!("warning: plots not written: {e:#}");
+    }
+    page.write()?;
+    println!("{md}");
+    println!(
+        "{} cells in {:.1} s; results in {}",
+        cells.len(),
+        started.elapsed().as_secs_f64(),
+        dir.display()
+    );
+    Ok(())
+}
+
 /// Configurations of the quick matrix for signals other than AO: the SVGF baseline, VRRT and its
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
@@ -287,13 +405,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let out = std::rc::Rc::new(OutDir::prepare(&args.out, "bench")?);
     let mut page = Page::new(out.clone(), !args.no_page);
 
-    match which("oidnDenoise") {
-        Some(p) => println!(
-            "OIDN: found at {} (not yet part of the matrix)",
-            p.display()
-        ),
-        None => println!("OIDN: not installed (pip install pyoidn==2.5.1 provides oidnDenoise)"),
-    }
+    print_oidn();
 
     let started = Instant::now();
     let mut cells = Vec::new();
@@ -323,7 +435,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 };
                 for &config in configs {
                     for &budget in &budgets {
-                        let mut opts = SequenceOptions {
+                        let opts = SequenceOptions {
                             size,
                             frames,
                             signal: kind.signal(args.ao_radius, file.reflections),
@@ -334,62 +446,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             overlays: false,
                             measure: true,
                         };
-                        let mut ms = Vec::new();
-                        let mut first = None;
-                        let mut shots = page.sequence(&exec, scene, &opts);
-                        for _ in 0..repeats {
-                            let r = session::run_sequence(&mut exec, scene, &opts, &refs, |v| {
-                                shots.frame(v)
-                            })?;
-                            ms.push(r.mean_of(|f| f.ms_frame));
-                            first.get_or_insert(r);
-                            opts.measure = false;
-                        }
-                        let r = first.expect("at least one repeat");
-                        ms.sort_by(f64::total_cmp);
-                        let s = r.summary();
-                        let cell = Cell {
-                            scene: scene.key.clone(),
-                            signal: kind,
-                            config,
-                            budget,
-                            backend: backend.clone(),
-                            size,
-                            frames,
-                            relmse: s.mean_rel_mse,
-                            psnr: s.psnr_of_mean_mse,
-                            ssim: s.mean_ssim,
-                            flip: r.mean_of(|f| f.flip),
-                            temporal: s.temporal.unwrap_or(f64::NAN),
-                            moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
-                            fresh_relmse: r.fresh_relmse(),
-                            detector_rays_per_frame: r.mean_of(|f| f.detector_rays as f64),
-                            static_relmse: r.mean_of(|f| f.static_relmse),
-                            detection: r.detection(),
-                            rays_per_frame: r.mean_of(|f| f.rays_traced as f64),
-                            max_overshoot: r
-                                .records
-                                .iter()
-                                .map(|f| f.overshoot())
-                                .fold(f64::NEG_INFINITY, f64::max),
-                            ms_per_frame: ms[ms.len() / 2],
-                            ms_spread: ms[ms.len() - 1] - ms[0],
-                            passes: r.pass_means(&r.records),
-                            raw_relmse: r.mean_of(|f| f.raw_relmse),
-                            error_spectrum: spectrum::mean(&r.records, |f| &f.error_spectrum),
-                            raw_spectrum: spectrum::mean(&r.records, |f| &f.raw_spectrum),
+                        let run = CellRun {
+                            scene,
+                            backend: &backend,
+                            kind,
+                            repeats,
                         };
-                        progress::println(&format!(
-                            "{} {} {} {} rpp on {}: relMSE {}, {:.1} ms/frame ({:.0} s elapsed)",
-                            cell.scene,
-                            kind.name(),
-                            config.name(),
-                            budget,
-                            backend,
-                            fmt(cell.relmse, 6),
-                            cell.ms_per_frame,
-                            started.elapsed().as_secs_f64()
-                        ));
+                        let cell = run.measure(&mut exec, opts, &refs, &mut page)?;
+                        announce(&cell, started);
                         cells.push(cell);
                     }
                 }
@@ -401,23 +465,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         bail!("no backend could be opened");
     }
 
-    let csv = bench_csv(&cells);
-    let md = bench_md(&cells) + &adaptive_md(&cells) + &oracle_md(&cells);
-    out.write("bench.csv", csv.as_bytes())?;
-    out.write("bench.md", md.as_bytes())?;
-    out.write("spectrum.csv", spectrum::csv(&cells).as_bytes())?;
-    if let Err(e) = plots(&out, &cells) {
-        eprintln!("warning: plots not written: {e:#}");
-    }
-    page.write()?;
-    println!("{md}");
-    println!(
-        "{} cells in {:.1} s; results in {}",
-        cells.len(),
-        started.elapsed().as_secs_f64(),
-        args.out.display()
-    );
-    Ok(())
+    write_results(&out, &mut page, &cells, started, &args.out)
 }
 
 fn which(program: &str) -> Option<PathBuf> {

@@ -14,9 +14,9 @@ use std::time::Instant;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::plan::Executor;
 use vrrt_core::settings::Settings;
-use vrrt_scene::image::ImageRef;
+use vrrt_scene::image::{Image, ImageRef};
 use vrrt_scene::metrics::{self, SequenceMetrics};
-use vrrt_scene::render::{Readback, Renderer, Signal};
+use vrrt_scene::render::{FrameOutput, Readback, Renderer, Signal};
 
 /// What one sequence renders.
 #[derive(Clone, Debug)]
@@ -129,58 +129,8 @@ pub fn run_sequence(
             )
             .map_err(|e| anyhow!("rendering frame {i}: {e}"))?;
         let ms_frame = start.elapsed().as_secs_f64() * 1e3;
-        let mut per_pass: HashMap<&'static str, f64> = HashMap::new();
-        let mut order = Vec::new();
-        for t in rec.timings() {
-            if !per_pass.contains_key(t.entry) {
-                order.push(t.entry);
-            }
-            *per_pass.entry(t.entry).or_default() += t.ms;
-            if !pass_names.contains(&t.entry) {
-                pass_names.push(t.entry);
-            }
-        }
-        let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
-        let all_tiles: u32 = out.tiles.iter().sum();
-        let mut record = FrameRecord {
-            prepass_ran: out.gradient_ran,
-            filter_skipped: if configured == 0 {
-                0.0
-            } else {
-                1.0 - run as f64 / configured as f64
-            },
-            empty_tiles: if all_tiles == 0 {
-                0.0
-            } else {
-                out.tiles[0] as f64 / all_tiles as f64
-            },
-            signal_absent: out.signal_absent,
-            frame: i,
-            rays_traced: out.rays_traced,
-            budget: out.budget,
-            requested: out.requested,
-            granted: out.granted,
-            ms_frame,
-            budget_rpp: out.rays_per_pixel as f64,
-            trace_ms: out.trace_ms,
-            passes: order.iter().map(|&p| (p, per_pass[p])).collect(),
-            relmse: f64::NAN,
-            rmse: f64::NAN,
-            psnr: f64::NAN,
-            ssim: f64::NAN,
-            flip: f64::NAN,
-            temporal: f64::NAN,
-            moving_relmse: f64::NAN,
-            raw_relmse: f64::NAN,
-            fresh_relmse: f64::NAN,
-            fresh_pixels: 0,
-            static_relmse: f64::NAN,
-            detection: None,
-            detector_rays: out.gradient_rays / frame_planes as u64,
-            part_relmse: Vec::new(),
-            error_spectrum: Default::default(),
-            raw_spectrum: Default::default(),
-        };
+        let passes = pass_times(rec.timings(), &mut pass_names);
+        let mut record = new_record(i, &out, ms_frame, passes, &settings, frame_planes);
         let fresh = fresh_mask(&out.flags, out.reset);
         if let (Some(o), false) = (&oracle, out.changes.is_empty()) {
             record.detection = Some(Detection::score(&out.changes, o));
@@ -201,37 +151,8 @@ pub fn run_sequence(
             // Kept for the oracle's next frame even when this repeat measures nothing.
             let measured_reference = reference.as_ref().filter(|_| opts.measure);
             if let Some(r) = measured_reference {
-                let mask = moving_mask(&out.flags, &r.image, prev.as_ref().map(|p| &p.image));
-                let fm = p
-                    .metrics
-                    .push(test.view(), r.image.view(), Some(&mask))
-                    .context("metrics")?;
-                let rm = p
-                    .raw_metrics
-                    .push(raw.view(), r.image.view(), None)
-                    .context("metrics")?;
-                let spectra = [
-                    metrics::error_spectrum(test.view(), r.image.view()).context("metrics")?,
-                    metrics::error_spectrum(raw.view(), r.image.view()).context("metrics")?,
-                ];
-                let fresh_error = metrics::masked_error(test.view(), r.image.view(), &fresh)
-                    .context("metrics")?;
-                let still: Vec<bool> = mask.iter().map(|m| !m).collect();
-                let static_error = metrics::masked_error(test.view(), r.image.view(), &still)
-                    .context("metrics")?;
-                measured.push(PartError {
-                    relmse: fm.metrics.rel_mse,
-                    rmse: fm.metrics.rmse,
-                    mse: fm.metrics.mse,
-                    ssim: fm.metrics.ssim,
-                    flip: flip(test.view(), r.image.view()),
-                    temporal: fm.temporal.unwrap_or(f64::NAN),
-                    moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
-                    raw_relmse: rm.metrics.rel_mse,
-                    fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
-                    static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
-                    spectra,
-                });
+                let (error, mask) = measure_part(p, &test, &raw, r, prev.as_ref(), &out, &fresh)?;
+                measured.push(error);
                 moving = Some(mask);
             }
             frames.push(PartFrame {
@@ -243,25 +164,7 @@ pub fn run_sequence(
             });
             references_kept.push(reference);
         }
-        if !measured.is_empty() {
-            let avg = |v: fn(&PartError) -> f64| mean_finite(measured.iter().map(v));
-            record.relmse = avg(|e| e.relmse);
-            record.rmse = avg(|e| e.rmse);
-            record.psnr = metrics::psnr_from_mse(avg(|e| e.mse));
-            record.ssim = avg(|e| e.ssim);
-            record.flip = avg(|e| e.flip);
-            record.temporal = avg(|e| e.temporal);
-            record.moving_relmse = avg(|e| e.moving_relmse);
-            record.raw_relmse = avg(|e| e.raw_relmse);
-            record.fresh_relmse = mean_finite(measured.iter().filter_map(|e| e.fresh.map(|f| f.0)));
-            record.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
-            record.static_relmse = avg(|e| e.static_relmse);
-            record.part_relmse = measured.iter().map(|e| e.relmse).collect();
-            record.error_spectrum =
-                metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[0]));
-            record.raw_spectrum =
-                metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[1]));
-        }
+        record.set_errors(&measured);
         on_frame(&FrameView {
             record: &record,
             output: &out,
@@ -275,6 +178,148 @@ pub fn run_sequence(
         parts,
         pass_names,
     })
+}
+
+/// Each pass's time in this frame's `timings` (dispatches of one entry summed), in the order
+/// they first ran; entries not seen before join `pass_names`.
+fn pass_times(
+    timings: &[vrrt_core::plan::PassTiming],
+    pass_names: &mut Vec<&'static str>,
+) -> Vec<(&'static str, f64)> {
+    let mut per_pass: HashMap<&'static str, f64> = HashMap::new();
+    let mut order = Vec::new();
+    for t in timings {
+        if !per_pass.contains_key(t.entry) {
+            order.push(t.entry);
+        }
+        *per_pass.entry(t.entry).or_default() += t.ms;
+        if !pass_names.contains(&t.entry) {
+            pass_names.push(t.entry);
+        }
+    }
+    order.iter().map(|&p| (p, per_pass[p])).collect()
+}
+
+/// The record of frame `i` from what the renderer reported, its errors not yet measured (NaN).
+fn new_record(
+    i: u32,
+    out: &FrameOutput,
+    ms_frame: f64,
+    passes: Vec<(&'static str, f64)>,
+    settings: &Settings,
+    frame_planes: usize,
+) -> FrameRecord {
+    let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
+    let all_tiles: u32 = out.tiles.iter().sum();
+    FrameRecord {
+        prepass_ran: out.gradient_ran,
+        filter_skipped: if configured == 0 {
+            0.0
+        } else {
+            1.0 - run as f64 / configured as f64
+        },
+        empty_tiles: if all_tiles == 0 {
+            0.0
+        } else {
+            out.tiles[0] as f64 / all_tiles as f64
+        },
+        signal_absent: out.signal_absent,
+        frame: i,
+        rays_traced: out.rays_traced,
+        budget: out.budget,
+        requested: out.requested,
+        granted: out.granted,
+        ms_frame,
+        budget_rpp: out.rays_per_pixel as f64,
+        trace_ms: out.trace_ms,
+        passes,
+        relmse: f64::NAN,
+        rmse: f64::NAN,
+        psnr: f64::NAN,
+        ssim: f64::NAN,
+        flip: f64::NAN,
+        temporal: f64::NAN,
+        moving_relmse: f64::NAN,
+        raw_relmse: f64::NAN,
+        fresh_relmse: f64::NAN,
+        fresh_pixels: 0,
+        static_relmse: f64::NAN,
+        detection: None,
+        detector_rays: out.gradient_rays / frame_planes as u64,
+        part_relmse: Vec::new(),
+        error_spectrum: Default::default(),
+        raw_spectrum: Default::default(),
+    }
+}
+
+impl FrameRecord {
+    /// The frame's errors: the means over the parts measured (none measured: left NaN).
+    fn set_errors(&mut self, measured: &[PartError]) {
+        if measured.is_empty() {
+            return;
+        }
+        let avg = |v: fn(&PartError) -> f64| mean_finite(measured.iter().map(v));
+        self.relmse = avg(|e| e.relmse);
+        self.rmse = avg(|e| e.rmse);
+        self.psnr = metrics::psnr_from_mse(avg(|e| e.mse));
+        self.ssim = avg(|e| e.ssim);
+        self.flip = avg(|e| e.flip);
+        self.temporal = avg(|e| e.temporal);
+        self.moving_relmse = avg(|e| e.moving_relmse);
+        self.raw_relmse = avg(|e| e.raw_relmse);
+        self.fresh_relmse = mean_finite(measured.iter().filter_map(|e| e.fresh.map(|f| f.0)));
+        self.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
+        self.static_relmse = avg(|e| e.static_relmse);
+        self.part_relmse = measured.iter().map(|e| e.relmse).collect();
+        self.error_spectrum = metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[0]));
+        self.raw_spectrum = metrics::ErrorSpectrum::mean(measured.iter().map(|e| &e.spectra[1]));
+    }
+}
+
+/// Part `p`'s errors in this frame (its denoised `test` and `raw` samples against the reference
+/// `r`, last frame's `prev` for the moving mask), pushed to its sequence metrics, and the moving
+/// mask.
+fn measure_part(
+    p: &mut PartMetrics,
+    test: &Image,
+    raw: &Image,
+    r: &FrameReference,
+    prev: Option<&FrameReference>,
+    out: &FrameOutput,
+    fresh: &[bool],
+) -> Result<(PartError, Vec<bool>)> {
+    let mask = moving_mask(&out.flags, &r.image, prev.map(|p| &p.image));
+    let fm = p
+        .metrics
+        .push(test.view(), r.image.view(), Some(&mask))
+        .context("metrics")?;
+    let rm = p
+        .raw_metrics
+        .push(raw.view(), r.image.view(), None)
+        .context("metrics")?;
+    let spectra = [
+        metrics::error_spectrum(test.view(), r.image.view()).context("metrics")?,
+        metrics::error_spectrum(raw.view(), r.image.view()).context("metrics")?,
+    ];
+    let fresh_error =
+        metrics::masked_error(test.view(), r.image.view(), fresh).context("metrics")?;
+    let still: Vec<bool> = mask.iter().map(|m| !m).collect();
+    let static_error =
+        metrics::masked_error(test.view(), r.image.view(), &still).context("metrics")?;
+    let error = PartError {
+        relmse: fm.metrics.rel_mse,
+        rmse: fm.metrics.rmse,
+        mse: fm.metrics.mse,
+        ssim: fm.metrics.ssim,
+        flip: flip(test.view(), r.image.view()),
+        temporal: fm.temporal.unwrap_or(f64::NAN),
+        moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
+        raw_relmse: rm.metrics.rel_mse,
+        fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
+        static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
+        spectra,
+    };
+    Ok((error, mask))
 }
 
 /// One part's error in one frame, before the means over parts of [`FrameRecord`].

@@ -26,6 +26,37 @@ impl Denoiser {
     /// Passes before raygen: reprojection (with ray requests), bucket counting, load balancing
     /// and apply. Afterwards [`Self::work`] and [`Self::args`] say what to trace.
     pub fn plan_rays<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let importance_group = self.importance_group();
+        self.reproject(exec, importance_group)?;
+        self.count_buckets(exec)?;
+        self.balance(exec, importance_group)?;
+        self.trim(exec)?;
+        let (w, h, groups) = (self.width, self.height, self.settings.groups());
+        let app = self.apply_params();
+        let apply = kernels::ApplyBindings {
+            requests: self.requests,
+            decision: self.decision,
+            noise: self.noise,
+            work: self.work(),
+            args: self.args,
+            samples: self.samples,
+        };
+        exec.dispatch(&apply.over_grid(&app, w, h, groups))
+    }
+
+    /// The group whose requests the reflections' tile importance scales: they are no longer a
+    /// history's deficit, which the balancer's shift assumes (`balance::MODE_SHIFT`).
+    fn importance_group(&self) -> u32 {
+        let s = &self.settings;
+        self.frame
+            .importance_plane
+            .map_or(reproject::NO_GROUP, |z| {
+                kernels::plane_group(s.plane_groups, z)
+            })
+    }
+
+    /// Reprojection, with each pixel's ray request.
+    fn reproject<E: Executor>(&self, exec: &mut E, importance_group: u32) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h) = (self.width, self.height);
         let vrrt = s.rates.supersample_target > 0.0;
@@ -41,14 +72,6 @@ impl Denoiser {
         } else {
             s.rates.rays_per_pixel
         };
-        // The group whose requests the reflections' tile importance scales: they are no longer
-        // a history's deficit, which the balancer's shift assumes (`balance::MODE_SHIFT`).
-        let importance_group = self
-            .frame
-            .importance_plane
-            .map_or(reproject::NO_GROUP, |z| {
-                kernels::plane_group(s.plane_groups, z)
-            });
         let params = reproject::ReprojectParams {
             width: w,
             height: h,
@@ -106,8 +129,13 @@ impl Denoiser {
             requests: self.requests,
         };
         exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;
+        Ok(())
+    }
 
-        let groups = s.groups();
+    /// The bucket histogram of each plane group's requests.
+    fn count_buckets<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
+        let (w, h) = (self.width, self.height);
+        let groups = self.settings.groups();
         let clear = fill::FillParams {
             len: groups * buckets::COUNTS_LEN,
             value: 0,
@@ -123,7 +151,13 @@ impl Denoiser {
             counts: self.counts,
         };
         exec.dispatch(&buckets.over_grid(&count, w, h, groups))?;
+        Ok(())
+    }
 
+    /// The load balancer: each plane group's rates for this frame's budget.
+    fn balance<E: Executor>(&self, exec: &mut E, importance_group: u32) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, groups) = (self.width, self.height, s.groups());
         let bal = balance::BalanceParams {
             rays_per_pixel: frame_budget(&s.rates, self.since_reset, self.reset_refill_on()),
             ring_count: buckets::ring_count(w, h),
@@ -144,18 +178,7 @@ impl Denoiser {
             refill: self.refill_args,
         };
         exec.dispatch(&balance.pass(&bal, Groups::Direct([1, 1, 1])))?;
-
-        self.trim(exec)?;
-        let app = self.apply_params();
-        let apply = kernels::ApplyBindings {
-            requests: self.requests,
-            decision: self.decision,
-            noise: self.noise,
-            work: self.work(),
-            args: self.args,
-            samples: self.samples,
-        };
-        exec.dispatch(&apply.over_grid(&app, w, h, groups))
+        Ok(())
     }
 
     /// The balancer's policy: the SVGF baseline's fixed rate without VRRT requests, balanced

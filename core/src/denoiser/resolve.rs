@@ -168,6 +168,14 @@ impl Denoiser {
     /// iterations.
     pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         self.detect(exec, false)?;
+        self.accumulate(exec)?;
+        self.estimate_variance(exec)?;
+        self.penumbra_guide(exec)?;
+        self.filter(exec)
+    }
+
+    /// Accumulation of this frame's samples into the reprojected history.
+    fn accumulate<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
         let s = self.settings;
         let (w, h, planes) = (self.width, self.height, s.planes);
         let changes = self.changes_buffer();
@@ -219,8 +227,13 @@ impl Denoiser {
                 self.unread[1]
             },
         };
-        exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))?;
+        exec.dispatch(&accumulate.over_grid(&acc, w, h, planes))
+    }
 
+    /// Variance estimation into the filter's input, then the tiles' classification.
+    fn estimate_variance<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
         // The variance pass gathers each tile's worst variance, the classification turns it into
         // iterations and counts them: both start from zero.
         let (tw, th) = classify::tile_grid(w, h);
@@ -268,8 +281,13 @@ impl Denoiser {
             tiles: self.tiles,
             histogram: self.tile_histogram,
         };
-        exec.dispatch(&classify.over_grid(&cls, tw, th, 1))?;
+        exec.dispatch(&classify.over_grid(&cls, tw, th, 1))
+    }
 
+    /// The shadows' penumbra guide, where a plane takes it.
+    fn penumbra_guide<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h) = (self.width, self.height);
         if let Some(plane) = s.penumbra_plane {
             let p = penumbra::PenumbraParams {
                 width: w,
@@ -286,7 +304,15 @@ impl Denoiser {
             };
             exec.dispatch(&guide.over_grid(&p, w, h, 1))?;
         }
+        Ok(())
+    }
 
+    /// The à-trous iterations, ping-ponging between the two filter buffers (`out` says which
+    /// holds the result).
+    fn filter<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        let s = self.settings;
+        let (w, h, planes) = (self.width, self.height, s.planes);
+        let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
         self.out = 0;
         for i in 0..s.filter.atrous_iterations {
             let params = atrous::AtrousParams {
