@@ -140,6 +140,46 @@ fn clamp_history(
     }
 }
 
+/// The detector's drops, second-guessed by the pixel's own rays on the planes that ask for it:
+/// the reflections' unconfirmed drops keep their history, the shadows' verified changes drop
+/// it. `prev` is the reprojected history already shortened by `λ`.
+#[inline(always)]
+fn second_opinions<const N: usize>(
+    p: &AccumulateParams,
+    z: u32,
+    curr: &[Sample; N],
+    stored: &PayloadLanes<N>,
+    lambda: Lanes<f32, N>,
+    threshold: f32,
+    prev: &mut PayloadLanes<N>,
+) {
+    // The reflections' drops: the detector's 1σ window often reads noise as a change, and
+    // dropping a converged reflection by chance costs more than the lag of one unconfirmed drop.
+    // A pixel the detector drops has rays of its own (the refill lists give them); they decide.
+    // A uniform branch, like the one below.
+    if p.confirm_sigma > 0.0 && super::plane_in(p.confirm_planes, z) {
+        lanes::each_lane!(l in N {
+            let (c, m) = (curr[l], stored.lane(l));
+            if lambda.0[l] > threshold
+                && c.rays > 0
+                && detect::pixel_z(c, m, p.min_variance) < p.confirm_sigma
+            {
+                prev.count.0[l] = m.count;
+            }
+        });
+    }
+    // The shadows' verified pixels ([`super::refill`]): a uniform branch, so the other planes
+    // pay nothing for the test.
+    if p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
+        lanes::each_lane!(l in N {
+            let c = curr[l];
+            if c.rays >= 2 && detect::pixel_z(c, stored.lane(l), p.min_variance) >= p.drop_sigma {
+                prev.count.0[l] = 0.0;
+            }
+        });
+    }
+}
+
 /// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
 /// `history = merge(history, samples)`, in place.
 #[inline(always)]
@@ -201,30 +241,8 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
             prev.count.0[l] = shortened;
         }
     });
-    // The reflections' drops: the detector's 1σ window often reads noise as a change, and
-    // dropping a converged reflection by chance costs more than the lag of one unconfirmed drop.
-    // A pixel the detector drops has rays of its own (the refill lists give them); they decide.
-    // A uniform branch, like the one below.
-    if p.use_changes != 0 && p.confirm_sigma > 0.0 && super::plane_in(p.confirm_planes, id.z) {
-        lanes::each_lane!(l in N {
-            let (c, m) = (curr[l], stored.lane(l));
-            if lambda.0[l] > threshold
-                && c.rays > 0
-                && detect::pixel_z(c, m, p.min_variance) < p.confirm_sigma
-            {
-                prev.count.0[l] = m.count;
-            }
-        });
-    }
-    // The shadows' verified pixels ([`super::refill`]): a uniform branch, so the other planes
-    // pay nothing for the test.
-    if p.use_changes != 0 && p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, id.z) {
-        lanes::each_lane!(l in N {
-            let c = curr[l];
-            if c.rays >= 2 && detect::pixel_z(c, stored.lane(l), p.min_variance) >= p.drop_sigma {
-                prev.count.0[l] = 0.0;
-            }
-        });
+    if p.use_changes != 0 {
+        second_opinions(p, id.z, &curr, &stored, lambda, threshold, &mut prev);
     }
     let surface = p.surface_clamp_radius > 0 && super::plane_in(p.surface_clamp_planes, id.z);
     let radius = if surface {

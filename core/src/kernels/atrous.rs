@@ -205,7 +205,38 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         normal_power,
     };
     let symmetric = super::plane_in(p.symmetric_planes, id.z);
-    let mut sum = value;
+    let (sum, sum_var, sum_w) = filter_taps(
+        input,
+        depth,
+        normal_roughness,
+        guide,
+        &c,
+        variance,
+        symmetric,
+    );
+    let filtered = payload::pack_filtered(
+        sum.zip(sum_w, |sum, s| sum / s),
+        sum_var.zip(sum_w, |sum_var, s| sum_var / (s * s)),
+    );
+    filtered
+        .select(pass.map(|p| !p), packed)
+        .store(out, (plane_row + id.x) as usize, live);
+}
+
+/// The weighted sums over the centre `c`'s 24 taps, the centre's own sample (`variance`)
+/// included at weight 1: value, variance (squared weights) and weight. On `symmetric` planes
+/// the taps count in point-symmetric pairs.
+#[inline(always)]
+fn filter_taps<const N: usize>(
+    input: &[PackedFiltered],
+    depth: &[f32],
+    normal_roughness: &[u32],
+    guide: &[f32],
+    c: &Centre<N>,
+    variance: Lanes<f32, N>,
+    symmetric: bool,
+) -> (Lanes<f32, N>, Lanes<f32, N>, Lanes<f32, N>) {
+    let mut sum = c.value;
     let mut sum_var = variance;
     let mut sum_w = Lanes::<f32, N>::splat(1.0);
     let mut ty = -2;
@@ -214,7 +245,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         while tx <= 2 {
             if !symmetric {
                 if tx != 0 || ty != 0 {
-                    let t = tap(input, depth, normal_roughness, guide, &c, tx, ty);
+                    let t = tap(input, depth, normal_roughness, guide, c, tx, ty);
                     let w_n = t.cosine2.pow(0.5 * c.normal_power);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
@@ -229,8 +260,8 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
                 // The pair (tx, ty), (-tx, -ty): both or neither, at one weight, the geometric
                 // mean of theirs. Their B3 weights are equal, so it is
                 // `tw · ((n·a)²(n·b)²)^(p/4) · exp(−(e_a + e_b)/2)`: one power, one exponential.
-                let a = tap(input, depth, normal_roughness, guide, &c, tx, ty);
-                let b = tap(input, depth, normal_roughness, guide, &c, -tx, -ty);
+                let a = tap(input, depth, normal_roughness, guide, c, tx, ty);
+                let b = tap(input, depth, normal_roughness, guide, c, -tx, -ty);
                 let w_n = a
                     .cosine2
                     .zip(b.cosine2, |a, b| a * b)
@@ -249,13 +280,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         }
         ty += 1;
     }
-    let filtered = payload::pack_filtered(
-        sum.zip(sum_w, |sum, s| sum / s),
-        sum_var.zip(sum_w, |sum_var, s| sum_var / (s * s)),
-    );
-    filtered
-        .select(pass.map(|p| !p), packed)
-        .store(out, (plane_row + id.x) as usize, live);
+    (sum, sum_var, sum_w)
 }
 
 /// What every tap of a pixel compares itself with, and the iteration's parameters.

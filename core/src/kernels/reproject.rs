@@ -296,6 +296,162 @@ fn footprint<const N: usize>(
     f
 }
 
+/// The bilinear blend of the valid texels of footprint `f` in the history plane starting at
+/// `plane` (module docs: empty texels rejected one by one; the rng index from the texel of
+/// largest weight, `frame_index` where none), unnormalised, and the weights' sum.
+#[inline(always)]
+fn blend_history<const N: usize>(
+    history: &[PackedPayload],
+    f: &Footprint<N>,
+    plane: u32,
+    frame_index: u32,
+) -> (PayloadLanes<N>, Lanes<f32, N>) {
+    // Sums start at +0, so masked adds give the bits of adding only the used texels.
+    let zero = Lanes::<f32, N>::splat(0.0);
+    let (mut m1, mut m2, mut count, mut sum_w, mut best_w) = (zero, zero, zero, zero, zero);
+    let mut rng_index = Lanes::<u32, N>::splat(frame_index);
+    let mut k = 0;
+    while k < 4 {
+        let index = f.texel[k].map(|t| plane + t);
+        let hk = PayloadLanes::unpack(Lanes::<PackedPayload, N>::gather(history, index));
+        // Empty texels (undersampled, never traced) are rejected one by one.
+        let wk = f.bilinear[k].zip(hk.count, |b, c| if b > 0.0 && c >= 1.0 { b } else { 0.0 });
+        let used = wk.map(|w| w > 0.0);
+        m1 = m1.add_where(used, wk.zip(hk.m1, |w, m| w * m));
+        m2 = m2.add_where(used, wk.zip(hk.m2, |w, m| w * m));
+        count = count.add_where(used, wk.zip(hk.count, |w, c| w * c));
+        sum_w = sum_w.add_where(used, wk);
+        let best = wk.zip(best_w, |w, b| w > b);
+        best_w = wk.select(best, best_w);
+        rng_index = hk.rng_index.select(best, rng_index);
+        k += 1;
+    }
+    let sums = PayloadLanes {
+        m1,
+        m2,
+        count,
+        rng_index,
+    };
+    (sums, sum_w)
+}
+
+/// The temporal gradient's `λ` (scaled, at most 1) of plane `z` at the cells of pixels `xs` of
+/// row `y`; 0 without a gradient this frame.
+#[inline(always)]
+fn plane_lambda<const N: usize>(
+    gradient: &[GradientSample],
+    xs: Lanes<u32, N>,
+    y: u32,
+    z: u32,
+    p: &ReprojectParams,
+) -> Lanes<f32, N> {
+    if p.gradient_stratum == 0 {
+        return Lanes::splat(0.0);
+    }
+    let cell = xs.map(|x| {
+        let (cx, cy) = (x / p.gradient_stratum, y / p.gradient_stratum);
+        super::gradient::cell_index(cx, cy, z, p.gradient_width, p.gradient_height) as u32
+    });
+    Lanes::<GradientSample, N>::gather(gradient, cell)
+        .map(|g| math::min(1.0, g.lambda() * p.gradient_scale))
+}
+
+/// What a plane group's planes gathered of a row of pixels for its request: whether any plane
+/// lost its history, the shortest history and the largest variance.
+struct GroupState<const N: usize> {
+    lost: Lanes<bool, N>,
+    min_count: Lanes<f32, N>,
+    max_variance: Lanes<f32, N>,
+}
+
+/// The request words of a plane group's row of pixels: the bucket of the rate each asks for
+/// (scaled by `scale`; none where not `wanted`), and its flags.
+#[inline(always)]
+fn request_words<const N: usize>(
+    wanted: Lanes<bool, N>,
+    valid: Lanes<bool, N>,
+    g: &GroupState<N>,
+    scale: Lanes<f32, N>,
+    p: &ReprojectParams,
+) -> Lanes<u32, N> {
+    Lanes::<u32, N>::from_index(|l| {
+        let l = l as usize;
+        let bucket = if wanted.0[l] {
+            rate_to_bucket(requested_rate(g.min_count.0[l], g.max_variance.0[l], p) * scale.0[l])
+        } else {
+            super::buckets::NO_RAYS
+        };
+        let flags = if !valid.0[l] {
+            FLAG_SKY
+        } else if g.lost.0[l] {
+            FLAG_DISOCCLUDED
+        } else {
+            0
+        };
+        request_word(bucket, flags)
+    })
+}
+
+/// One plane's reprojected history from its footprint's blend (`sums`, weights `sum_w`) and
+/// its `λ`, and where it was dropped (footprint lost, or changed past the threshold).
+#[inline(always)]
+fn reprojected_plane<const N: usize>(
+    sums: PayloadLanes<N>,
+    sum_w: Lanes<f32, N>,
+    lambda: Lanes<f32, N>,
+    parallax: bool,
+    p: &ReprojectParams,
+) -> (PayloadLanes<N>, Lanes<bool, N>) {
+    let PayloadLanes {
+        m1,
+        m2,
+        count,
+        rng_index,
+    } = sums;
+    // Enough of the footprint was the same surface; the signal changed under the history
+    // (a disocclusion in all but geometry).
+    let kept = sum_w.map(|s| s > p.disocclusion_threshold);
+    let changed = lambda.map(|g| p.gradient_stratum > 0 && g > p.gradient_threshold);
+    let mut reprojected = PayloadLanes {
+        m1,
+        m2,
+        count,
+        rng_index,
+    };
+    lanes::each_lane!(l in N {
+        let s = sum_w.0[l];
+        // A history longer than this frame allows (kept on still frames) is cut back; a
+        // partial footprint keeps its share `s` of it (module docs). Not the reflections'
+        // parallax footprint: the reflected image's motion lands on other surfaces far more
+        // often, and its history is no worse for it (cut, the room's reflections got worse;
+        // see docs/algorithms/change-detector.md).
+        let share = if parallax { 1.0 } else { s };
+        let full = math::min(count.0[l] / s, p.max_history) * share;
+        let count = if changed.0[l] {
+            0.0
+        } else if p.gradient_stratum == 0 {
+            full
+        } else {
+            full * (1.0 - lambda.0[l])
+        };
+        let payload = Payload {
+            m1: m1.0[l] / s,
+            m2: m2.0[l] / s,
+            count,
+            rng_index: rng_index.0[l],
+        };
+        let empty = Payload {
+            m1: 0.0,
+            m2: 0.0,
+            count: 0.0,
+            rng_index: p.frame_index,
+        };
+        reprojected.set(l, if kept.0[l] { payload } else { empty });
+    });
+    let dropped = kept.zip(changed, |kept, changed| !kept || changed);
+    (reprojected, dropped)
+}
+
 /// One call per `N` consecutive pixels of a row ([`crate::lanes`]; the GPU runs `N = 1`); loops
 /// over the signal planes so the geometric tests run once. Writes the reprojected history of
 /// every plane to `out`, and per plane group the pixel's flags and ray request (a bucket) to
@@ -357,77 +513,10 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
     while z < p.planes {
         let f = if z == p.parallax_plane { pfp } else { fp };
         let plane = z * w * h;
-        // Sums start at +0, so masked adds give the bits of adding only the used texels.
-        let zero = Lanes::<f32, N>::splat(0.0);
-        let (mut m1, mut m2, mut count, mut sum_w, mut best_w) = (zero, zero, zero, zero, zero);
-        let mut rng_index = Lanes::<u32, N>::splat(p.frame_index);
-        let mut k = 0;
-        while k < 4 {
-            let index = f.texel[k].map(|t| plane + t);
-            let hk = PayloadLanes::unpack(Lanes::<PackedPayload, N>::gather(history, index));
-            // Empty texels (undersampled, never traced) are rejected one by one.
-            let wk = f.bilinear[k].zip(hk.count, |b, c| if b > 0.0 && c >= 1.0 { b } else { 0.0 });
-            let used = wk.map(|w| w > 0.0);
-            m1 = m1.add_where(used, wk.zip(hk.m1, |w, m| w * m));
-            m2 = m2.add_where(used, wk.zip(hk.m2, |w, m| w * m));
-            count = count.add_where(used, wk.zip(hk.count, |w, c| w * c));
-            sum_w = sum_w.add_where(used, wk);
-            let best = wk.zip(best_w, |w, b| w > b);
-            best_w = wk.select(best, best_w);
-            rng_index = hk.rng_index.select(best, rng_index);
-            k += 1;
-        }
-        let lambda = if p.gradient_stratum > 0 {
-            let cell = xs.map(|x| {
-                let (cx, cy) = (x / p.gradient_stratum, id.y / p.gradient_stratum);
-                super::gradient::cell_index(cx, cy, z, p.gradient_width, p.gradient_height) as u32
-            });
-            Lanes::<GradientSample, N>::gather(gradient, cell)
-                .map(|g| math::min(1.0, g.lambda() * p.gradient_scale))
-        } else {
-            zero
-        };
-        // Enough of the footprint was the same surface; the signal changed under the history
-        // (a disocclusion in all but geometry).
-        let kept = sum_w.map(|s| s > p.disocclusion_threshold);
-        let changed = lambda.map(|g| p.gradient_stratum > 0 && g > p.gradient_threshold);
-        let mut reprojected = PayloadLanes {
-            m1,
-            m2,
-            count,
-            rng_index,
-        };
-        lanes::each_lane!(l in N {
-            let s = sum_w.0[l];
-            // A history longer than this frame allows (kept on still frames) is cut back; a
-            // partial footprint keeps its share `s` of it (module docs). Not the reflections'
-            // parallax footprint: the reflected image's motion lands on other surfaces far more
-            // often, and its history is no worse for it (cut, the room's reflections got worse;
-            // see docs/algorithms/change-detector.md).
-            let share = if z == p.parallax_plane { 1.0 } else { s };
-            let full = math::min(count.0[l] / s, p.max_history) * share;
-            let count = if changed.0[l] {
-                0.0
-            } else if p.gradient_stratum == 0 {
-                full
-            } else {
-                full * (1.0 - lambda.0[l])
-            };
-            let payload = Payload {
-                m1: m1.0[l] / s,
-                m2: m2.0[l] / s,
-                count,
-                rng_index: rng_index.0[l],
-            };
-            let empty = Payload {
-                m1: 0.0,
-                m2: 0.0,
-                count: 0.0,
-                rng_index: p.frame_index,
-            };
-            reprojected.set(l, if kept.0[l] { payload } else { empty });
-        });
-        let dropped = kept.zip(changed, |kept, changed| !kept || changed);
+        let (sums, sum_w) = blend_history(history, &f, plane, p.frame_index);
+        let lambda = plane_lambda(gradient, xs, id.y, z, p);
+        let (reprojected, dropped) =
+            reprojected_plane(sums, sum_w, lambda, z == p.parallax_plane, p);
         lost = lost.zip(dropped, |a, b| a || b);
         min_count = min_count.zip(reprojected.count, math::min);
         max_variance = Lanes::from_index(|l| {
@@ -449,24 +538,12 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
             } else {
                 Lanes::splat(1.0)
             };
-            let word = Lanes::<u32, N>::from_index(|l| {
-                let l = l as usize;
-                let bucket = if wanted.0[l] {
-                    rate_to_bucket(
-                        requested_rate(min_count.0[l], max_variance.0[l], p) * scale.0[l],
-                    )
-                } else {
-                    super::buckets::NO_RAYS
-                };
-                let flags = if !valid.0[l] {
-                    FLAG_SKY
-                } else if lost.0[l] {
-                    FLAG_DISOCCLUDED
-                } else {
-                    0
-                };
-                request_word(bucket, flags)
-            });
+            let state = GroupState {
+                lost,
+                min_count,
+                max_variance,
+            };
+            let word = request_words(wanted, valid, &state, scale, p);
             word.store(
                 requests,
                 group as usize * pixels + pixel_index(id.x, id.y, w),
