@@ -8,15 +8,15 @@ use crate::plot;
 use crate::progress::Progress;
 use crate::session::{
     self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_budget_ms, parse_rpp,
-    parse_size, plane_names, Config, FrameRecord, FrameView, References, SequenceOptions,
-    SignalKind, WARMUP_FRAMES,
+    parse_size, plane_names, Config, FrameRecord, FrameView, LoadedScene, References,
+    SequenceOptions, SequenceResult, SignalKind, WARMUP_FRAMES,
 };
 use crate::settings::SettingsFile;
 use anyhow::{anyhow, bail, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
-use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, ImageRef};
+use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, Image, ImageRef};
 
 /// Options of `vrrt run`.
 #[derive(Clone, Debug, clap::Args)]
@@ -146,31 +146,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let mut last_denoised = Vec::new();
     let mut progress = Progress::new("frame", frames.into(), 10);
     let result = session::run_sequence(&mut exec, &scene, &opts, &refs, |v| {
-        let i = v.record.frame;
-        let several = v.parts.len() > 1;
-        for p in v.parts {
-            // With several parts each has its own files: `frame0007_ao_denoised.png`.
-            let tag = if several {
-                format!("_{}", p.part.name)
-            } else {
-                String::new()
-            };
-            if i % args.every == 0 || i + 1 == frames {
-                let png = |what: &str| out.file(&format!("frame{i:04}{tag}_{what}.png"));
-                write_png(png("denoised")?, p.test.view())?;
-                write_png(png("raw")?, p.raw.view())?;
-                if let Some(r) = &p.reference {
-                    write_png(png("reference")?, r.view())?;
-                }
-            }
-            if i + 1 == frames {
-                last_denoised.push((tag, p.test.clone()));
-            }
-        }
-        if args.overlays {
-            write_overlays(out, v, (w, h))?;
-        }
-        progress.set(u64::from(i) + 1, || {
+        frame_files(out, args, frames, v, &mut last_denoised)?;
+        progress.set(u64::from(v.record.frame) + 1, || {
             format!(
                 "relMSE {}, {} rays, {:.1} ms",
                 fmt(v.record.relmse, 5),
@@ -190,23 +167,83 @@ pub fn run(args: &RunArgs) -> Result<()> {
     exec.warn_validation_errors();
 
     let rs = &result;
-    let mut t = String::new();
-    let row = |t: &mut String, k: &str, v: String| {
-        let _ = writeln!(t, "  {k:<28} {v}");
-    };
-    row(
-        &mut t,
+    let mut t = Table::default();
+    t.row(
         "backend",
         format!("{} — {device}", exec_name(args.backend, &exec)),
     );
     if args.backend == BackendKind::Auto {
-        row(&mut t, "auto chose it because", why);
+        t.row("auto chose it because", why);
     }
-    row(&mut t, "scene", scene.key.clone());
-    row(&mut t, "size", format!("{w}x{h}"));
-    row(&mut t, "frames", frames.to_string());
-    row(
-        &mut t,
+    describe(&mut t, args, &scene, frames, &opts, rpp);
+    quality_rows(&mut t, rs);
+    cost_rows(&mut t, rs, &opts, (w, h));
+    timing_rows(&mut t, rs);
+    t.row("output", out.dir().display().to_string());
+    println!("{}", t.0);
+    Ok(())
+}
+
+/// The summary `vrrt run` prints: one `key value` line per row.
+#[derive(Default)]
+struct Table(String);
+
+impl Table {
+    fn row(&mut self, k: &str, v: String) {
+        self.0.push_str(&format!("  {k:<28} {v}\n"));
+    }
+}
+
+/// Frame `v`'s images: every `--every`th frame's and the last one's PNGs, the overlays when
+/// asked; the last frame's denoised images are kept in `last_denoised` for the EXR.
+fn frame_files(
+    out: &OutDir,
+    args: &RunArgs,
+    frames: u32,
+    v: &FrameView<'_>,
+    last_denoised: &mut Vec<(String, Image)>,
+) -> Result<()> {
+    let i = v.record.frame;
+    let several = v.parts.len() > 1;
+    for p in v.parts {
+        // With several parts each has its own files: `frame0007_ao_denoised.png`.
+        let tag = if several {
+            format!("_{}", p.part.name)
+        } else {
+            String::new()
+        };
+        if i.is_multiple_of(args.every) || i + 1 == frames {
+            let png = |what: &str| out.file(&format!("frame{i:04}{tag}_{what}.png"));
+            write_png(png("denoised")?, p.test.view())?;
+            write_png(png("raw")?, p.raw.view())?;
+            if let Some(r) = &p.reference {
+                write_png(png("reference")?, r.view())?;
+            }
+        }
+        if i + 1 == frames {
+            last_denoised.push((tag, p.test.clone()));
+        }
+    }
+    if args.overlays {
+        write_overlays(out, v, args.size)?;
+    }
+    Ok(())
+}
+
+/// What ran: the scene, size, frames, denoiser and budget, signal and settings file.
+fn describe(
+    t: &mut Table,
+    args: &RunArgs,
+    scene: &LoadedScene,
+    frames: u32,
+    opts: &SequenceOptions,
+    rpp: f32,
+) {
+    let (w, h) = args.size;
+    t.row("scene", scene.key.clone());
+    t.row("size", format!("{w}x{h}"));
+    t.row("frames", frames.to_string());
+    t.row(
         "denoiser / budget",
         if opts.base.rates.budget_ms > 0.0 {
             format!(
@@ -222,8 +259,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         .signal
         .ao_distance()
         .map_or(String::new(), |r| format!(", AO radius {r}"));
-    row(
-        &mut t,
+    t.row(
         "signal",
         format!(
             "{}{ao_radius}; planes {}",
@@ -232,21 +268,23 @@ pub fn run(args: &RunArgs) -> Result<()> {
         ),
     );
     if let Some(path) = &args.settings {
-        row(&mut t, "settings file", path.display().to_string());
+        t.row("settings file", path.display().to_string());
     }
-    row(
-        &mut t,
+}
+
+/// The errors: the output's and the raw input's over the second half, the whole sequence's,
+/// each part's.
+fn quality_rows(t: &mut Table, rs: &SequenceResult) {
+    t.row(
         "relMSE, 2nd half (output)",
         fmt(rs.second_half_mean(|r| r.relmse), 6),
     );
-    row(
-        &mut t,
+    t.row(
         "relMSE, 2nd half (raw input)",
         fmt(rs.second_half_mean(|r| r.raw_relmse), 6),
     );
     let s = rs.summary();
-    row(
-        &mut t,
+    t.row(
         "whole sequence",
         format!(
             "relMSE {}, PSNR {} dB, SSIM {}, FLIP {}, temporal {}, moving relMSE {}",
@@ -261,8 +299,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if rs.parts.len() > 1 {
         for p in &rs.parts {
             let ps = p.metrics.summary();
-            row(
-                &mut t,
+            t.row(
                 &format!("  {}", p.part.name),
                 format!(
                     "relMSE {}, moving relMSE {}, raw relMSE {}",
@@ -276,15 +313,18 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if s.non_finite > 0 {
         eprintln!("warning: {} non-finite output pixels", s.non_finite);
     }
+}
+
+/// What the frames cost in rays: per frame, the tracing time against its budget, the largest
+/// overshoot, and what the adaptive plan skipped.
+fn cost_rows(t: &mut Table, rs: &SequenceResult, opts: &SequenceOptions, (w, h): (u32, u32)) {
     let pixels = (w * h) as f64;
     let rays = rs.mean_of(|r| r.rays_traced as f64);
-    row(
-        &mut t,
+    t.row(
         "rays per frame",
         format!("{rays:.0} ({:.3} per pixel)", rays / pixels),
     );
-    row(
-        &mut t,
+    t.row(
         "ray tracing",
         tracing_summary(&rs.records, opts.base.rates.budget_ms),
     );
@@ -293,16 +333,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
         .iter()
         .map(FrameRecord::overshoot)
         .fold(f64::NEG_INFINITY, f64::max);
-    row(
-        &mut t,
-        "max budget overshoot (rays)",
-        format!("{overshoot:.0}"),
-    );
+    t.row("max budget overshoot (rays)", format!("{overshoot:.0}"));
     let n = rs.records.len().max(1) as f64;
     let budget: f64 = rs.records.iter().map(|r| r.budget).sum();
     let saved: f64 = rs.records.iter().map(FrameRecord::rays_saved).sum();
-    row(
-        &mut t,
+    t.row(
         "adaptive plan",
         format!(
             "prepass ran on {}/{} frames; rays saved {:.1}% of the budget; filter tile-iterations \
@@ -319,11 +354,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
             rs.records.iter().filter(|r| r.signal_absent).count()
         ),
     );
+}
+
+/// Time per frame (warm-up frames left out) and per pass.
+fn timing_rows(t: &mut Table, rs: &SequenceResult) {
     let timed = rs.timed_records();
     let warmup = &rs.records[..rs.records.len() - timed.len()];
     let ms = mean_finite(timed.iter().map(|r| r.ms_frame));
-    row(
-        &mut t,
+    t.row(
         "ms per frame (mean)",
         if warmup.is_empty() {
             format!(
@@ -344,11 +382,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
         },
     );
     for (name, ms) in rs.pass_means(timed) {
-        row(&mut t, &format!("  {name}"), format!("{ms:.3} ms"));
+        t.row(&format!("  {name}"), format!("{ms:.3} ms"));
     }
-    row(&mut t, "output", out.dir().display().to_string());
-    println!("{t}");
-    Ok(())
 }
 
 /// The settings file at `path` (see [`crate::settings`]), or the defaults without one.
