@@ -109,26 +109,8 @@ fn record_into_engine_command_buffer() {
         let want = cpu_counts(&requests, &params, 2 * (frame + 1));
         assert_eq!(gpu, want, "frame {frame}");
     }
-    if ex.adapter_info().timestamps {
-        assert_eq!(timed, 6);
-        assert!(
-            ex.timings().iter().all(|t| t.ms > 0.0),
-            "{:?}",
-            ex.timings()
-        );
-    }
-    // A buffer used by an unretired recording cannot be destroyed.
-    unsafe {
-        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
-            .unwrap();
-        let rec = ex.record_into(cmd, &[pass]).unwrap();
-        d.end_command_buffer(cmd).unwrap();
-        assert!(matches!(
-            ex.destroy_buffer(req),
-            Err(AshError::BufferInUse(_))
-        ));
-        ex.retire(rec).unwrap(); // never submitted: allowed
-    }
+    check_timestamps(&ex, timed);
+    buffers_in_use_are_kept(&mut ex, &d, cmd, pass, req);
     ex.destroy_buffer(req).unwrap();
     ex.destroy_buffer(counts).unwrap(); // imported: only forgotten
     drop(ex);
@@ -196,4 +178,39 @@ fn cpu_counts(requests: &[u32], params: &BucketParams, passes: u32) -> Vec<u32> 
     cpu.read_buffer(c, bytemuck::cast_slice_mut(&mut want))
         .unwrap();
     want
+}
+
+/// With timestamps, each of the 6 passes recorded into the engine's buffers was timed.
+fn check_timestamps(ex: &AshExecutor, timed: usize) {
+    if ex.adapter_info().timestamps {
+        assert_eq!(timed, 6);
+        assert!(
+            ex.timings().iter().all(|t| t.ms > 0.0),
+            "{:?}",
+            ex.timings()
+        );
+    }
+}
+
+/// A buffer used by an unretired recording cannot be destroyed; retired (even unsubmitted),
+/// it can.
+fn buffers_in_use_are_kept(
+    ex: &mut AshExecutor,
+    d: &vrrt_ash::ash::Device,
+    cmd: vk::CommandBuffer,
+    pass: Pass<'_>,
+    req: vrrt_core::plan::BufferId,
+) {
+    // SAFETY: `cmd` is not in use (its last submission was waited for) and is never submitted.
+    unsafe {
+        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
+            .unwrap();
+        let rec = ex.record_into(cmd, &[pass]).unwrap();
+        d.end_command_buffer(cmd).unwrap();
+        assert!(matches!(
+            ex.destroy_buffer(req),
+            Err(AshError::BufferInUse(_))
+        ));
+        ex.retire(rec).unwrap(); // never submitted: allowed
+    }
 }

@@ -4,7 +4,7 @@
 
 use crate::scene::FrameGeometry;
 use std::sync::Arc;
-use vrrt_core::budget::{self, MsBudget, TraceCost};
+use vrrt_core::budget::MsBudget;
 use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
@@ -259,8 +259,6 @@ impl FrameOutput {
 pub struct Renderer {
     frame: Frame,
     gpu: GpuScene,
-    /// The budget in milliseconds (`rates.budget_ms`), fed after each frame.
-    budget: Option<MsBudget>,
 }
 
 impl Renderer {
@@ -276,7 +274,6 @@ impl Renderer {
     ) -> Result<Self, DenoiserError<E::Error>> {
         let frame = Frame::new(exec, width, height, signal, lights, settings)?;
         Ok(Renderer {
-            budget: MsBudget::from_settings(&frame.denoiser().settings().rates),
             frame,
             gpu: GpuScene::default(),
         })
@@ -284,7 +281,7 @@ impl Renderer {
 
     /// The controller of the budget in milliseconds, when `rates.budget_ms` is set.
     pub fn budget(&self) -> Option<&MsBudget> {
-        self.budget.as_ref()
+        self.frame.budget()
     }
 
     /// The reflection effect, when the signal has reflections.
@@ -334,15 +331,15 @@ impl Renderer {
         })
     }
 
-    /// Renders one frame and reads back its outputs. With a budget in milliseconds, the
-    /// frame's tracing time (from the executor's timings, which this does not clear) sets the
-    /// next frame's budget.
+    /// Renders one frame and reads back its outputs. [`Frame::finish`] completes the frame: the
+    /// rays it traced and its tracing time (from the executor's timings, which this does not
+    /// clear), and with a budget in milliseconds the next frame's budget.
     pub fn render<E: Executor>(
         &mut self,
         exec: &mut E,
         f: &FrameGeometry,
         readback: Readback,
-    ) -> Result<FrameOutput, E::Error> {
+    ) -> Result<FrameOutput, DenoiserError<E::Error>> {
         self.render_with_changes(exec, f, readback, None)
     }
 
@@ -355,11 +352,10 @@ impl Renderer {
         f: &FrameGeometry,
         readback: Readback,
         changes: Option<&[GradientSample]>,
-    ) -> Result<FrameOutput, E::Error> {
+    ) -> Result<FrameOutput, DenoiserError<E::Error>> {
         let (w, h) = self.frame.denoiser().size();
         let planes = self.frame.layout().planes;
         let rays_per_pixel = self.frame.denoiser().settings().rates.rays_per_pixel;
-        let first_timing = exec.timings().len();
         let report = self.dispatch(exec, f, changes)?;
         if report.absent {
             return Ok(FrameOutput {
@@ -371,24 +367,31 @@ impl Renderer {
                 ..FrameOutput::default()
             });
         }
+        let mut out = self.read_outputs(exec, report, readback, changes, rays_per_pixel)?;
+        // After every readback: a budget in milliseconds changes the settings for the next frame.
+        let report = self.frame.finish(exec, report)?;
+        out.rays_traced = report.rays_traced;
+        out.trace_ms = report.trace_ms;
+        Ok(out)
+    }
+
+    /// The outputs of a frame that ran ([`FrameOutput`], but for what [`Frame::finish`] adds).
+    fn read_outputs<E: Executor>(
+        &self,
+        exec: &mut E,
+        report: FrameReport,
+        readback: Readback,
+        changes: Option<&[GradientSample]>,
+        rays_per_pixel: f32,
+    ) -> Result<FrameOutput, E::Error> {
+        let (w, h) = self.frame.denoiser().size();
+        let planes = self.frame.layout().planes;
         let d = self.frame.denoiser();
-        let mut gradient_rays = 0;
-        let gradient_size = d.gradient_size();
-        let mut gradient_overlays = (Vec::new(), Vec::new());
-        // Supplied changes trace no rays (and leave the prepass's keys unwritten).
-        if report.gradient_ran && changes.is_none() {
-            let cells = (gradient_size.0 * gradient_size.1) as usize;
-            let keys: Vec<u32> = read(exec, d.gradient_keys(), cells)?;
-            gradient_rays = keys.iter().filter(|&&k| k != EMPTY_KEY).count() as u64 * planes as u64;
-            if readback.overlays {
-                let lambda = |g: Vec<GradientSample>| g.iter().map(|g| g.lambda()).collect();
-                let n = cells * planes as usize;
-                gradient_overlays = (
-                    lambda(read(exec, d.gradient_raw(), n)?),
-                    lambda(read(exec, d.gradient(), n)?),
-                );
-            }
-        }
+        let GradientReadback {
+            rays: mut gradient_rays,
+            size: gradient_size,
+            overlays: gradient_overlays,
+        } = self.read_gradient(exec, report, readback, changes)?;
         let n = (w * h * planes) as usize;
         let detected = match d.changes() {
             Some(b) => read(exec, b, n)?,
@@ -431,8 +434,6 @@ impl Renderer {
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
         let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
-        // The readbacks waited for the frame, so its timings are in.
-        let trace_ms = budget::trace_ms(exec.timings().get(first_timing..).unwrap_or_default());
         // The refill lists' rays (`Denoiser::detect_changes`), as `refill::fit` gave them, per
         // plane of their group: in the total, and with the prepass's when they are the
         // detector's (not a reset frame's penumbrae).
@@ -445,18 +446,13 @@ impl Renderer {
         if !d.refills_reset() {
             gradient_rays += refill_rays;
         }
-        let rays_traced = (rays.iter().map(|&r| r as f64).sum::<f64>()
-            + refill_rays as f64 / planes as f64)
-            .round() as u64;
         let mut out = FrameOutput {
             denoised: denoised.iter().map(|f| f.unpack().value).collect(),
             raw: samples
                 .iter()
                 .map(|s| if s.rays > 0 { s.m1 } else { 0.0 })
                 .collect(),
-            rays_traced,
             rays_per_pixel,
-            trace_ms,
             rays,
             decisions,
             budget,
@@ -479,17 +475,53 @@ impl Renderer {
             out.requests = requests.iter().map(|&r| reproject::bucket_of(r)).collect();
             out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
         }
-        if let Some(b) = &mut self.budget {
-            let next = b.update(TraceCost {
-                rays_per_pixel,
-                rays: rays_traced,
-                ms: trace_ms,
-            });
-            // Within `budget_floor..=budget_ceiling`, validated with the settings: accepted.
-            let _ = self.frame.set_rays_per_pixel(next);
-        }
         Ok(out)
     }
+
+    /// The temporal-gradient prepass's rays (cells re-traced, per plane) this frame, the
+    /// gradient grid's size and, with overlays, its raw and reconstructed `λ`.
+    fn read_gradient<E: Executor>(
+        &self,
+        exec: &mut E,
+        report: FrameReport,
+        readback: Readback,
+        changes: Option<&[GradientSample]>,
+    ) -> Result<GradientReadback, E::Error> {
+        let d = self.frame.denoiser();
+        let planes = self.frame.layout().planes;
+        let mut gradient_rays = 0;
+        let gradient_size = d.gradient_size();
+        let mut gradient_overlays = (Vec::new(), Vec::new());
+        // Supplied changes trace no rays (and leave the prepass's keys unwritten).
+        if report.gradient_ran && changes.is_none() {
+            let cells = (gradient_size.0 * gradient_size.1) as usize;
+            let keys: Vec<u32> = read(exec, d.gradient_keys(), cells)?;
+            gradient_rays = keys.iter().filter(|&&k| k != EMPTY_KEY).count() as u64 * planes as u64;
+            if readback.overlays {
+                let lambda = |g: Vec<GradientSample>| g.iter().map(|g| g.lambda()).collect();
+                let n = cells * planes as usize;
+                gradient_overlays = (
+                    lambda(read(exec, d.gradient_raw(), n)?),
+                    lambda(read(exec, d.gradient(), n)?),
+                );
+            }
+        }
+        Ok(GradientReadback {
+            rays: gradient_rays,
+            size: gradient_size,
+            overlays: gradient_overlays,
+        })
+    }
+}
+
+/// What [`Renderer::read_outputs`] reads of the temporal-gradient prepass.
+struct GradientReadback {
+    /// Cells re-traced, times the planes.
+    rays: u64,
+    /// The gradient grid, cells.
+    size: (u32, u32),
+    /// Raw and reconstructed `λ` per cell and plane, with overlays (else empty).
+    overlays: (Vec<f32>, Vec<f32>),
 }
 
 /// The samples of a packed samples buffer's contents.

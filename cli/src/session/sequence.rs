@@ -17,6 +17,7 @@ use vrrt_core::settings::Settings;
 use vrrt_scene::image::{Image, ImageRef};
 use vrrt_scene::metrics::{self, SequenceMetrics};
 use vrrt_scene::render::{FrameOutput, Readback, Renderer, Signal};
+use vrrt_scene::FrameGeometry;
 
 /// What one sequence renders.
 #[derive(Clone, Debug)]
@@ -63,24 +64,11 @@ pub fn run_sequence(
         exec,
         pool: &mut pool,
     };
-    let mut renderer = Renderer::new(
-        &mut rec,
-        width,
-        height,
-        opts.signal,
-        sc.lights.len(),
-        settings,
-    )
-    .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
-    // The frame's planes, all signals' (the renderer sets them from the signal's layout).
-    let frame_planes = renderer.denoiser().settings().planes as usize;
     // The detector's λ, to score it against the oracle's mask.
     let score_detector = opts.measure && settings.gradient.detect_radius > 0;
-    if score_detector {
-        renderer
-            .keep_changes(&mut rec)
-            .map_err(|e| anyhow!("keeping the detector's output: {e}"))?;
-    }
+    let mut renderer = new_renderer(&mut rec, opts, sc.lights.len(), settings, score_detector)?;
+    // The frame's planes, all signals' (the renderer sets them from the signal's layout).
+    let frame_planes = renderer.denoiser().settings().planes as usize;
     let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
         .into_iter()
         .map(|part| PartMetrics {
@@ -96,23 +84,11 @@ pub fn run_sequence(
     let with_references = opts.measure || opts.config.is_oracle();
     for i in 0..opts.frames {
         let f = sc.frame(i);
-        let mut references = Vec::new();
-        for p in &parts {
-            references.push(if with_references {
-                Some(refs.get(
-                    rec.exec,
-                    ReferenceRequest {
-                        scene_key: &scene.key,
-                        frame: &f,
-                        size: opts.size,
-                        signal: p.part.signal,
-                        spp: opts.spp,
-                    },
-                )?)
-            } else {
-                None
-            });
-        }
+        let references = if with_references {
+            frame_references(rec.exec, refs, scene, &f, opts, &parts)?
+        } else {
+            vec![None; parts.len()]
+        };
         let oracle = (opts.config.is_oracle() || score_detector)
             .then(|| oracle_frame(pixels * frame_planes, &parts, &references, &prev_references));
         let changes = oracle.as_deref().filter(|_| opts.config.is_oracle());
@@ -178,6 +154,51 @@ pub fn run_sequence(
         parts,
         pass_names,
     })
+}
+
+/// The sequence's renderer, keeping the detector's output when it is scored.
+fn new_renderer(
+    rec: &mut Recycling<'_>,
+    opts: &SequenceOptions,
+    lights: usize,
+    settings: Settings,
+    keep_changes: bool,
+) -> Result<Renderer> {
+    let (width, height) = opts.size;
+    let mut renderer = Renderer::new(rec, width, height, opts.signal, lights, settings)
+        .map_err(|e| anyhow!("cannot create the denoiser: {e}"))?;
+    if keep_changes {
+        renderer
+            .keep_changes(rec)
+            .map_err(|e| anyhow!("keeping the detector's output: {e}"))?;
+    }
+    Ok(renderer)
+}
+
+/// The references of frame `f`'s parts (traced, or from the cache).
+fn frame_references(
+    exec: &mut Backend,
+    refs: &References,
+    scene: &LoadedScene,
+    f: &FrameGeometry,
+    opts: &SequenceOptions,
+    parts: &[PartMetrics],
+) -> Result<Vec<Option<FrameReference>>> {
+    parts
+        .iter()
+        .map(|p| {
+            Ok(Some(refs.get(
+                exec,
+                ReferenceRequest {
+                    scene_key: &scene.key,
+                    frame: f,
+                    size: opts.size,
+                    signal: p.part.signal,
+                    spp: opts.spp,
+                },
+            )?))
+        })
+        .collect()
 }
 
 /// Each pass's time in this frame's `timings` (dispatches of one entry summed), in the order

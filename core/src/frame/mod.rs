@@ -26,10 +26,13 @@ mod signal;
 pub use planes::{trace_planes, GBuffer, RaygenTarget};
 pub use signal::{PlaneLayout, Signal};
 
+use crate::budget::{self, MsBudget, TraceCost};
 use crate::camera::{Camera, View};
 use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
+use crate::kernels::balance::{Balance, MAX_GROUPS};
 use crate::kernels::gbuffer::InstanceData;
 use crate::kernels::gradient::GradientSample;
+use crate::kernels::group_planes;
 use crate::kernels::raygen::AreaLight;
 use crate::plan::{BufferId, Executor};
 use crate::reflections::{ReflectionScene, Reflections};
@@ -122,8 +125,9 @@ fn lights_hash(lights: &[AreaLight]) -> u64 {
         })
 }
 
-/// What [`Frame::render`] decided.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+/// What [`Frame::render`] decided, and once [`Frame::finish`] has read them, what the frame
+/// traced and how long its ray tracing took.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct FrameReport {
     /// The signal had no source (shadows without a light): no pass ran.
     pub absent: bool,
@@ -133,6 +137,13 @@ pub struct FrameReport {
     pub moved: bool,
     /// The temporal-gradient prepass ran.
     pub gradient_ran: bool,
+    /// Rays the frame traced, main pass and refill lists, per plane: each plane group's rays
+    /// weighted by its share of the planes, as `rates.rays_per_pixel` counts them
+    /// ([`Frame::finish`]; 0 before it).
+    pub rays_traced: u64,
+    /// Milliseconds the frame's ray-tracing passes took ([`budget::trace_ms`] of the
+    /// executor's timings since [`Frame::render`] began; [`Frame::finish`]).
+    pub trace_ms: f64,
 }
 
 /// One signal's denoiser and effects, and the frame sequence over them.
@@ -148,6 +159,10 @@ pub struct Frame {
     prev_lights: u64,
     /// The last frame ran no passes (its signal was absent): history is stale.
     resume: bool,
+    /// The budget in milliseconds (`rates.budget_ms`), fed by [`Frame::finish`].
+    budget: Option<MsBudget>,
+    /// The executor's timings before this frame's passes: the frame's are those after.
+    first_timing: usize,
 }
 
 impl Frame {
@@ -222,6 +237,8 @@ impl Frame {
             frames: 0,
             prev_lights: lights_hash(&[]),
             resume: false,
+            budget: MsBudget::from_settings(&settings.rates),
+            first_timing: 0,
         })
     }
 
@@ -269,6 +286,7 @@ impl Frame {
         scene: &FrameScene<'_>,
         gbuffer: impl FnOnce(&mut E, GBuffer) -> Result<(), E::Error>,
     ) -> Result<FrameReport, E::Error> {
+        self.first_timing = exec.timings().len();
         if self.signal.needs_lights() && scene.light_list.is_empty() {
             self.resume = true;
             self.prev_lights = lights_hash(&[]);
@@ -306,7 +324,60 @@ impl Frame {
             reset: info.reset,
             moved: info.moved,
             gradient_ran,
+            ..FrameReport::default()
         })
+    }
+
+    /// Completes `report` once the frame's passes have run: reads the rays each plane group
+    /// traced (its decision: [`Balance::traced`] and [`Balance::refill_traced`], counted on the
+    /// device, a few words) and the tracing time from the executor's timings, and with a budget
+    /// in milliseconds sets the next frame's rays per pixel from them. An engine calls it after
+    /// each [`Self::render`], once it may read back (the readback waits for the frame, so its
+    /// timings are in); a frame without a signal traced nothing and leaves the budget as it was.
+    pub fn finish<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        report: FrameReport,
+    ) -> Result<FrameReport, DenoiserError<E::Error>> {
+        if report.absent {
+            return Ok(report);
+        }
+        let settings = *self.denoiser.settings();
+        let groups = settings.groups() as usize;
+        let mut decisions = [Balance::default(); MAX_GROUPS as usize];
+        exec.read_buffer(
+            self.denoiser.decision(),
+            bytemuck::cast_slice_mut(&mut decisions[..groups]),
+        )?;
+        let planes = self.layout.planes;
+        let rays: f64 = (0..groups)
+            .map(|g| {
+                let d = &decisions[g];
+                let share = group_planes(settings.plane_groups, planes, g as u32) as f64;
+                (d.traced as f64 + d.refill_traced as f64) * share / planes as f64
+            })
+            .sum();
+        let report = FrameReport {
+            rays_traced: math_round(rays),
+            trace_ms: budget::trace_ms(exec.timings().get(self.first_timing..).unwrap_or(&[])),
+            ..report
+        };
+        if let Some(b) = &mut self.budget {
+            let next = b.update(TraceCost {
+                rays_per_pixel: settings.rates.rays_per_pixel,
+                rays: report.rays_traced,
+                ms: report.trace_ms,
+            });
+            self.denoiser
+                .set_rays_per_pixel(next)
+                .map_err(DenoiserError::Settings)?;
+        }
+        Ok(report)
+    }
+
+    /// The controller of the budget in milliseconds, when `rates.budget_ms` is set.
+    pub fn budget(&self) -> Option<&MsBudget> {
+        self.budget.as_ref()
     }
 
     /// The temporal stage: the reset and still-frame rules, then the denoiser's frame begins.
@@ -353,6 +424,12 @@ impl Frame {
             None => Ok(false),
         }
     }
+}
+
+/// `x` rounded to the nearest whole count (halves away from zero), for the non-negative ray
+/// totals of [`Frame::finish`]: core has no `f64::round` without `std`.
+fn math_round(x: f64) -> u64 {
+    (x + 0.5) as u64
 }
 
 #[cfg(all(test, feature = "std"))]
