@@ -1,7 +1,9 @@
 //! The frame owns its budget in milliseconds: an engine that drives
 //! [`vrrt_core::frame::Frame`] itself (its scene on the executor, its G-buffer, `render` then
 //! `finish` each frame) gets the frames `vrrt run --budget-ms` renders through
-//! [`vrrt_scene::render::Renderer`], budget by budget and pixel by pixel.
+//! [`vrrt_scene::render::Renderer`], budget by budget and pixel by pixel. And the rays
+//! [`Frame::finish`] counts from the balancer's decisions (a few words) are the rays the
+//! renderer used to count pixel by pixel.
 //!
 //! Real timings differ from run to run, so the executor here reports a fixed cost per ray
 //! (`FixedCost`): both runs see the same milliseconds for the same rays, and the budget they
@@ -9,16 +11,20 @@
 
 use vrrt_core::budget::TRACE_ENTRIES;
 use vrrt_core::frame::Frame;
+use vrrt_core::kernels::group_planes;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass, PassTiming};
+use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::Settings;
 use vrrt_cpu::{CpuError, CpuExecutor};
 use vrrt_scene::builtin::builtin;
-use vrrt_scene::render::{GpuScene, Readback, Renderer, Signal};
+use vrrt_scene::render::{FrameOutput, GpuScene, Readback, Renderer, Signal};
 use vrrt_scene::Scene;
 
 const SIZE: (u32, u32) = (96, 54);
 const FRAMES: u32 = 16;
+/// Frames whose rays are counted both ways.
+const COUNTED_FRAMES: u32 = 8;
 /// Milliseconds a ray-tracing workgroup (64 work-list entries) costs.
 const MS_PER_GROUP: f64 = 0.05;
 
@@ -84,8 +90,15 @@ impl Executor for FixedCost {
     }
 }
 
-/// Each frame's budget (rays per pixel it ran with) and denoised image.
-type Frames = Vec<(f32, Vec<f32>)>;
+/// What a frame gave: the budget it ran with (rays per pixel), the rays it traced, its tracing
+/// time and its denoised image.
+#[derive(Debug, PartialEq)]
+struct Rendered {
+    rays_per_pixel: f32,
+    rays_traced: u64,
+    trace_ms: f64,
+    denoised: Vec<f32>,
+}
 
 fn settings() -> Settings {
     let mut s = Settings::default();
@@ -93,8 +106,22 @@ fn settings() -> Settings {
     s
 }
 
+/// Every signal: one plane, one per light, reflections, and all of them sharing one budget.
+fn signals() -> [Signal; 4] {
+    let reflections = ReflectionSettings::default();
+    [
+        Signal::Ao { max_distance: 1.0 },
+        Signal::Shadows,
+        Signal::Reflections(reflections),
+        Signal::All {
+            max_distance: 1.0,
+            reflections,
+        },
+    ]
+}
+
 /// `vrrt run --budget-ms`'s path: the renderer.
-fn through_renderer(scene: &Scene, signal: Signal) -> Frames {
+fn through_renderer(scene: &Scene, signal: Signal) -> Vec<Rendered> {
     let mut exec = FixedCost::default();
     let (w, h) = SIZE;
     let mut r = Renderer::new(&mut exec, w, h, signal, scene.lights.len(), settings()).unwrap();
@@ -103,13 +130,20 @@ fn through_renderer(scene: &Scene, signal: Signal) -> Frames {
             let out = r
                 .render(&mut exec, &scene.frame(i), Readback::default())
                 .unwrap();
-            (out.rays_per_pixel, out.denoised)
+            Rendered {
+                rays_per_pixel: out.rays_per_pixel,
+                rays_traced: out.rays_traced,
+                trace_ms: out.trace_ms,
+                denoised: out.denoised,
+            }
         })
         .collect()
 }
 
-/// An engine's path: the frame itself, with the scene's geometry as its own.
-fn through_frame(scene: &Scene, signal: Signal) -> Frames {
+/// An engine's path: the frame itself, with the scene's geometry as its own. With `finish`
+/// false the engine forgets [`Frame::finish`] (the report keeps no rays and no time, and the
+/// budget never moves): the divergence the comparison must catch.
+fn through_frame(scene: &Scene, signal: Signal, finish: bool) -> Vec<Rendered> {
     let mut exec = FixedCost::default();
     let (w, h) = SIZE;
     let mut frame = Frame::new(&mut exec, w, h, signal, scene.lights.len(), settings()).unwrap();
@@ -119,12 +153,14 @@ fn through_frame(scene: &Scene, signal: Signal) -> Frames {
             let f = scene.frame(i);
             let rays_per_pixel = frame.denoiser().settings().rates.rays_per_pixel;
             gpu.upload(&mut exec, &f).unwrap();
-            let report = frame
+            let mut report = frame
                 .render(&mut exec, &gpu.frame_scene(&f), |exec, target| {
                     gpu.gbuffer(exec, &f, w, h, target)
                 })
                 .unwrap();
-            frame.finish(&mut exec, report).unwrap();
+            if finish {
+                report = frame.finish(&mut exec, report).unwrap();
+            }
             let n = (w * h * frame.layout().planes) as usize;
             let mut out = vec![PackedFiltered::default(); n];
             exec.read_buffer(
@@ -132,10 +168,12 @@ fn through_frame(scene: &Scene, signal: Signal) -> Frames {
                 bytemuck::cast_slice_mut(&mut out),
             )
             .unwrap();
-            (
+            Rendered {
                 rays_per_pixel,
-                out.iter().map(|p| p.unpack().value).collect(),
-            )
+                rays_traced: report.rays_traced,
+                trace_ms: report.trace_ms,
+                denoised: out.iter().map(|p| p.unpack().value).collect(),
+            }
         })
         .collect()
 }
@@ -143,20 +181,90 @@ fn through_frame(scene: &Scene, signal: Signal) -> Frames {
 #[test]
 fn an_engine_calling_frame_gets_what_vrrt_run_budget_ms_renders() {
     let scene = builtin("room").unwrap();
-    for signal in [Signal::Ao { max_distance: 1.0 }, Signal::Shadows] {
-        let (renderer, engine) = (
-            through_renderer(&scene, signal),
-            through_frame(&scene, signal),
-        );
-        let budgets: Vec<f32> = renderer.iter().map(|(b, _)| *b).collect();
+    for signal in signals() {
+        let renderer = through_renderer(&scene, signal);
+        let engine = through_frame(&scene, signal, true);
+        let budgets: Vec<f32> = renderer.iter().map(|r| r.rays_per_pixel).collect();
         // The budget moved: the frame followed its time, not a fixed count.
         assert!(
             budgets.windows(2).any(|b| b[0] != b[1]),
             "{signal:?}: the budget never moved: {budgets:?}"
         );
         for (i, (r, e)) in renderer.iter().zip(&engine).enumerate() {
-            assert_eq!(r.0, e.0, "{signal:?}, frame {i}: budgets {budgets:?}");
-            assert!(r.1 == e.1, "{signal:?}, frame {i}: the images differ");
+            assert_eq!(
+                r.rays_per_pixel, e.rays_per_pixel,
+                "{signal:?}, frame {i}: budgets {budgets:?}"
+            );
+            assert_eq!(
+                (r.rays_traced, r.trace_ms),
+                (e.rays_traced, e.trace_ms),
+                "{signal:?}, frame {i}: rays traced and ms"
+            );
+            assert!(
+                r.denoised == e.denoised,
+                "{signal:?}, frame {i}: the images differ"
+            );
+        }
+        // The comparison can fail: an engine that skips `finish` keeps its first budget, and
+        // its frames part from the renderer's as soon as the renderer's budget moves.
+        let forgetful = through_frame(&scene, signal, false);
+        let first = renderer.iter().position(|r| r.rays_per_pixel != budgets[0]);
+        let first = first.expect("the budget moved");
+        assert_ne!(
+            forgetful[first].rays_per_pixel,
+            renderer[first].rays_per_pixel
+        );
+        assert!(
+            forgetful[first..]
+                .iter()
+                .zip(&renderer[first..])
+                .any(|(f, r)| f.denoised != r.denoised),
+            "{signal:?}: skipping finish changed no image"
+        );
+    }
+}
+
+/// The rays a frame traced as [`Renderer`] derived them before [`Frame::finish`] counted them:
+/// each pixel's rays per plane (apply's rule replayed on the host from the requests, the
+/// decisions and the blue noise: [`FrameOutput::rays`]) plus the refill lists' (each group's
+/// `refill_traced` rays cost one ray of each of its planes), per plane, rounded.
+fn per_pixel_count(out: &FrameOutput, plane_groups: u32, planes: u32) -> u64 {
+    let refill: u64 = (0..out.decisions.len() as u32)
+        .map(|g| {
+            out.decisions[g as usize].refill_traced as u64
+                * group_planes(plane_groups, planes, g) as u64
+        })
+        .sum();
+    let main: f64 = out.rays.iter().map(|&r| r as f64).sum();
+    (main + refill as f64 / planes as f64).round() as u64
+}
+
+#[test]
+fn the_frame_counts_the_rays_the_renderer_counted_pixel_by_pixel() {
+    let scene = builtin("room").unwrap();
+    let (w, h) = SIZE;
+    let mut refilled = false;
+    for signal in signals() {
+        let mut exec = FixedCost::default();
+        let mut r = Renderer::new(&mut exec, w, h, signal, scene.lights.len(), settings()).unwrap();
+        for i in 0..COUNTED_FRAMES {
+            let plane_groups = r.denoiser().settings().plane_groups;
+            let out = r
+                .render(&mut exec, &scene.frame(i), Readback::default())
+                .unwrap();
+            let planes = (out.denoised.len() / (w * h) as usize) as u32;
+            assert!(out.rays_traced > 0, "{signal:?}, frame {i}: no ray traced");
+            assert_eq!(
+                out.rays_traced,
+                per_pixel_count(&out, plane_groups, planes),
+                "{signal:?}, frame {i}: the decisions' count against the pixels'"
+            );
+            refilled |= out.decisions.iter().any(|d| d.refill_traced > 0);
         }
     }
+    // The refill lists' rays are part of the count: some frame must have traced them.
+    assert!(
+        refilled,
+        "no refill list traced: only the main pass was compared"
+    );
 }

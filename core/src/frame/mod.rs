@@ -267,7 +267,9 @@ impl Frame {
         self.reflections.as_ref()
     }
 
-    /// Sets the ray budget of the next frames ([`Denoiser::set_rays_per_pixel`]).
+    /// Sets the ray budget of the next frames ([`Denoiser::set_rays_per_pixel`]). With a budget
+    /// in milliseconds, [`Self::finish`] sets it after every frame: this one holds for the next
+    /// frame only.
     pub fn set_rays_per_pixel(&mut self, rays_per_pixel: f32) -> Result<(), SettingsError> {
         self.denoiser.set_rays_per_pixel(rays_per_pixel)
     }
@@ -332,8 +334,17 @@ impl Frame {
     /// traced (its decision: [`Balance::traced`] and [`Balance::refill_traced`], counted on the
     /// device, a few words) and the tracing time from the executor's timings, and with a budget
     /// in milliseconds sets the next frame's rays per pixel from them. An engine calls it after
-    /// each [`Self::render`], once it may read back (the readback waits for the frame, so its
-    /// timings are in); a frame without a signal traced nothing and leaves the budget as it was.
+    /// each [`Self::render`], once it may read back; a frame without a signal traced nothing and
+    /// leaves the budget as it was.
+    ///
+    /// Why a call of its own, not the start of the next `render`: `render` only records, so the
+    /// engine chooses where to wait for the frame (where it waits anyway: its own readback, its
+    /// present fence), and the report describes the frame just rendered. Why no
+    /// [`Executor::finish`] first: the decisions' readback waits for every recorded pass, and
+    /// the backends collect their pass timings at that wait, so the frame's are in when the time
+    /// is read. The count is the work lists' (what apply granted after the trim, and what the
+    /// refill lists fitted), so it equals the sum of `Denoiser::read_rays` per plane plus the
+    /// refill lists' rays, without reading a word per pixel.
     pub fn finish<E: Executor>(
         &mut self,
         exec: &mut E,
