@@ -35,7 +35,7 @@ pub type CpuError = ExecError;
 /// let pixels = (width * height) as usize;
 /// let mut cpu = CpuExecutor::new();
 /// // Full VRRT at its default budget (1 ray per pixel), one signal plane (say AO).
-/// let settings = Settings { planes: 1, ..Settings::default() };
+/// let settings = Settings::default();
 /// let mut denoiser = Denoiser::new(&mut cpu, width, height, settings)?;
 ///
 /// // The G-buffer: a wall 10 units away facing a camera that does not move.

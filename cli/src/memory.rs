@@ -71,7 +71,7 @@ pub fn report(size: (u32, u32), label: &str, signal: Signal, lights: usize) -> R
     );
     out += "| buffer | format | copies | bytes each | bytes/pixel |\n|---|---|---:|---:|---:|\n";
     let mut sizes: Vec<(&str, &str, u32, u64)> =
-        denoiser_buffers(w, h, frame.denoiser().settings())
+        denoiser_buffers(w, h, frame.denoiser().layout(), frame.denoiser().settings())
             .iter()
             .map(|b| (b.name, b.ty, b.count, b.bytes))
             .collect();

@@ -1,5 +1,4 @@
-//! Settings files: the denoiser's [`Settings`] as TOML, `planes` and the plane indices at the top
-//! and one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`), and the
+//! Settings files: the denoiser's [`Settings`] as TOML, one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`), and the
 //! reflection passes' [`ReflectionSettings`] as `[reflections]`. Fields left out keep their
 //! defaults, unknown fields are errors, and the result is validated, so a bad file fails before
 //! anything runs with the file, the line and the problem in one line.
@@ -16,9 +15,8 @@ const HEADER: &str = "\
 # VRRT-rs settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
 # Units and ranges: vrrt_core::settings (one struct per table) and, for [reflections],
-# vrrt_core::reflections::ReflectionSettings. `parallax_plane`, `guide_plane` and `penumbra_plane`
-# (plane indices) are absent by default; `vrrt run` and `vrrt bench` set them, `planes`, `plane_groups`,
-# `shadow_planes` and `ao_planes` from the signal.
+# vrrt_core::reflections::ReflectionSettings. The planes and their roles are not settings: they
+# follow from the signal (vrrt_core::denoiser::Layout).
 ";
 
 /// What a settings file holds: the denoiser's settings and the reflection passes'.
@@ -35,13 +33,6 @@ pub struct SettingsFile {
 #[derive(serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 struct Layout {
-    planes: u32,
-    parallax_plane: Option<u32>,
-    guide_plane: Option<u32>,
-    penumbra_plane: Option<u32>,
-    plane_groups: u32,
-    shadow_planes: u32,
-    ao_planes: u32,
     temporal: TemporalSettings,
     rates: RateSettings,
     gradient: GradientSettings,
@@ -52,26 +43,12 @@ struct Layout {
 impl From<SettingsFile> for Layout {
     fn from(f: SettingsFile) -> Self {
         let Settings {
-            planes,
-            parallax_plane,
-            guide_plane,
-            penumbra_plane,
-            plane_groups,
-            shadow_planes,
-            ao_planes,
             temporal,
             rates,
             gradient,
             filter,
         } = f.denoiser;
         Layout {
-            planes,
-            parallax_plane,
-            guide_plane,
-            penumbra_plane,
-            plane_groups,
-            shadow_planes,
-            ao_planes,
             temporal,
             rates,
             gradient,
@@ -85,13 +62,6 @@ impl From<Layout> for SettingsFile {
     fn from(l: Layout) -> Self {
         SettingsFile {
             denoiser: Settings {
-                planes: l.planes,
-                parallax_plane: l.parallax_plane,
-                guide_plane: l.guide_plane,
-                penumbra_plane: l.penumbra_plane,
-                plane_groups: l.plane_groups,
-                shadow_planes: l.shadow_planes,
-                ao_planes: l.ao_planes,
                 temporal: l.temporal,
                 rates: l.rates,
                 gradient: l.gradient,
@@ -247,13 +217,6 @@ mod tests {
     /// Non-default denoiser settings everywhere, awkward floats included.
     fn unusual_settings() -> Settings {
         Settings {
-            planes: 3,
-            parallax_plane: Some(2),
-            guide_plane: Some(1),
-            penumbra_plane: Some(1),
-            plane_groups: 0x110,
-            shadow_planes: 0b010,
-            ao_planes: 0b001,
             temporal: TemporalSettings {
                 max_history: 1000.5,
                 normal_threshold: -0.3,
@@ -375,8 +338,6 @@ mod tests {
     #[test]
     fn partial_file_keeps_the_other_defaults() {
         let text = "\
-planes = 2
-
 [filter]
 sigma_luminance = 2.5
 atrous_iterations = 3
@@ -388,7 +349,6 @@ storage = \"f16\"
         let s = parse(text).unwrap();
         let d = Settings::default();
         let denoiser = Settings {
-            planes: 2,
             filter: FilterSettings {
                 sigma_luminance: 2.5,
                 atrous_iterations: 3,
@@ -430,8 +390,8 @@ storage = \"f16\"
         assert!(e.contains("duplicate key `max_history`"), "{e}");
         let e = parse("[temporal]\nrng_wrap = 4294967295\n").unwrap_err();
         assert!(e.contains("`temporal.rng_wrap` = 4294967295 is out"), "{e}");
-        let e = parse("planes = 4294967295\n").unwrap_err();
-        assert!(e.contains("`planes` = 4294967295 is out"), "{e}");
+        let e = parse("planes = 2\n").unwrap_err();
+        assert!(e.contains("unknown field `planes`"), "{e}");
     }
 
     #[test]
@@ -468,8 +428,8 @@ storage = \"f16\"
         assert!(e.contains("unknown field `reuse`"), "{e}");
         let e = parse("[temporal]\nstorage = \"f64\"\n").unwrap_err();
         assert!(e.contains("unknown variant `f64`"), "{e}");
-        let e = parse("planes = ").unwrap_err();
-        assert!(e.starts_with("line 1, column "), "{e}");
+        let e = parse("[rates]\nrays_per_pixel = ").unwrap_err();
+        assert!(e.starts_with("line 2, column "), "{e}");
         // A quoted value's control characters stay escaped: the error is one line.
         let e = parse("[temporal]\nstorage = \"\\r\\n\\t\"\n").unwrap_err();
         assert!(e.contains("unknown variant `\\r \\t`"), "{e}");

@@ -124,8 +124,6 @@ fn fuzz_settings_files() {
     let defaults = settings::to_toml(&SettingsFile::default());
     let d = Settings::default();
     let custom = Settings {
-        planes: 3,
-        parallax_plane: Some(2),
         temporal: TemporalSettings {
             max_history: 64.0,
             clamp_radius: 2,
@@ -154,11 +152,11 @@ fn fuzz_settings_files() {
         defaults.as_str(),
         custom.as_str(),
         "",
-        "planes = 2\n\n[filter]\nsigma_luminance = 2.5\natrous_iterations = 3\n\n[temporal]\n\
+        "[filter]\nsigma_luminance = 2.5\natrous_iterations = 3\n\n[temporal]\n\
          max_history = 32 # an integer is a fine float\nstorage = \"f16\"\n",
         "[rates]\nrays_per_pixel = 2\nvariance_threshold = [0.0001, 0.001, 0.01, 0.0]\n\
          [gradient]\nstratum = 3\n",
-        "parallax_plane = 0\n[temporal]\nstorage = \"unorm8\"\nstuck_correction = false\n",
+        "[temporal]\nstorage = \"unorm8\"\nstuck_correction = false\n",
     ];
     for s in seeds {
         settings::parse(s).unwrap_or_else(|e| panic!("seed {s:?}: {e}"));

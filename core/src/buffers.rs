@@ -3,7 +3,7 @@
 //! work starts — and so memory can be reported per buffer.
 
 use crate::camera::View;
-use crate::denoiser::grid_size;
+use crate::denoiser::{grid_size, Layout};
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::{apply, balance, buckets, classify, refill, reflect, trim};
 use crate::payload::{PackedFiltered, PackedPayload, PackedSample, COUNTERS_LEN};
@@ -37,35 +37,37 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
 pub const DENOISER_BUFFERS: usize = 28;
 
-/// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
+/// Every buffer a `Denoiser` of `width × height` with `layout` and `settings` allocates, in
+/// allocation order.
 pub fn denoiser_buffers(
     width: u32,
     height: u32,
+    layout: &Layout,
     settings: &Settings,
 ) -> [BufferSize; DENOISER_BUFFERS] {
     let pixels = width as u64 * height as u64;
-    let planes = pixels * settings.planes as u64;
-    let groups = settings.groups() as u64;
+    let planes = pixels * layout.planes as u64;
+    let groups = layout.groups() as u64;
     let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
     let cells = gw as u64 * gh as u64;
-    let gradient = cells * settings.planes as u64 * size_of::<GradientSample>() as u64;
+    let gradient = cells * layout.planes as u64 * size_of::<GradientSample>() as u64;
     let (tw, th) = classify::tile_grid(width, height);
     let (rw, rh) = reflect::tile_grid(width, height);
     let bytes = |n: u64, elem: usize| n * elem as u64;
     // Reflection parallax positions exist only with a parallax plane (one element otherwise).
-    let parallax = if settings.parallax_plane.is_some() {
+    let parallax = if layout.parallax_plane.is_some() {
         pixels
     } else {
         1
     };
     // The hit-distance guide exists only with a guide plane (one element otherwise).
-    let guide = if settings.guide_plane.is_some() {
+    let guide = if layout.guide_plane.is_some() {
         pixels
     } else {
         1
     };
     // So do the shadow raygen's blocker records and the penumbra guide, with a penumbra plane.
-    let penumbra = if settings.penumbra_plane.is_some() {
+    let penumbra = if layout.penumbra_plane.is_some() {
         pixels
     } else {
         1
@@ -209,10 +211,11 @@ fn over_limit(
 pub fn check_fit(
     width: u32,
     height: u32,
+    layout: &Layout,
     settings: &Settings,
     limit: BindingLimit,
 ) -> Result<(), TooLarge> {
-    let sizes = |w: u32, h: u32| denoiser_buffers(w, h, settings);
+    let sizes = |w: u32, h: u32| denoiser_buffers(w, h, layout, settings);
     let Some(first) = over_limit(&sizes, width, height, limit) else {
         return Ok(());
     };
@@ -256,15 +259,21 @@ mod tests {
     #[test]
     fn oversized_request_names_buffer_limit_and_what_fits() {
         let s = Settings::default();
-        assert_eq!(check_fit(1920, 1080, &s, LAVAPIPE), Ok(()));
-        assert_eq!(check_fit(3840, 2160, &s, LAVAPIPE), Ok(()));
-        let e = check_fit(7680, 4320, &s, LAVAPIPE).unwrap_err();
+        assert_eq!(
+            check_fit(1920, 1080, &Layout::default(), &s, LAVAPIPE),
+            Ok(())
+        );
+        assert_eq!(
+            check_fit(3840, 2160, &Layout::default(), &s, LAVAPIPE),
+            Ok(())
+        );
+        let e = check_fit(7680, 4320, &Layout::default(), &s, LAVAPIPE).unwrap_err();
         assert_eq!(e.buffer, "motion");
         assert!(e.bytes > LAVAPIPE.bytes);
         let (w, h) = e.fits.expect("something fits");
-        assert!(check_fit(w, h, &s, LAVAPIPE).is_ok());
+        assert!(check_fit(w, h, &Layout::default(), &s, LAVAPIPE).is_ok());
         // Largest: one step up of the same aspect does not fit.
-        assert!(check_fit(w + 2, h + 2, &s, LAVAPIPE).is_err());
+        assert!(check_fit(w + 2, h + 2, &Layout::default(), &s, LAVAPIPE).is_err());
         let msg = e.to_string();
         assert!(
             msg.contains("maxStorageBufferRange") && msg.contains("`motion`"),
@@ -275,7 +284,7 @@ mod tests {
     #[test]
     fn sizes_match_the_pixel_count() {
         let s = Settings::default();
-        let b = denoiser_buffers(100, 50, &s);
+        let b = denoiser_buffers(100, 50, &Layout::default(), &s);
         let depth = b.iter().find(|b| b.name == "depth").unwrap();
         assert_eq!(depth.bytes, 5000 * 4);
         assert_eq!(depth.count, 2);
@@ -283,7 +292,7 @@ mod tests {
 
     #[test]
     fn every_buffer_names_a_declared_format() {
-        for b in denoiser_buffers(64, 32, &Settings::default()) {
+        for b in denoiser_buffers(64, 32, &Layout::default(), &Settings::default()) {
             assert!(format_of(b.ty).is_some(), "{}: `{}`", b.name, b.ty);
         }
     }

@@ -197,7 +197,7 @@ impl Reflections {
     }
 
     /// Reflections written to plane `plane` of a `width × height` denoiser (which should
-    /// reproject that plane along the parallax: `Settings::parallax_plane`).
+    /// reproject that plane along the parallax: `Layout::parallax_plane`).
     pub fn new<E: Executor>(
         exec: &mut E,
         width: u32,
@@ -388,7 +388,7 @@ impl Reflections {
     /// [`Denoiser::resolve`]: the hit-distance guide into [`Denoiser::guide`], when the
     /// denoiser has a guide plane.
     pub fn guide<E: Executor>(&self, exec: &mut E, denoiser: &Denoiser) -> Result<(), E::Error> {
-        if denoiser.settings().guide_plane.is_none() {
+        if denoiser.layout().guide_plane.is_none() {
             return Ok(());
         }
         let (w, h) = denoiser.size();

@@ -27,37 +27,6 @@ pub const MAX_RESET_PAYBACK: u32 = 64;
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct Settings {
-    /// Scalar signal planes denoised together (1..=4: AO, shadows of up to 4 lights; default 1).
-    pub planes: u32,
-    /// Plane reprojected along the reflection parallax (`kernels::reflect::reflect_motion`, which
-    /// the caller runs into `Denoiser::parallax` before `Denoiser::plan_rays`) instead of the
-    /// surface motion (0..planes); `None` (default) for none.
-    pub parallax_plane: Option<u32>,
-    /// Plane whose à-trous taps also compare the hit-distance guide (`Denoiser::guide`, which
-    /// the caller writes before `Denoiser::resolve`: `kernels::reflect::reflect_guide`) at
-    /// [`FilterSettings::guide_sigma`] (0..planes); `None` (default) for none. `Frame` sets it to
-    /// the reflection plane when `guide_sigma > 0`.
-    pub guide_plane: Option<u32>,
-    /// Shadow plane whose à-trous taps stay within its penumbra (`kernels::penumbra`, from
-    /// raygen's `Denoiser::blockers`; 0..planes); `None` (default) for none. `Frame` sets it to
-    /// the first shadow plane when [`FilterSettings::penumbra_reach`] > 0.
-    pub penumbra_plane: Option<u32>,
-    /// Which group each plane belongs to, 4 bits per plane from plane 0 up
-    /// (`kernels::plane_group`; groups number 0, 1, … in plane order). Each group (a signal: AO,
-    /// the shadows of every light, reflections) has its own ray requests, decision and work list
-    /// under one shared budget ([`RateSettings::signal_floor`]). 0 (default): one group, every
-    /// plane traced together. `Frame` sets it from the signal's layout when
-    /// [`RateSettings::per_signal`].
-    pub plane_groups: u32,
-    /// Planes that take the shadows' detector window ([`GradientSettings::shadow_detect_radius`],
-    /// [`GradientSettings::shadow_threshold`]), one bit per plane from plane 0 up; the others
-    /// take `detect_radius` and `threshold`. 0 (default): none. `Frame` sets it from the
-    /// signal's layout, so a shared frame's shadow planes get the shadows' window too.
-    pub shadow_planes: u32,
-    /// The AO planes (bit per plane), whose detector counts a change from
-    /// `gradient.ao_detect_sigma` instead of `detect_sigma`. 0 (default): none. `Frame` sets it
-    /// from the signal's layout.
-    pub ao_planes: u32,
     /// Reprojection and accumulation of history.
     pub temporal: TemporalSettings,
     /// Ray rates: the budget, VRRT's supersampling, undersampling and load balancing.
@@ -85,7 +54,7 @@ pub struct TemporalSettings {
     pub clamp_radius: u32,
     /// Variance clamp width in standard deviations (> 0; default 1).
     pub clamp_gamma: f32,
-    /// Variance clamp of the reflections' history ([`Settings::parallax_plane`]) over the pixels
+    /// Variance clamp of the reflections' history ([`Layout::parallax_plane`](crate::denoiser::Layout::parallax_plane)) over the pixels
     /// of the window that lie on the pixel's own surface (normals within `normal_threshold`, view
     /// depths within `clamp_depth_tolerance`): window radius in pixels, 0 = off (0..=5; default
     /// 2; it replaces `clamp_radius` on that plane). The detector keeps a moving highlight's
@@ -201,7 +170,7 @@ pub struct RateSettings {
     /// mask is kept, 4 bytes per pixel saved).
     pub vrs_mask: bool,
     /// A frame with several signals (`Signal::All`) gives each its own ray requests and work list
-    /// ([`Settings::plane_groups`]) instead of one request per pixel that traces every signal
+    /// ([`Layout::plane_groups`](crate::denoiser::Layout::plane_groups)) instead of one request per pixel that traces every signal
     /// (default on).
     pub per_signal: bool,
     /// Least share of the budget a signal keeps when the balancer shares it by the rays each
@@ -250,21 +219,21 @@ pub struct GradientSettings {
     /// `docs/algorithms/change-detector.md`); the lists share what is left over or missing. A
     /// dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
-    /// `detect_radius` of the shadow planes ([`Settings::shadow_planes`]) when the detector is
+    /// `detect_radius` of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes)) when the detector is
     /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history
     /// lags. AO's soft, faint changes need the larger window to be significant (see
     /// `docs/algorithms/change-detector.md`).
     pub shadow_detect_radius: u32,
-    /// The detector's `threshold` on the shadow planes ([`Settings::shadow_planes`]; 0..=1;
+    /// The detector's `threshold` on the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes); 0..=1;
     /// default 0.3). The prepass's `λ` keeps `threshold` on every plane.
     pub shadow_threshold: f32,
-    /// `detect_sigma` of the AO planes ([`Settings::ao_planes`]; >= 1; default 2). AO changes only
+    /// `detect_sigma` of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 1; default 2). AO changes only
     /// where geometry moves, and reprojection already cuts the history of partial footprints
     /// there, so a 1σ detector mostly shortened converged history by chance (see
     /// `docs/algorithms/change-detector.md`).
     pub ao_detect_sigma: f32,
-    /// Verification of the shadow planes ([`Settings::shadow_planes`]; >= 0, 0 = off; default
+    /// Verification of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes); >= 0, 0 = off; default
     /// 1.5): a pixel that traced fewer than `refill_rays` and whose own rays lie this many
     /// standard deviations from its history (`kernels::detect::pixel_z`) joins the refill lists,
     /// and accumulation drops its history where the `refill_rays` then lie
@@ -277,7 +246,7 @@ pub struct GradientSettings {
     /// Significance of two or more rays against their history from which accumulation drops
     /// it on the shadow planes (> 0; default 1.5).
     pub shadow_drop_sigma: f32,
-    /// Confirmation of the reflections' drops (`Settings::parallax_plane`; >= 0, 0 = off;
+    /// Confirmation of the reflections' drops (`Layout::parallax_plane`; >= 0, 0 = off;
     /// default 1.25): where `λ` drops history, the pixel's own rays (the refill lists give it
     /// some) must lie this many standard deviations from it (`kernels::detect::pixel_z`), or the
     /// history is kept whole. The 1σ window reads noise as a change now and then, and a converged
@@ -300,7 +269,7 @@ pub struct FilterSettings {
     pub sigma_luminance: f32,
     /// Normal edge-stopping exponent (>= 0; default 128).
     pub normal_power: f32,
-    /// Normal edge-stopping exponent of the AO planes ([`Settings::ao_planes`]; >= 0; default 8;
+    /// Normal edge-stopping exponent of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 0; default 8;
     /// SVGF as published: `normal_power`). AO is a cosine-weighted integral over the hemisphere,
     /// so it turns slowly with the normal; at 128 a curved mesh at 128x72 rejects neighbours a
     /// few degrees apart and a 1-ray pixel keeps its own ray (see
@@ -404,39 +373,6 @@ impl Settings {
     /// [`validate`](TemporalSettings::validate), and the limits one stage puts on another
     /// (`rates.supersample_target` and `rates.undersample_after` up to `temporal.max_history`).
     pub fn validate(&self) -> Result<(), SettingsError> {
-        check(
-            (1..=4).contains(&self.planes),
-            "planes",
-            self.planes as f32,
-            "1..=4",
-        )?;
-        check(
-            groups_in_order(self.plane_groups, self.planes),
-            "plane_groups",
-            self.plane_groups as f32,
-            "4 bits per plane: groups 0, 1, … in plane order, at most 4, none past the planes",
-        )?;
-        check(
-            self.shadow_planes >> self.planes == 0,
-            "shadow_planes",
-            self.shadow_planes as f32,
-            "one bit per plane, none past the planes",
-        )?;
-        check(
-            self.ao_planes >> self.planes == 0 && self.ao_planes & self.shadow_planes == 0,
-            "ao_planes",
-            self.ao_planes as f32,
-            "one bit per plane, none past the planes or among the shadow planes",
-        )?;
-        for (plane, field) in [
-            (self.parallax_plane, "parallax_plane"),
-            (self.guide_plane, "guide_plane"),
-            (self.penumbra_plane, "penumbra_plane"),
-        ] {
-            if let Some(z) = plane {
-                check(z < self.planes, field, z as f32, "a plane (< planes)")?;
-            }
-        }
         self.temporal.validate()?;
         self.rates.validate()?;
         self.gradient.validate()?;
@@ -455,37 +391,6 @@ impl Settings {
             "1..=temporal.max_history",
         )
     }
-}
-
-impl Settings {
-    /// Plane groups ([`Settings::plane_groups`]): each has its own requests and work list.
-    pub fn groups(&self) -> u32 {
-        crate::kernels::plane_group(self.plane_groups, self.planes.max(1) - 1) + 1
-    }
-}
-
-/// Whether `groups` numbers the `planes` planes 0, 1, … in order (each plane in its
-/// predecessor's group or the next), with at most `balance::MAX_GROUPS` groups and no bits past
-/// the last plane.
-fn groups_in_order(groups: u32, planes: u32) -> bool {
-    use crate::kernels::{balance::MAX_GROUPS, plane_group, MAX_GROUPED_PLANES};
-    if planes == 0 || planes > MAX_GROUPED_PLANES {
-        return groups == 0;
-    }
-    let mut prev = 0;
-    for z in 0..planes {
-        let g = plane_group(groups, z);
-        if g != prev && !(z > 0 && g == prev + 1) {
-            return false;
-        }
-        prev = g;
-    }
-    let unused = if planes == MAX_GROUPED_PLANES {
-        0
-    } else {
-        groups >> (4 * planes)
-    };
-    prev < MAX_GROUPS && unused == 0
 }
 
 #[cfg(all(test, feature = "std"))]

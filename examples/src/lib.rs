@@ -44,10 +44,7 @@ const PIXEL_ANGLE: f32 = 2.0 * TAN_HALF_FOV / HEIGHT as f32;
 
 /// Denoiser settings of the examples: the defaults (full VRRT, 1 ray per pixel), one AO plane.
 pub fn settings() -> Settings {
-    Settings {
-        planes: 1,
-        ..Settings::default()
-    }
+    Settings::default()
 }
 
 /// Per-frame inputs of frame `index` (history is discarded on frame 0).

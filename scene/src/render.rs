@@ -355,7 +355,7 @@ impl Renderer {
     ) -> Result<FrameOutput, DenoiserError<E::Error>> {
         let (w, h) = self.frame.denoiser().size();
         let planes = self.frame.layout().planes;
-        let rays_per_pixel = self.frame.denoiser().settings().rates.rays_per_pixel;
+        let rays_per_pixel = self.frame.denoiser().rays_per_pixel();
         let report = self.dispatch(exec, f, changes)?;
         if report.absent {
             return Ok(FrameOutput {
@@ -368,7 +368,7 @@ impl Renderer {
             });
         }
         let mut out = self.read_outputs(exec, report, readback, changes, rays_per_pixel)?;
-        // After every readback: a budget in milliseconds changes the settings for the next frame.
+        // After every readback: a budget in milliseconds sets the next frame's ray budget.
         let report = self.frame.finish(exec, report)?;
         out.rays_traced = report.rays_traced;
         out.trace_ms = report.trace_ms;
@@ -399,13 +399,13 @@ impl Renderer {
         };
         let denoised: Vec<PackedFiltered> = read(exec, d.output(), n)?;
         let samples: Vec<Sample> = unpack_samples(&read(exec, d.samples(), n)?);
-        let settings = d.settings();
-        let groups = settings.groups();
+        let layout = d.layout();
+        let groups = layout.groups();
         let group_rays = d.read_rays(exec)?;
         let decisions: Vec<Balance> = read(exec, d.decision(), groups as usize)?;
         // A group's ray costs one ray of each of its planes.
         let weight: Vec<f64> = (0..groups)
-            .map(|g| group_planes(settings.plane_groups, planes, g) as f64 / planes as f64)
+            .map(|g| group_planes(layout.plane_groups, planes, g) as f64 / planes as f64)
             .collect();
         let pixels = (w * h) as usize;
         let rays: Vec<f32> = (0..pixels)
@@ -440,7 +440,7 @@ impl Renderer {
         let refill_rays: u64 = (0..groups)
             .map(|g| {
                 decisions[g as usize].refill_traced as u64
-                    * group_planes(settings.plane_groups, planes, g) as u64
+                    * group_planes(layout.plane_groups, planes, g) as u64
             })
             .sum();
         if !d.refills_reset() {

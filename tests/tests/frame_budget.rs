@@ -151,7 +151,7 @@ fn through_frame(scene: &Scene, signal: Signal, finish: bool) -> Vec<Rendered> {
     (0..FRAMES)
         .map(|i| {
             let f = scene.frame(i);
-            let rays_per_pixel = frame.denoiser().settings().rates.rays_per_pixel;
+            let rays_per_pixel = frame.denoiser().rays_per_pixel();
             gpu.upload(&mut exec, &f).unwrap();
             let mut report = frame
                 .render(&mut exec, &gpu.frame_scene(&f), |exec, target| {
@@ -248,7 +248,7 @@ fn the_frame_counts_the_rays_the_renderer_counted_pixel_by_pixel() {
         let mut exec = FixedCost::default();
         let mut r = Renderer::new(&mut exec, w, h, signal, scene.lights.len(), settings()).unwrap();
         for i in 0..COUNTED_FRAMES {
-            let plane_groups = r.denoiser().settings().plane_groups;
+            let plane_groups = r.denoiser().layout().plane_groups;
             let out = r
                 .render(&mut exec, &scene.frame(i), Readback::default())
                 .unwrap();

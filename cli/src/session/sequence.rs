@@ -68,7 +68,7 @@ pub fn run_sequence(
     let score_detector = opts.measure && settings.gradient.detect_radius > 0;
     let mut renderer = new_renderer(&mut rec, opts, sc.lights.len(), settings, score_detector)?;
     // The frame's planes, all signals' (the renderer sets them from the signal's layout).
-    let frame_planes = renderer.denoiser().settings().planes as usize;
+    let frame_planes = renderer.denoiser().layout().planes as usize;
     let mut parts: Vec<PartMetrics> = parts(opts.signal, sc.lights.len())
         .into_iter()
         .map(|part| PartMetrics {

@@ -82,7 +82,7 @@ impl Denoiser {
         exec: &mut E,
         scene: &GradientScene,
     ) -> Result<(), E::Error> {
-        let s = self.settings;
+        let (s, l) = (self.settings, self.layout);
         let (w, h) = (self.width, self.height);
         let (gw, gh) = self.gradient_size();
         let index_mask = gradient::index_mask(w * h);
@@ -90,7 +90,7 @@ impl Denoiser {
         let mut retrace = gradient::RetraceParams {
             width: w,
             height: h,
-            planes: s.planes,
+            planes: l.planes,
             grid_width: gw,
             grid_height: gh,
             index_mask,
@@ -144,7 +144,7 @@ impl Denoiser {
     /// The prepass's reconstruction: à-trous iterations over the cells, ping-ponging between
     /// the two gradient buffers (`gradient_out` says which holds the result).
     fn gradient_reconstruct<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
+        let (s, l) = (self.settings, self.layout);
         let (gw, gh) = self.gradient_size();
         let mut input = self.gradient_raw;
         for i in 0..s.gradient.iterations {
@@ -156,7 +156,7 @@ impl Denoiser {
             };
             let out = self.gradient[(i % 2) as usize];
             let pass = kernels::GradientAtrousBindings { input, out };
-            exec.dispatch(&pass.over_grid(&p, gw, gh, s.planes))?;
+            exec.dispatch(&pass.over_grid(&p, gw, gh, l.planes))?;
             input = out;
             self.gradient_out = (i % 2) as usize;
         }
@@ -182,7 +182,7 @@ impl Denoiser {
             return Ok(false);
         }
         let (gw, gh) = self.gradient_size();
-        let expected = (gw * gh * self.settings.planes) as usize;
+        let expected = (gw * gh * self.layout.planes) as usize;
         assert_eq!(
             changes.len(),
             expected,

@@ -28,8 +28,11 @@
 //! history (seed: "spatial output is NOT being fed to temporal").
 
 mod gradients;
+mod layout;
 mod rates;
 mod resolve;
+
+pub use layout::Layout;
 
 use crate::blue_noise;
 use crate::buffers::{self, TooLarge};
@@ -41,7 +44,7 @@ use crate::kernels::{
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
-use crate::settings::{Settings, SettingsError};
+use crate::settings::{RateSettings, Settings, SettingsError};
 use core::fmt;
 
 /// A denoiser failure: bad settings or a backend error.
@@ -178,7 +181,7 @@ pub enum GradientRays {
 ///     // 4. Accumulate and filter; read the denoised planes back.
 ///     denoiser.resolve(exec)?;
 ///     let (w, h) = denoiser.size();
-///     let len = (w * h * denoiser.settings().planes) as usize;
+///     let len = (w * h * denoiser.layout().planes) as usize;
 ///     let mut out = vec![PackedFiltered::default(); len];
 ///     exec.read_buffer(denoiser.output(), bytemuck::cast_slice_mut(&mut out))?;
 ///     Ok(out.iter().map(|f| f.unpack().value).collect())
@@ -191,6 +194,10 @@ pub enum GradientRays {
 #[derive(Clone, Debug)]
 pub struct Denoiser {
     settings: Settings,
+    layout: Layout,
+    /// This frame's ray budget in rays per pixel: `rates.rays_per_pixel` until
+    /// [`Self::set_rays_per_pixel`] changes it (a budget in milliseconds does, every frame).
+    rays_per_pixel: f32,
     width: u32,
     height: u32,
     depth: [BufferId; 2],
@@ -248,11 +255,24 @@ pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
 }
 
 impl Denoiser {
-    /// Validates `settings` and allocates every buffer for a `width × height` image.
+    /// Validates `settings` and allocates every buffer for a `width × height` image of one plane
+    /// ([`Layout::default`]).
     pub fn new<E: Executor>(
         exec: &mut E,
         width: u32,
         height: u32,
+        settings: Settings,
+    ) -> Result<Self, DenoiserError<E::Error>> {
+        Self::with_layout(exec, width, height, Layout::default(), settings)
+    }
+
+    /// Validates `layout` and `settings` and allocates every buffer for a `width × height` image
+    /// of `layout.planes` planes.
+    pub fn with_layout<E: Executor>(
+        exec: &mut E,
+        width: u32,
+        height: u32,
+        layout: Layout,
         settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         if width == 0 || height == 0 || width as u64 * height as u64 > apply::MAX_PIXELS {
@@ -261,9 +281,10 @@ impl Denoiser {
                 height,
             }));
         }
+        layout.validate().map_err(DenoiserError::Settings)?;
         settings.validate().map_err(DenoiserError::Settings)?;
-        let sizes = buffers::denoiser_buffers(width, height, &settings);
-        buffers::check_fit(width, height, &settings, exec.binding_limit())
+        let sizes = buffers::denoiser_buffers(width, height, &layout, &settings);
+        buffers::check_fit(width, height, &layout, &settings, exec.binding_limit())
             .map_err(DenoiserError::TooLarge)?;
         let mut ids = [[BufferId(0); 2]; buffers::DENOISER_BUFFERS];
         for (slot, b) in ids.iter_mut().zip(&sizes) {
@@ -279,10 +300,12 @@ impl Denoiser {
         // The first balancer reads it as last frame's refill counts.
         let refill_args = id("refill_args")[0];
         let zeros = [0u8; (balance::MAX_GROUPS * apply::ARGS_LEN * 4) as usize];
-        let args_bytes = (settings.groups() * apply::ARGS_LEN * 4) as usize;
+        let args_bytes = (layout.groups() * apply::ARGS_LEN * 4) as usize;
         exec.write_buffer(refill_args, &zeros[..args_bytes])?;
         Ok(Denoiser {
             settings,
+            layout,
+            rays_per_pixel: settings.rates.rays_per_pixel,
             width,
             height,
             depth: id("depth"),
@@ -337,23 +360,42 @@ impl Denoiser {
         self.frame
     }
 
-    /// The settings in use.
+    /// The settings in use: the tunables it was created with, which never change.
     pub fn settings(&self) -> &Settings {
         &self.settings
     }
 
-    /// Sets the ray budget from the next [`Self::plan_rays`] on (`rates.rays_per_pixel`; what a
-    /// [`MsBudget`](crate::budget::MsBudget) decides each frame). Every other setting is fixed
-    /// at creation; the budget may change any frame, as it only sets the balancer's target and
-    /// the base rate.
+    /// The planes and their rules.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// This frame's ray budget in rays per pixel (`rates.rays_per_pixel` at creation, then what
+    /// [`Self::set_rays_per_pixel`] set).
+    pub fn rays_per_pixel(&self) -> f32 {
+        self.rays_per_pixel
+    }
+
+    /// Sets the ray budget from the next [`Self::plan_rays`] on (what a
+    /// [`MsBudget`](crate::budget::MsBudget) decides each frame), in the range of
+    /// `rates.rays_per_pixel`. The settings are fixed at creation; the budget may change any
+    /// frame, as it only sets the balancer's target and the base rate.
     pub fn set_rays_per_pixel(&mut self, rays_per_pixel: f32) -> Result<(), SettingsError> {
-        let rates = crate::settings::RateSettings {
+        RateSettings {
             rays_per_pixel,
             ..self.settings.rates
-        };
-        rates.validate()?;
-        self.settings.rates = rates;
+        }
+        .validate()?;
+        self.rays_per_pixel = rays_per_pixel;
         Ok(())
+    }
+
+    /// The rates stage as this frame runs it: the settings' with this frame's budget.
+    pub(super) fn rates(&self) -> RateSettings {
+        RateSettings {
+            rays_per_pixel: self.rays_per_pixel,
+            ..self.settings.rates
+        }
     }
 
     /// Image size.
@@ -400,20 +442,20 @@ impl Denoiser {
         self.importance
     }
 
-    /// Where each pixel's [`Settings::parallax_plane`] was last frame (`[f32; 2]` per pixel, in
+    /// Where each pixel's [`Layout::parallax_plane`] was last frame (`[f32; 2]` per pixel, in
     /// pixels); the caller writes it (`reflect::reflect_motion`) before [`Self::plan_rays`].
     pub fn parallax(&self) -> BufferId {
         self.parallax
     }
 
-    /// The hit-distance guide of [`Settings::guide_plane`] (`f32` per pixel, or
+    /// The hit-distance guide of [`Layout::guide_plane`] (`f32` per pixel, or
     /// `kernels::reflect::NO_GUIDE`); the caller writes it (`reflect::reflect_guide`) before
     /// [`Self::resolve`].
     pub fn guide(&self) -> BufferId {
         self.guide
     }
 
-    /// The shadow raygen's blocker records of [`Settings::penumbra_plane`] (`f32` per pixel:
+    /// The shadow raygen's blocker records of [`Layout::penumbra_plane`] (`f32` per pixel:
     /// the mean penumbra width of a traced pixel's blocked rays, `raygen::NO_BLOCKER` when
     /// none was); raygen writes it between [`Self::plan_rays`] and [`Self::resolve`], which
     /// builds the penumbra guide from it.
@@ -450,7 +492,7 @@ impl Denoiser {
     #[cfg(feature = "std")]
     pub fn read_rays<E: Executor>(&self, exec: &mut E) -> Result<std::vec::Vec<u32>, E::Error> {
         let (w, h) = (self.width, self.height);
-        let groups = self.settings.groups();
+        let groups = self.layout.groups();
         let pixels = w * h;
         let mut requests = std::vec![0u32; (pixels * groups) as usize];
         exec.read_buffer(self.requests, bytemuck::cast_slice_mut(&mut requests))?;
@@ -576,7 +618,7 @@ impl Denoiser {
         if let Some(b) = self.kept_changes {
             return Ok(b);
         }
-        let bytes = self.width as u64 * self.height as u64 * self.settings.planes as u64 * 4;
+        let bytes = self.width as u64 * self.height as u64 * self.layout.planes as u64 * 4;
         let b = exec.create_buffer(bytes)?;
         self.kept_changes = Some(b);
         Ok(b)
@@ -603,18 +645,18 @@ impl Denoiser {
     /// that traces refill lists: `gradient.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
         let s = &self.settings;
-        s.rates.reset_refill > 0.0 && s.shadow_planes != 0 && s.gradient.refill
+        s.rates.reset_refill > 0.0 && self.layout.shadow_planes != 0 && s.gradient.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget
     /// ([`refill::reserve`]); 0 without.
     pub(super) fn reset_share(&self) -> f32 {
-        rates::reset_share(&self.settings.rates, self.reset_refill_on())
+        rates::reset_share(&self.rates(), self.reset_refill_on())
     }
 
     /// The fewest rays of a reset frame's refill entry ([`refill::CapParams::least`]).
     pub(super) fn reset_least(&self) -> u32 {
-        rates::reset_least(&self.settings.rates, self.reset_refill_on())
+        rates::reset_least(&self.rates(), self.reset_refill_on())
     }
 
     /// Whether this frame's temporal-gradient prepass ran (false: off, first frame or camera

@@ -10,14 +10,14 @@ impl Denoiser {
     /// where their refills and verification rays compete with the other signals' (measured in
     /// `docs/algorithms/balancer.md`).
     fn shifting_groups(&self, importance_group: u32) -> u32 {
-        let s = &self.settings;
+        let (s, l) = (&self.settings, &self.layout);
         if !s.rates.shift_requests {
             return 0;
         }
         let mut mask = !(1u32.checked_shl(importance_group).unwrap_or(0));
-        for z in 0..s.planes {
-            if kernels::plane_in(s.shadow_planes, z) {
-                mask &= !(1 << kernels::plane_group(s.plane_groups, z));
+        for z in 0..l.planes {
+            if kernels::plane_in(l.shadow_planes, z) {
+                mask &= !(1 << kernels::plane_group(l.plane_groups, z));
             }
         }
         mask
@@ -31,7 +31,7 @@ impl Denoiser {
         self.count_buckets(exec)?;
         self.balance(exec, importance_group)?;
         self.trim(exec)?;
-        let (w, h, groups) = (self.width, self.height, self.settings.groups());
+        let (w, h, groups) = (self.width, self.height, self.layout.groups());
         let app = self.apply_params();
         let apply = kernels::ApplyBindings {
             requests: self.requests,
@@ -47,17 +47,17 @@ impl Denoiser {
     /// The group whose requests the reflections' tile importance scales: they are no longer a
     /// history's deficit, which the balancer's shift assumes (`balance::MODE_SHIFT`).
     fn importance_group(&self) -> u32 {
-        let s = &self.settings;
+        let l = &self.layout;
         self.frame
             .importance_plane
             .map_or(reproject::NO_GROUP, |z| {
-                kernels::plane_group(s.plane_groups, z)
+                kernels::plane_group(l.plane_groups, z)
             })
     }
 
     /// Reprojection, with each pixel's ray request.
     fn reproject<E: Executor>(&self, exec: &mut E, importance_group: u32) -> Result<(), E::Error> {
-        let s = self.settings;
+        let (s, l) = (self.settings, self.layout);
         let (w, h) = (self.width, self.height);
         let vrrt = s.rates.supersample_target > 0.0;
         let (gw, gh) = self.gradient_size();
@@ -68,14 +68,14 @@ impl Denoiser {
         let still_rule = self.still_rule();
         let history = self.history_clamp();
         let base_rate = if vrrt {
-            s.rates.rays_per_pixel.min(1.0)
+            self.rays_per_pixel.min(1.0)
         } else {
-            s.rates.rays_per_pixel
+            self.rays_per_pixel
         };
         let params = reproject::ReprojectParams {
             width: w,
             height: h,
-            planes: s.planes,
+            planes: l.planes,
             reset: self.frame.reset as u32,
             normal_threshold: s.temporal.normal_threshold,
             plane_threshold: s.temporal.plane_threshold,
@@ -109,8 +109,8 @@ impl Denoiser {
             still_variance: s.rates.still_sigma * s.rates.still_sigma,
             max_history: history,
             importance_group,
-            parallax_plane: s.parallax_plane.unwrap_or(reproject::NO_PLANE),
-            plane_groups: s.plane_groups,
+            parallax_plane: l.parallax_plane.unwrap_or(reproject::NO_PLANE),
+            plane_groups: l.plane_groups,
             ..Default::default()
         };
         let reproject = kernels::ReprojectBindings {
@@ -135,7 +135,7 @@ impl Denoiser {
     /// The bucket histogram of each plane group's requests.
     fn count_buckets<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
         let (w, h) = (self.width, self.height);
-        let groups = self.settings.groups();
+        let groups = self.layout.groups();
         let clear = fill::FillParams {
             len: groups * buckets::COUNTS_LEN,
             value: 0,
@@ -156,16 +156,16 @@ impl Denoiser {
 
     /// The load balancer: each plane group's rates for this frame's budget.
     fn balance<E: Executor>(&self, exec: &mut E, importance_group: u32) -> Result<(), E::Error> {
-        let s = self.settings;
-        let (w, h, groups) = (self.width, self.height, s.groups());
+        let (s, l) = (self.settings, self.layout);
+        let (w, h, groups) = (self.width, self.height, l.groups());
         let bal = balance::BalanceParams {
-            rays_per_pixel: frame_budget(&s.rates, self.since_reset, self.reset_refill_on()),
+            rays_per_pixel: frame_budget(&self.rates(), self.since_reset, self.reset_refill_on()),
             ring_count: buckets::ring_count(w, h),
             raise: s.rates.spend_saved_rays as u32,
             policy: self.policy(),
             groups,
-            plane_groups: s.plane_groups,
-            planes: s.planes,
+            plane_groups: l.plane_groups,
+            planes: l.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.gradient.refill_rays,
             after_reset: (self.since_reset == 1 && self.reset_share() > 0.0) as u32,
@@ -197,7 +197,7 @@ impl Denoiser {
     /// Trims the rays apply will realise to each group's budget ([`trim`]): the histogram of
     /// the last rays' priorities, then each group's cut, into its decision.
     fn trim<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
-        let groups = self.settings.groups();
+        let groups = self.layout.groups();
         let clear = fill::FillParams {
             len: groups * trim::HIST_LEN,
             value: 0,
@@ -259,9 +259,9 @@ impl Denoiser {
         apply::ApplyParams {
             width: self.width,
             height: self.height,
-            planes: self.settings.planes,
+            planes: self.layout.planes,
             frame_index: self.frame.index,
-            plane_groups: self.settings.plane_groups,
+            plane_groups: self.layout.plane_groups,
         }
     }
 }

@@ -24,16 +24,16 @@ impl Denoiser {
             return Ok(false);
         }
         self.detected = true;
-        let s = self.settings;
-        let (w, h, planes) = (self.width, self.height, s.planes);
+        let (s, l) = (self.settings, self.layout);
+        let (w, h, planes) = (self.width, self.height, l.planes);
         let p = detect::DetectParams {
             width: w,
             height: h,
             radius: s.gradient.detect_radius,
             shadow_radius: s.gradient.shadow_detect_radius,
-            shadow_planes: s.shadow_planes,
+            shadow_planes: l.shadow_planes,
             z_full: s.gradient.detect_sigma,
-            ao_planes: s.ao_planes,
+            ao_planes: l.ao_planes,
             ao_z_full: s.gradient.ao_detect_sigma,
             min_variance: s.gradient.detect_min_variance,
         };
@@ -61,7 +61,7 @@ impl Denoiser {
             args: self.refill_args,
             hist: self.refill_hist,
         };
-        exec.dispatch(&pass.over_grid(&fused, w, h, s.groups()))?;
+        exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
         self.fit_refill_lists(exec, false)?;
         Ok(true)
     }
@@ -69,7 +69,7 @@ impl Denoiser {
     /// Zeroes the refill lists' histograms before the lists are made.
     fn clear_refill_hist<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
         let clear = fill::FillParams {
-            len: self.settings.groups() * refill::FIT_BINS,
+            len: self.layout.groups() * refill::FIT_BINS,
             value: 0,
         };
         let fill = kernels::FillBindings {
@@ -81,9 +81,9 @@ impl Denoiser {
     /// Fits this frame's refill lists (`reset`: a reset frame's) into what the frame may still
     /// trace ([`refill::fit`]) and writes each entry's rays ([`refill::cap`]).
     fn fit_refill_lists<E: Executor>(&mut self, exec: &mut E, reset: bool) -> Result<(), E::Error> {
-        let s = self.settings;
+        let l = self.layout;
         let p = refill::FitParams {
-            groups: s.groups(),
+            groups: l.groups(),
             rays: self.refill_params(reset).rays,
             least: if reset { self.reset_least() } else { 1 },
             unbounded: (self.policy() == balance::POLICY_KEEP) as u32,
@@ -93,8 +93,8 @@ impl Denoiser {
             hist: self.refill_hist,
             decision: self.decision,
         };
-        exec.dispatch(&fit.over_grid(&p, s.groups(), 1, 1))?;
-        for list in 0..s.groups() {
+        exec.dispatch(&fit.over_grid(&p, l.groups(), 1, 1))?;
+        for list in 0..l.groups() {
             let p = refill::CapParams {
                 pixels: self.width * self.height,
                 list,
@@ -117,15 +117,15 @@ impl Denoiser {
     /// The refill lists' parameters (`reset`: a reset frame's, whose listed pixels take up to
     /// `MAX_RATE` rays, set by [`refill::cap`]).
     fn refill_params(&self, reset: bool) -> refill::RefillParams {
-        let s = self.settings;
+        let (s, l) = (self.settings, self.layout);
         refill::RefillParams {
             width: self.width,
             height: self.height,
-            planes: s.planes,
-            plane_groups: s.plane_groups,
+            planes: l.planes,
+            plane_groups: l.plane_groups,
             threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
-            shadow_planes: s.shadow_planes,
+            shadow_planes: l.shadow_planes,
             rays: if reset {
                 buckets::MAX_RATE
             } else {
@@ -141,7 +141,7 @@ impl Denoiser {
     /// A reset frame's refill lists (no detector): the pixels of the shadows' mixed windows,
     /// their rays set by [`refill::fit`] from the reserve the frame set aside.
     fn dispatch_reset_refill<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
+        let l = self.layout;
         let (w, h) = (self.width, self.height);
         self.clear_refill_hist(exec)?;
         let p = self.refill_params(true);
@@ -152,7 +152,7 @@ impl Denoiser {
             args: self.refill_args,
             hist: self.refill_hist,
         };
-        exec.dispatch(&pass.over_grid(&p, w, h, s.groups()))?;
+        exec.dispatch(&pass.over_grid(&p, w, h, l.groups()))?;
         self.fit_refill_lists(exec, true)
     }
 
@@ -176,12 +176,12 @@ impl Denoiser {
 
     /// Accumulation of this frame's samples into the reprojected history.
     fn accumulate<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
-        let (w, h, planes) = (self.width, self.height, s.planes);
+        let (s, l) = (self.settings, self.layout);
+        let (w, h, planes) = (self.width, self.height, l.planes);
         let changes = self.changes_buffer();
         let detect = self.detects();
         // The reflections' plane: its own-surface clamp and its confirmed drops.
-        let reflections = s.parallax_plane.map_or(0, |z| 1 << z);
+        let reflections = l.parallax_plane.map_or(0, |z| 1 << z);
         let acc = accumulate::AccumulateParams {
             width: w,
             height: h,
@@ -199,7 +199,7 @@ impl Denoiser {
             use_changes: detect as u32,
             change_threshold: s.gradient.threshold,
             shadow_threshold: s.gradient.shadow_threshold,
-            shadow_planes: s.shadow_planes,
+            shadow_planes: l.shadow_planes,
             drop_sigma: s.gradient.shadow_drop_sigma,
             min_variance: s.gradient.detect_min_variance,
             surface_clamp_planes: reflections,
@@ -232,8 +232,8 @@ impl Denoiser {
 
     /// Variance estimation into the filter's input, then the tiles' classification.
     fn estimate_variance<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
-        let (w, h, planes) = (self.width, self.height, s.planes);
+        let (s, l) = (self.settings, self.layout);
+        let (w, h, planes) = (self.width, self.height, l.planes);
         // The variance pass gathers each tile's worst variance, the classification turns it into
         // iterations and counts them: both start from zero.
         let (tw, th) = classify::tile_grid(w, h);
@@ -254,10 +254,10 @@ impl Denoiser {
             spatial_until: s.filter.spatial_until,
             plane_scale,
             normal_power: s.filter.normal_power,
-            ao_planes: s.ao_planes,
+            ao_planes: l.ao_planes,
             ao_normal_power: s.filter.ao_normal_power,
             ao_spatial_until: s.filter.ao_spatial_until,
-            guide_plane: s.guide_plane.unwrap_or(reproject::NO_PLANE),
+            guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
         };
         let variance = kernels::VarianceBindings {
@@ -286,9 +286,9 @@ impl Denoiser {
 
     /// The shadows' penumbra guide, where a plane takes it.
     fn penumbra_guide<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
+        let (s, l) = (self.settings, self.layout);
         let (w, h) = (self.width, self.height);
-        if let Some(plane) = s.penumbra_plane {
+        if let Some(plane) = l.penumbra_plane {
             let p = penumbra::PenumbraParams {
                 width: w,
                 height: h,
@@ -310,8 +310,8 @@ impl Denoiser {
     /// The à-trous iterations, ping-ponging between the two filter buffers (`out` says which
     /// holds the result).
     fn filter<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
-        let s = self.settings;
-        let (w, h, planes) = (self.width, self.height, s.planes);
+        let (s, l) = (self.settings, self.layout);
+        let (w, h, planes) = (self.width, self.height, l.planes);
         let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
         self.out = 0;
         for i in 0..s.filter.atrous_iterations {
@@ -324,17 +324,17 @@ impl Denoiser {
                 plane_scale,
                 normal_power: s.filter.normal_power,
                 cap_variance: s.filter.cap_variance as u32,
-                ao_planes: s.ao_planes,
+                ao_planes: l.ao_planes,
                 ao_normal_power: s.filter.ao_normal_power,
                 symmetric_planes: if s.filter.ao_symmetric_taps {
-                    s.ao_planes
+                    l.ao_planes
                 } else {
                     0
                 },
-                guide_plane: s.guide_plane.unwrap_or(reproject::NO_PLANE),
+                guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
                 guide_scale: guide_scale(s.filter.guide_sigma),
                 guided_sigma_luminance: s.filter.guided_sigma_luminance,
-                penumbra_plane: s.penumbra_plane.unwrap_or(reproject::NO_PLANE),
+                penumbra_plane: l.penumbra_plane.unwrap_or(reproject::NO_PLANE),
                 penumbra_scale: if s.filter.penumbra_reach > 0.0 {
                     1.0 / s.filter.penumbra_reach
                 } else {

@@ -138,7 +138,7 @@ pub struct FrameReport {
     /// The temporal-gradient prepass ran.
     pub gradient_ran: bool,
     /// Rays the frame traced, main pass and refill lists, per plane: each plane group's rays
-    /// weighted by its share of the planes, as `rates.rays_per_pixel` counts them
+    /// weighted by its share of the planes, as the ray budget counts them
     /// ([`Frame::finish`]; 0 before it).
     pub rays_traced: u64,
     /// Milliseconds the frame's ray-tracing passes took ([`budget::trace_ms`] of the
@@ -167,9 +167,9 @@ pub struct Frame {
 
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
-    /// plane count, the parallax and guide planes and the shadow planes (which take the
-    /// detector's `gradient.shadow_*` window) of `settings` are set from the layout, and for
-    /// reflections alone `rates.reset_payback` is the longest. Reflections
+    /// denoiser's [`Layout`](crate::denoiser::Layout) follows from the signal's planes
+    /// ([`PlaneLayout::denoiser`]); of `settings`, for reflections alone `rates.reset_payback`
+    /// is the longest, and `rates.reset_refill` holds for shadows alone. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
@@ -181,19 +181,8 @@ impl Frame {
         mut settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         let layout = signal.layout(lights);
-        settings.planes = layout.planes;
-        settings.shadow_planes = layout.shadow_planes();
-        settings.ao_planes = layout.ao_planes();
-        settings.parallax_plane = layout
-            .reflections
-            .filter(|_| signal.reflections().is_some_and(|r| r.parallax));
-        settings.guide_plane = layout
-            .reflections
-            .filter(|_| settings.filter.guide_sigma > 0.0);
-        settings.penumbra_plane = layout
-            .shadows
-            .map(|(first, _)| first)
-            .filter(|_| settings.filter.penumbra_reach > 0.0);
+        let parallax = signal.reflections().is_some_and(|r| r.parallax);
+        let planes = layout.denoiser(&settings, parallax);
         if matches!(signal, Signal::Reflections(_)) {
             // Alone, reflections pay the cut's extra rays back over the longest window: over 8
             // frames their moving highlights starve after it, while the fresh pixels gain from
@@ -205,11 +194,6 @@ impl Frame {
             // signals would pay for the shadows' penumbrae.
             settings.rates.reset_refill = 0.0;
         }
-        settings.plane_groups = if settings.rates.per_signal {
-            layout.plane_groups()
-        } else {
-            0
-        };
         if layout.reflections.is_some() && settings.gradient.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
                 field: "gradient.stratum",
@@ -218,7 +202,7 @@ impl Frame {
                         reflection re-trace)",
             }));
         }
-        let denoiser = Denoiser::new(exec, width, height, settings)?;
+        let denoiser = Denoiser::with_layout(exec, width, height, planes, settings)?;
         let reflections = match (layout.reflections, signal.reflections()) {
             (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
             _ => None,
@@ -353,8 +337,8 @@ impl Frame {
         if report.absent {
             return Ok(report);
         }
-        let settings = *self.denoiser.settings();
-        let groups = settings.groups() as usize;
+        let layout = *self.denoiser.layout();
+        let groups = layout.groups() as usize;
         let mut decisions = [Balance::default(); MAX_GROUPS as usize];
         exec.read_buffer(
             self.denoiser.decision(),
@@ -364,7 +348,7 @@ impl Frame {
         let rays: f64 = (0..groups)
             .map(|g| {
                 let d = &decisions[g];
-                let share = group_planes(settings.plane_groups, planes, g as u32) as f64;
+                let share = group_planes(layout.plane_groups, planes, g as u32) as f64;
                 (d.traced as f64 + d.refill_traced as f64) * share / planes as f64
             })
             .sum();
@@ -375,7 +359,7 @@ impl Frame {
         };
         if let Some(b) = &mut self.budget {
             let next = b.update(TraceCost {
-                rays_per_pixel: settings.rates.rays_per_pixel,
+                rays_per_pixel: self.denoiser.rays_per_pixel(),
                 rays: report.rays_traced,
                 ms: report.trace_ms,
             });

@@ -68,7 +68,7 @@ pub struct RaygenTarget {
     pub blocker_plane: u32,
     /// Frame index: the reflection ray records' stamp and the screen-blue pattern's shift.
     pub frame: u32,
-    /// Which plane group (work list) traces each plane (`Settings::plane_groups`).
+    /// Which plane group (work list) traces each plane (`Layout::plane_groups`).
     pub plane_groups: u32,
     /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
     pub sampling: u32,
@@ -87,11 +87,11 @@ impl RaygenTarget {
             out: denoiser.samples(),
             blockers: denoiser.blockers(),
             blocker_plane: denoiser
-                .settings()
+                .layout()
                 .penumbra_plane
                 .unwrap_or(kernels::reproject::NO_PLANE),
             frame: denoiser.frame().index,
-            plane_groups: denoiser.settings().plane_groups,
+            plane_groups: denoiser.layout().plane_groups,
             sampling: denoiser.settings().temporal.sampling.code(),
         }
     }

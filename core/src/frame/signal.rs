@@ -1,6 +1,8 @@
 //! Which signals a frame denoises and where each lives among the denoiser's planes.
 
+use crate::denoiser::Layout;
 use crate::reflections::ReflectionSettings;
+use crate::settings::Settings;
 use core::fmt;
 
 /// The ray-traced signal being denoised.
@@ -39,18 +41,18 @@ pub struct PlaneLayout {
 }
 
 impl PlaneLayout {
-    /// The shadow planes as a bit mask (`Settings::shadow_planes`).
+    /// The shadow planes as a bit mask ([`Layout::shadow_planes`]).
     pub fn shadow_planes(&self) -> u32 {
         self.shadows
             .map_or(0, |(first, n)| ((1u32 << n) - 1) << first)
     }
 
-    /// The AO plane as a bit mask (`Settings::ao_planes`).
+    /// The AO plane as a bit mask ([`Layout::ao_planes`]).
     pub fn ao_planes(&self) -> u32 {
         self.ao.map_or(0, |z| 1 << z)
     }
 
-    /// One plane group per signal, in plane order (`Settings::plane_groups`): AO, the shadows
+    /// One plane group per signal, in plane order ([`Layout::plane_groups`]): AO, the shadows
     /// of every light, reflections.
     pub fn plane_groups(&self) -> u32 {
         let mut packed = 0;
@@ -73,6 +75,33 @@ impl PlaneLayout {
             put(1);
         }
         packed
+    }
+}
+
+impl PlaneLayout {
+    /// The denoiser's layout of these planes under `settings`: the shadow and AO planes marked,
+    /// one plane group per signal with `rates.per_signal`, the reflection plane reprojected along
+    /// the parallax with `parallax` and guided by its hit distance with `filter.guide_sigma`,
+    /// and the first shadow plane guided by its penumbra with `filter.penumbra_reach`.
+    pub fn denoiser(&self, settings: &Settings, parallax: bool) -> Layout {
+        Layout {
+            planes: self.planes,
+            parallax_plane: self.reflections.filter(|_| parallax),
+            guide_plane: self
+                .reflections
+                .filter(|_| settings.filter.guide_sigma > 0.0),
+            penumbra_plane: self
+                .shadows
+                .map(|(first, _)| first)
+                .filter(|_| settings.filter.penumbra_reach > 0.0),
+            plane_groups: if settings.rates.per_signal {
+                self.plane_groups()
+            } else {
+                0
+            },
+            shadow_planes: self.shadow_planes(),
+            ao_planes: self.ao_planes(),
+        }
     }
 }
 

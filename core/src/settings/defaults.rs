@@ -5,13 +5,6 @@ use super::*;
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            planes: 1,
-            parallax_plane: None,
-            guide_plane: None,
-            penumbra_plane: None,
-            plane_groups: 0,
-            shadow_planes: 0,
-            ao_planes: 0,
             temporal: TemporalSettings::default(),
             rates: RateSettings::default(),
             gradient: GradientSettings::default(),

@@ -78,17 +78,9 @@ fn assert_named(cases: &[(Settings, &str)]) {
 }
 
 #[test]
-fn out_of_range_layout_filter_and_temporal_name_their_field() {
+fn out_of_range_filter_and_temporal_name_their_field() {
     let d = Settings::default();
     assert_named(&[
-        (Settings { planes: 5, ..d }, "planes"),
-        (
-            Settings {
-                parallax_plane: Some(1),
-                ..d
-            },
-            "parallax_plane",
-        ),
         (
             Settings {
                 filter: FilterSettings {
@@ -254,26 +246,4 @@ fn error_message_names_the_path() {
         e.to_string(),
         "setting `filter.sigma_luminance` = -1 is out of range (> 0)"
     );
-}
-
-#[test]
-fn plane_groups_number_the_planes_in_order() {
-    let with = |planes, plane_groups| Settings {
-        planes,
-        plane_groups,
-        ..Settings::default()
-    };
-    // AO, two shadow planes, reflections: groups 0, 1, 1, 2.
-    let all = with(4, 0x2110);
-    assert_eq!(all.validate(), Ok(()));
-    assert_eq!(all.groups(), 3);
-    assert_eq!(with(3, 0).groups(), 1);
-    for bad in [
-        with(2, 0x01),  // starts at group 1
-        with(3, 0x200), // skips group 1
-        with(3, 0x101), // goes back
-        with(2, 0x110), // a group past the last plane
-    ] {
-        assert_eq!(field_of(&bad), "plane_groups", "{:x}", bad.plane_groups);
-    }
 }

@@ -143,7 +143,7 @@ impl Rig {
         Rig {
             w,
             h,
-            planes: settings.planes,
+            planes: d.layout().planes,
             d,
             frame: 0,
             gbuffer: Images::pack(&surfaces, w, &view()),
