@@ -1,4 +1,4 @@
-//! Settings files: the denoiser's [`Settings`] as TOML, one table per stage (`[temporal]`, `[rates]`, `[gradient]`, `[filter]`), and the
+//! Settings files: the denoiser's [`Settings`] as TOML, one table per stage (`[temporal]`, `[rates]`, `[prepass]`, `[detector]`, `[filter]`), and the
 //! reflection passes' [`ReflectionSettings`] as `[reflections]`. Fields left out keep their
 //! defaults, unknown fields are errors, and the result is validated, so a bad file fails before
 //! anything runs with the file, the line and the problem in one line.
@@ -7,7 +7,8 @@ use anyhow::{anyhow, Result};
 use std::path::Path;
 use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::{
-    FilterSettings, GradientSettings, RateSettings, Settings, SettingsError, TemporalSettings,
+    DetectorSettings, FilterSettings, PrepassSettings, RateSettings, Settings, SettingsError,
+    TemporalSettings,
 };
 
 /// First lines of [`to_toml`]'s output.
@@ -35,7 +36,8 @@ pub struct SettingsFile {
 struct Layout {
     temporal: TemporalSettings,
     rates: RateSettings,
-    gradient: GradientSettings,
+    prepass: PrepassSettings,
+    detector: DetectorSettings,
     filter: FilterSettings,
     reflections: ReflectionSettings,
 }
@@ -45,13 +47,15 @@ impl From<SettingsFile> for Layout {
         let Settings {
             temporal,
             rates,
-            gradient,
+            prepass,
+            detector,
             filter,
         } = f.denoiser;
         Layout {
             temporal,
             rates,
-            gradient,
+            prepass,
+            detector,
             filter,
             reflections: f.reflections,
         }
@@ -64,7 +68,8 @@ impl From<Layout> for SettingsFile {
             denoiser: Settings {
                 temporal: l.temporal,
                 rates: l.rates,
-                gradient: l.gradient,
+                prepass: l.prepass,
+                detector: l.detector,
                 filter: l.filter,
             },
             reflections: l.reflections,
@@ -202,7 +207,8 @@ mod tests {
         for needle in [
             "[temporal]",
             "[rates]",
-            "[gradient]",
+            "[prepass]",
+            "[detector]",
             "[filter]",
             "[reflections]",
             "light_probes = 7\n",
@@ -252,19 +258,22 @@ mod tests {
                 signal_floor: 0.6,
                 shift_requests: false,
             },
-            gradient: GradientSettings {
+            prepass: PrepassSettings {
                 stratum: 5,
                 iterations: 0,
                 threshold: 0.123,
                 scale: 32.0,
-                detect_radius: 3,
-                detect_sigma: 2.5,
-                detect_min_variance: 3.0e-5,
+            },
+            detector: DetectorSettings {
+                radius: 3,
+                threshold: 0.875,
+                sigma: 2.5,
+                min_variance: 3.0e-5,
                 refill: false,
                 refill_rays: 7,
-                shadow_detect_radius: 3,
+                shadow_radius: 3,
                 shadow_threshold: 0.25,
-                ao_detect_sigma: 2.5,
+                ao_sigma: 2.5,
                 shadow_verify_sigma: 0.75,
                 shadow_verify_history: 9.5,
                 shadow_drop_sigma: 2.25,
@@ -417,7 +426,7 @@ storage = \"f16\"
         assert!(e.contains("`rates.rays_per_pixel`"), "{e}");
         let e = parse("[temporal]\nmax_history = 8.0\n").unwrap_err();
         assert!(e.contains("`rates.supersample_target`"), "{e}");
-        let e = parse("[gradient]\nstratum = -1\n").unwrap_err();
+        let e = parse("[prepass]\nstratum = -1\n").unwrap_err();
         assert!(e.starts_with("line 2, column 11: "), "{e}");
         let e = parse("[reflections]\nlight_probes = 16\n").unwrap_err();
         assert_eq!(

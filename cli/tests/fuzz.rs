@@ -155,7 +155,7 @@ fn fuzz_settings_files() {
         "[filter]\nsigma_luminance = 2.5\natrous_iterations = 3\n\n[temporal]\n\
          max_history = 32 # an integer is a fine float\nstorage = \"f16\"\n",
         "[rates]\nrays_per_pixel = 2\nvariance_threshold = [0.0001, 0.001, 0.01, 0.0]\n\
-         [gradient]\nstratum = 3\n",
+         [prepass]\nstratum = 3\n",
         "[temporal]\nstorage = \"unorm8\"\nstuck_correction = false\n",
     ];
     for s in seeds {
@@ -164,7 +164,8 @@ fn fuzz_settings_files() {
     let words = [
         "[temporal]\n",
         "[rates]\n",
-        "[gradient]\n",
+        "[prepass]\n",
+        "[detector]\n",
         "[filter]\n",
         "[reflections]\n",
         "[[rates]]\n",

@@ -48,7 +48,7 @@ pub fn denoiser_buffers(
     let pixels = width as u64 * height as u64;
     let planes = pixels * layout.planes as u64;
     let groups = layout.groups() as u64;
-    let (gw, gh) = grid_size(width, height, settings.gradient.stratum);
+    let (gw, gh) = grid_size(width, height, settings.prepass.stratum);
     let cells = gw as u64 * gh as u64;
     let gradient = cells * layout.planes as u64 * size_of::<GradientSample>() as u64;
     let (tw, th) = classify::tile_grid(width, height);

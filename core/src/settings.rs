@@ -1,7 +1,10 @@
 //! The denoiser's tunables, one struct per stage (like NRD's settings): [`TemporalSettings`]
 //! (reprojection and accumulation of history), [`RateSettings`] (how many rays each pixel gets),
-//! [`GradientSettings`] (the A-SVGF temporal-gradient prepass) and [`FilterSettings`] (variance
-//! estimation and the à-trous filter), gathered with the frame-level fields in [`Settings`].
+//! [`PrepassSettings`] (the A-SVGF temporal-gradient prepass), [`DetectorSettings`] (the change
+//! detector and its refill lists) and [`FilterSettings`] (variance estimation and the à-trous
+//! filter), gathered in [`Settings`]. Where the planes are and this frame's ray budget are not
+//! tunables: they are the frame's ([`Layout`](crate::denoiser::Layout),
+//! [`Denoiser::rays_per_pixel`](crate::denoiser::Denoiser::rays_per_pixel)).
 //!
 //! Every struct's `Default` is full VRRT, every field documents its unit, range and default, and
 //! every `validate` names a bad field by its path (`filter.sigma_luminance`). With the `serde`
@@ -31,8 +34,10 @@ pub struct Settings {
     pub temporal: TemporalSettings,
     /// Ray rates: the budget, VRRT's supersampling, undersampling and load balancing.
     pub rates: RateSettings,
-    /// Temporal gradients (A-SVGF), off by default.
-    pub gradient: GradientSettings,
+    /// The temporal-gradient prepass (A-SVGF), off by default.
+    pub prepass: PrepassSettings,
+    /// The change detector (no extra rays) and its refill lists, on by default.
+    pub detector: DetectorSettings,
     /// Variance estimation and the à-trous spatial filter.
     pub filter: FilterSettings,
 }
@@ -179,12 +184,14 @@ pub struct RateSettings {
     pub signal_floor: f32,
 }
 
-/// Temporal gradients (A-SVGF, `kernels::gradient`): one re-traced sample per stratum tells where
-/// the signal changed, so history is dropped there instead of clamped and VRRT can supersample.
+/// The temporal-gradient prepass (A-SVGF, `kernels::gradient`): one re-traced sample per stratum
+/// tells where the signal changed, so history is dropped there instead of clamped and VRRT can
+/// supersample. It re-traces last frame's rays, so it costs rays; the [`DetectorSettings`] find
+/// changes in this frame's own rays.
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
-pub struct GradientSettings {
+pub struct PrepassSettings {
     /// Stratum size in pixels, one re-traced sample per stratum and frame (0 = off, default;
     /// 1..=8: 3 and more re-trace a fraction of the rays; 1 also takes per-pixel changes the
     /// host supplies, `FrameScene::changes`).
@@ -198,18 +205,31 @@ pub struct GradientSettings {
     /// A single binary ray per stratum sees slow changes (a light creeping, a penumbra sliding)
     /// as a small `λ`; a gain shortens history there sooner, like Q2RTX's anti-lag scale.
     pub scale: f32,
-    /// Change detector (`kernels::detect`, no extra rays): radius in pixels of the window over
-    /// which this frame's rays are tested against the history; 0 = off (0..=4; default 2, 5×5).
-    /// Its `λ` drops or shortens history as `threshold` says.
-    pub detect_radius: u32,
+}
+
+/// The change detector (`kernels::detect`, no extra rays): this frame's rays are tested against
+/// the history over a window, and where they disagree the `λ` it finds shortens or drops history;
+/// the pixels it drops that traced nothing are re-traced in the same frame (the refill lists,
+/// `kernels::refill`).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct DetectorSettings {
+    /// Radius in pixels of the window over which this frame's rays are tested against the
+    /// history; 0 = off (0..=4; default 2, 5×5).
+    pub radius: u32,
+    /// The detector's `λ` above which history is dropped like a disocclusion (0..=1; default
+    /// 0.5, the prepass's `threshold`); below it history is shortened to `count · (1 − λ)`. The
+    /// shadow planes take `shadow_threshold`.
+    pub threshold: f32,
     /// Significance, in standard deviations, from which a detected change counts fully (>= 1;
     /// default 1: at 1.5σ and above moving shadows lag more; with the refill lists, 1 is
     /// better than 1.5 on every signal of room, bunny and dragon, see
-    /// `docs/algorithms/change-detector.md`). The AO planes take `ao_detect_sigma`.
-    pub detect_sigma: f32,
+    /// `docs/algorithms/change-detector.md`). The AO planes take `ao_sigma`.
+    pub sigma: f32,
     /// Per-ray variance the detector assumes at least (signal units squared, >= 0; default
     /// 1e-4): a converged pixel's history may read 0.
-    pub detect_min_variance: f32,
+    pub min_variance: f32,
     /// Trace `refill_rays`, in the same frame, for each pixel whose history the detector drops
     /// and that traced none (`kernels::refill`; default on); the rays come out of the frame's own
     /// budget, set aside from last frame's lists (`kernels::refill::fit`, `docs/ray-budget.md`).
@@ -219,26 +239,25 @@ pub struct GradientSettings {
     /// `docs/algorithms/change-detector.md`); the lists share what is left over or missing. A
     /// dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
-    /// `detect_radius` of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes)) when the detector is
-    /// on (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
+    /// `radius` of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes))
+    /// (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history
     /// lags. AO's soft, faint changes need the larger window to be significant (see
     /// `docs/algorithms/change-detector.md`).
-    pub shadow_detect_radius: u32,
-    /// The detector's `threshold` on the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes); 0..=1;
-    /// default 0.3). The prepass's `λ` keeps `threshold` on every plane.
+    pub shadow_radius: u32,
+    /// `threshold` of the shadow planes (0..=1; default 0.3).
     pub shadow_threshold: f32,
-    /// `detect_sigma` of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 1; default 2). AO changes only
-    /// where geometry moves, and reprojection already cuts the history of partial footprints
-    /// there, so a 1σ detector mostly shortened converged history by chance (see
-    /// `docs/algorithms/change-detector.md`).
-    pub ao_detect_sigma: f32,
-    /// Verification of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes); >= 0, 0 = off; default
-    /// 1.5): a pixel that traced fewer than `refill_rays` and whose own rays lie this many
-    /// standard deviations from its history (`kernels::detect::pixel_z`) joins the refill lists,
-    /// and accumulation drops its history where the `refill_rays` then lie
-    /// `shadow_drop_sigma` from it. A thin umbra that the camera slides under a pixel of lit
-    /// history is one disagreeing ray, which the detector's window dilutes; four rays decide it.
+    /// `sigma` of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 1;
+    /// default 2). AO changes only where geometry moves, and reprojection already cuts the history
+    /// of partial footprints there, so a 1σ detector mostly shortened converged history by chance
+    /// (see `docs/algorithms/change-detector.md`).
+    pub ao_sigma: f32,
+    /// Verification of the shadow planes (>= 0, 0 = off; default 1.5): a pixel that traced fewer
+    /// than `refill_rays` and whose own rays lie this many standard deviations from its history
+    /// (`kernels::detect::pixel_z`) joins the refill lists, and accumulation drops its history
+    /// where the `refill_rays` then lie `shadow_drop_sigma` from it. A thin umbra that the camera
+    /// slides under a pixel of lit history is one disagreeing ray, which the detector's window
+    /// dilutes; four rays decide it.
     pub shadow_verify_sigma: f32,
     /// History length (rays) from which that test trusts a pixel's history variance (>= 1;
     /// default 1: a younger history already asks for rays).
@@ -246,12 +265,12 @@ pub struct GradientSettings {
     /// Significance of two or more rays against their history from which accumulation drops
     /// it on the shadow planes (> 0; default 1.5).
     pub shadow_drop_sigma: f32,
-    /// Confirmation of the reflections' drops (`Layout::parallax_plane`; >= 0, 0 = off;
-    /// default 1.25): where `λ` drops history, the pixel's own rays (the refill lists give it
-    /// some) must lie this many standard deviations from it (`kernels::detect::pixel_z`), or the
-    /// history is kept whole. The 1σ window reads noise as a change now and then, and a converged
-    /// reflection dropped by chance comes back as blotches (see
-    /// `docs/algorithms/change-detector.md`).
+    /// Confirmation of the reflections' drops ([`Layout::parallax_plane`](crate::denoiser::Layout::parallax_plane);
+    /// >= 0, 0 = off; default 1.25): where `λ` drops history, the pixel's own rays (the refill
+    /// lists give it some) must lie this many standard deviations from it
+    /// (`kernels::detect::pixel_z`), or the history is kept whole. The 1σ window reads noise as a
+    /// change now and then, and a converged reflection dropped by chance comes back as blotches
+    /// (see `docs/algorithms/change-detector.md`).
     pub reflection_confirm_sigma: f32,
 }
 
@@ -357,9 +376,9 @@ impl Settings {
                 penumbra_reach: 0.0,
                 ..self.filter
             },
-            gradient: GradientSettings {
-                detect_radius: 0,
-                ..self.gradient
+            detector: DetectorSettings {
+                radius: 0,
+                ..self.detector
             },
             temporal: TemporalSettings {
                 reflection_clamp_radius: 0,
@@ -375,7 +394,8 @@ impl Settings {
     pub fn validate(&self) -> Result<(), SettingsError> {
         self.temporal.validate()?;
         self.rates.validate()?;
-        self.gradient.validate()?;
+        self.prepass.validate()?;
+        self.detector.validate()?;
         self.filter.validate()?;
         let (r, max) = (&self.rates, self.temporal.max_history);
         check(

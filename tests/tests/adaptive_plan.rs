@@ -5,7 +5,7 @@
 //! work costs less than 2%; a signal without a source costs no pass.
 
 use vrrt_core::plan::Executor;
-use vrrt_core::settings::{FilterSettings, GradientSettings, RateSettings, Settings};
+use vrrt_core::settings::{FilterSettings, PrepassSettings, RateSettings, Settings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};
 
@@ -25,7 +25,7 @@ fn unskipped(rays_per_pixel: f32) -> Settings {
             skip_sigma: 0.0,
             ..Default::default()
         },
-        gradient: GradientSettings {
+        prepass: PrepassSettings {
             stratum: 4,
             ..Default::default()
         },
@@ -112,7 +112,7 @@ fn still_converged_scene_saves_rays_and_the_prepass() {
             spend_saved_rays: false,
             ..Default::default()
         },
-        gradient: GradientSettings {
+        prepass: PrepassSettings {
             stratum: 4,
             ..Default::default()
         },
@@ -149,7 +149,7 @@ fn moving_scene_loses_nothing_to_skipping() {
     let adaptive = run(
         "room",
         Settings {
-            gradient: GradientSettings {
+            prepass: PrepassSettings {
                 stratum: 4,
                 ..Default::default()
             },

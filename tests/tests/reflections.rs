@@ -8,7 +8,7 @@ use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::reflect;
 use vrrt_core::payload::{PackedPayload, Payload};
 use vrrt_core::reflections::ReflectionSettings;
-use vrrt_core::settings::{GradientSettings, SamplePattern, Settings, TemporalSettings};
+use vrrt_core::settings::{DetectorSettings, SamplePattern, Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::animation::{CameraKey, CameraPath};
 use vrrt_scene::render::{read, reference, Readback, Renderer, Signal};
@@ -264,8 +264,8 @@ fn parallax_reprojection_follows_the_reflection() {
     // Reprojection alone: the change detector would drop much of the history the wrong motion
     // smears, hiding what is measured here.
     let settings = Settings {
-        gradient: GradientSettings {
-            detect_radius: 0,
+        detector: DetectorSettings {
+            radius: 0,
             ..Default::default()
         },
         ..Settings::default()

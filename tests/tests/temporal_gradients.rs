@@ -4,7 +4,9 @@
 //! shadows better than both VRRT with neither and SVGF with variance clamping, while static
 //! regions stay as sharp.
 
-use vrrt_core::settings::{GradientSettings, SamplePattern, Settings, TemporalSettings};
+use vrrt_core::settings::{
+    DetectorSettings, PrepassSettings, SamplePattern, Settings, TemporalSettings,
+};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};
 
@@ -70,21 +72,22 @@ fn detection_beats_variance_clamping_on_moving_shadows() {
             .mean
         })
         .collect();
-    let neither = GradientSettings {
-        detect_radius: 0,
+    let neither = DetectorSettings {
+        radius: 0,
         ..Default::default()
     };
     let grad = Settings {
-        gradient: GradientSettings {
+        prepass: PrepassSettings {
             stratum: 4,
             scale: 32.0,
-            ..neither
+            ..Default::default()
         },
+        detector: neither,
         ..Settings::default()
     };
     let (g_moving, g_still, ran) = errors(grad, &refs);
     let none = Settings {
-        gradient: neither,
+        detector: neither,
         ..Settings::default()
     };
     let (v_moving, v_still, _) = errors(none, &refs);
@@ -118,7 +121,7 @@ fn prepass_and_detector_are_skipped_when_nothing_moves() {
     let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
     let mut exec = CpuExecutor::new();
     let settings = Settings {
-        gradient: GradientSettings {
+        prepass: PrepassSettings {
             stratum: 4,
             ..Default::default()
         },
@@ -157,9 +160,9 @@ fn changed_cells(sampling: SamplePattern) -> f64 {
             sampling,
             ..TemporalSettings::default()
         },
-        gradient: GradientSettings {
+        prepass: PrepassSettings {
             stratum: 4,
-            ..GradientSettings::default()
+            ..PrepassSettings::default()
         },
         ..Settings::default()
     };

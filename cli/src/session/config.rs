@@ -88,21 +88,21 @@ impl Config {
                 s.filter.skip_sigma = 0.0;
                 s.rates.still_sigma = 0.0;
             }
-            Config::VrrtNodetect => s.gradient.detect_radius = 0,
+            Config::VrrtNodetect => s.detector.radius = 0,
             Config::VrrtOracle => {
                 // Changes come per pixel, used as given: no reconstruction blur, no gain.
-                s.gradient.stratum = 1;
-                s.gradient.iterations = 0;
-                s.gradient.threshold = 0.5;
-                s.gradient.scale = 1.0;
-                s.gradient.detect_radius = 0;
+                s.prepass.stratum = 1;
+                s.prepass.iterations = 0;
+                s.prepass.threshold = 0.5;
+                s.prepass.scale = 1.0;
+                s.detector.radius = 0;
                 // The oracle's drops are true changes: nothing to confirm.
-                s.gradient.reflection_confirm_sigma = 0.0;
+                s.detector.reflection_confirm_sigma = 0.0;
                 return s;
             }
         }
         if signal.reflections().is_some() {
-            s.gradient.stratum = 0;
+            s.prepass.stratum = 0;
         }
         s
     }

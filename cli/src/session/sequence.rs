@@ -65,7 +65,7 @@ pub fn run_sequence(
         pool: &mut pool,
     };
     // The detector's λ, to score it against the oracle's mask.
-    let score_detector = opts.measure && settings.gradient.detect_radius > 0;
+    let score_detector = opts.measure && settings.detector.radius > 0;
     let mut renderer = new_renderer(&mut rec, opts, sc.lights.len(), settings, score_detector)?;
     // The frame's planes, all signals' (the renderer sets them from the signal's layout).
     let frame_planes = renderer.denoiser().layout().planes as usize;

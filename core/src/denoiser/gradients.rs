@@ -17,7 +17,7 @@ impl Denoiser {
     ) -> Result<bool, E::Error> {
         let s = self.settings;
         self.gradient_ran = false;
-        if s.gradient.stratum == 0 || self.frame.reset || !self.frame.moved {
+        if s.prepass.stratum == 0 || self.frame.reset || !self.frame.moved {
             return Ok(false);
         }
         self.gradient_project(exec, scene)?;
@@ -49,7 +49,7 @@ impl Denoiser {
         let proj = gradient::ProjectParams {
             width: w,
             height: h,
-            stratum: s.gradient.stratum,
+            stratum: s.prepass.stratum,
             grid_width: gw,
             grid_height: gh,
             frame_index: self.frame.index,
@@ -147,7 +147,7 @@ impl Denoiser {
         let (s, l) = (self.settings, self.layout);
         let (gw, gh) = self.gradient_size();
         let mut input = self.gradient_raw;
-        for i in 0..s.gradient.iterations {
+        for i in 0..s.prepass.iterations {
             let p = gradient::GradientAtrousParams {
                 grid_width: gw,
                 grid_height: gh,
@@ -178,7 +178,7 @@ impl Denoiser {
         changes: &[gradient::GradientSample],
     ) -> Result<bool, E::Error> {
         self.gradient_ran = false;
-        if self.settings.gradient.stratum == 0 || self.frame.reset {
+        if self.settings.prepass.stratum == 0 || self.frame.reset {
             return Ok(false);
         }
         let (gw, gh) = self.gradient_size();

@@ -15,7 +15,7 @@
 //! fixed-rate SVGF baseline is the same plan with requests off (every pixel asks for
 //! `rays_per_pixel`) and no balancing.
 //!
-//! Temporal gradients (A-SVGF, optional: [`GradientSettings`](crate::settings::GradientSettings))
+//! Temporal gradients (A-SVGF, optional: [`PrepassSettings`](crate::settings::PrepassSettings))
 //! run as a prepass between the G-buffer and reprojection ([`Denoiser::temporal_gradients`]):
 //! project last frame's samples forward, re-trace them against this frame's scene, blur the
 //! change at stratum resolution; reprojection then shortens or drops history where the signal
@@ -585,7 +585,7 @@ impl Denoiser {
 
     /// Gradient cells across and down ([`grid_size`] of the settings).
     pub fn gradient_size(&self) -> (u32, u32) {
-        grid_size(self.width, self.height, self.settings.gradient.stratum)
+        grid_size(self.width, self.height, self.settings.prepass.stratum)
     }
 
     /// Raw temporal gradient of this frame (`GradientSample` per cell and plane, plane-stacked;
@@ -598,7 +598,7 @@ impl Denoiser {
     /// Reconstructed (blurred) temporal gradient, the one reprojection reads; same layout as
     /// [`Self::gradient_raw`].
     pub fn gradient(&self) -> BufferId {
-        if self.settings.gradient.iterations == 0 {
+        if self.settings.prepass.iterations == 0 {
             self.gradient_raw
         } else {
             self.gradient[self.gradient_out]
@@ -632,7 +632,7 @@ impl Denoiser {
     /// Whether this frame runs the change detector: on, and the frame neither resets history nor
     /// stands still.
     pub(super) fn detects(&self) -> bool {
-        self.settings.gradient.detect_radius > 0 && !self.frame.reset && self.frame.moved
+        self.settings.detector.radius > 0 && !self.frame.reset && self.frame.moved
     }
 
     /// Whether this frame's refill lists are a reset frame's (the shadows' mixed windows, traced
@@ -642,10 +642,10 @@ impl Denoiser {
     }
 
     /// Whether reset frames make refill lists (`rates.reset_refill`, shadow planes, and a host
-    /// that traces refill lists: `gradient.refill`).
+    /// that traces refill lists: `detector.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
         let s = &self.settings;
-        s.rates.reset_refill > 0.0 && self.layout.shadow_planes != 0 && s.gradient.refill
+        s.rates.reset_refill > 0.0 && self.layout.shadow_planes != 0 && s.detector.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget

@@ -97,14 +97,14 @@ impl Denoiser {
             },
             variance_rate: s.rates.variance_rate.map(|r| r * base_rate),
             gradient_stratum: if self.gradient_ran {
-                s.gradient.stratum
+                s.prepass.stratum
             } else {
                 0
             },
             gradient_width: gw,
             gradient_height: gh,
-            gradient_threshold: s.gradient.threshold,
-            gradient_scale: s.gradient.scale,
+            gradient_threshold: s.prepass.threshold,
+            gradient_scale: s.prepass.scale,
             still_history: if still_rule { history } else { 0.0 },
             still_variance: s.rates.still_sigma * s.rates.still_sigma,
             max_history: history,
@@ -167,7 +167,7 @@ impl Denoiser {
             plane_groups: l.plane_groups,
             planes: l.planes,
             signal_floor: s.rates.signal_floor,
-            refill_rays: s.gradient.refill_rays,
+            refill_rays: s.detector.refill_rays,
             after_reset: (self.since_reset == 1 && self.reset_share() > 0.0) as u32,
             shift: self.shifting_groups(importance_group),
         };

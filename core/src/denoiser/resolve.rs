@@ -9,7 +9,7 @@ impl Denoiser {
     /// host then traces them like the frame's work lists ([`Self::refill_work`],
     /// [`Self::refill_args`]) into [`Self::samples`] before [`Self::resolve`].
     pub fn detect_changes<E: Executor>(&mut self, exec: &mut E) -> Result<bool, E::Error> {
-        self.detect(exec, self.settings.gradient.refill)
+        self.detect(exec, self.settings.detector.refill)
     }
 
     /// The detector, and the refill lists when `refill` (a host that does not trace them must
@@ -29,13 +29,13 @@ impl Denoiser {
         let p = detect::DetectParams {
             width: w,
             height: h,
-            radius: s.gradient.detect_radius,
-            shadow_radius: s.gradient.shadow_detect_radius,
+            radius: s.detector.radius,
+            shadow_radius: s.detector.shadow_radius,
             shadow_planes: l.shadow_planes,
-            z_full: s.gradient.detect_sigma,
+            z_full: s.detector.sigma,
             ao_planes: l.ao_planes,
-            ao_z_full: s.gradient.ao_detect_sigma,
-            min_variance: s.gradient.detect_min_variance,
+            ao_z_full: s.detector.ao_sigma,
+            min_variance: s.detector.min_variance,
         };
         if !refill {
             let pass = kernels::DetectBindings {
@@ -123,17 +123,17 @@ impl Denoiser {
             height: self.height,
             planes: l.planes,
             plane_groups: l.plane_groups,
-            threshold: s.gradient.threshold,
-            shadow_threshold: s.gradient.shadow_threshold,
+            threshold: s.detector.threshold,
+            shadow_threshold: s.detector.shadow_threshold,
             shadow_planes: l.shadow_planes,
             rays: if reset {
                 buckets::MAX_RATE
             } else {
-                s.gradient.refill_rays
+                s.detector.refill_rays
             },
-            verify_sigma: s.gradient.shadow_verify_sigma,
-            verify_history: s.gradient.shadow_verify_history,
-            min_variance: s.gradient.detect_min_variance,
+            verify_sigma: s.detector.shadow_verify_sigma,
+            verify_history: s.detector.shadow_verify_history,
+            min_variance: s.detector.min_variance,
             frame_index: self.frame.index,
         }
     }
@@ -197,17 +197,17 @@ impl Denoiser {
                     crate::quantize::STORAGE_NO_CORRECTION
                 },
             use_changes: detect as u32,
-            change_threshold: s.gradient.threshold,
-            shadow_threshold: s.gradient.shadow_threshold,
+            change_threshold: s.detector.threshold,
+            shadow_threshold: s.detector.shadow_threshold,
             shadow_planes: l.shadow_planes,
-            drop_sigma: s.gradient.shadow_drop_sigma,
-            min_variance: s.gradient.detect_min_variance,
+            drop_sigma: s.detector.shadow_drop_sigma,
+            min_variance: s.detector.min_variance,
             surface_clamp_planes: reflections,
             surface_clamp_radius: s.temporal.reflection_clamp_radius,
             normal_threshold: s.temporal.normal_threshold,
             depth_tolerance: s.temporal.clamp_depth_tolerance,
             confirm_planes: reflections,
-            confirm_sigma: s.gradient.reflection_confirm_sigma,
+            confirm_sigma: s.detector.reflection_confirm_sigma,
         };
         // Only the reflections' own-surface clamp reads the surfaces.
         let surfaces = reflections != 0 && s.temporal.reflection_clamp_radius > 0;

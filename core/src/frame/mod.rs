@@ -170,7 +170,7 @@ impl Frame {
     /// denoiser's [`Layout`](crate::denoiser::Layout) follows from the signal's planes
     /// ([`PlaneLayout::denoiser`]); of `settings`, for reflections alone `rates.reset_payback`
     /// is the longest, and `rates.reset_refill` holds for shadows alone. Reflections
-    /// cannot be re-traced by the temporal-gradient prepass, so with them `gradient.stratum`
+    /// cannot be re-traced by the temporal-gradient prepass, so with them `prepass.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
         exec: &mut E,
@@ -194,10 +194,10 @@ impl Frame {
             // signals would pay for the shadows' penumbrae.
             settings.rates.reset_refill = 0.0;
         }
-        if layout.reflections.is_some() && settings.gradient.stratum > 1 {
+        if layout.reflections.is_some() && settings.prepass.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
-                field: "gradient.stratum",
-                value: settings.gradient.stratum as f32,
+                field: "prepass.stratum",
+                value: settings.prepass.stratum as f32,
                 range: "0, or 1 for host-supplied changes, with reflections (the prepass has no \
                         reflection re-trace)",
             }));

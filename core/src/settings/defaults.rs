@@ -7,7 +7,8 @@ impl Default for Settings {
         Settings {
             temporal: TemporalSettings::default(),
             rates: RateSettings::default(),
-            gradient: GradientSettings::default(),
+            prepass: PrepassSettings::default(),
+            detector: DetectorSettings::default(),
             filter: FilterSettings::default(),
         }
     }
@@ -58,20 +59,28 @@ impl Default for RateSettings {
     }
 }
 
-impl Default for GradientSettings {
+impl Default for PrepassSettings {
     fn default() -> Self {
-        GradientSettings {
+        PrepassSettings {
             stratum: 0,
             iterations: 3,
             threshold: 0.5,
             scale: 1.0,
-            detect_radius: 2,
-            detect_sigma: 1.0,
-            ao_detect_sigma: 2.0,
-            detect_min_variance: 1e-4,
+        }
+    }
+}
+
+impl Default for DetectorSettings {
+    fn default() -> Self {
+        DetectorSettings {
+            radius: 2,
+            threshold: 0.5,
+            sigma: 1.0,
+            ao_sigma: 2.0,
+            min_variance: 1e-4,
             refill: true,
             refill_rays: 4,
-            shadow_detect_radius: 1,
+            shadow_radius: 1,
             shadow_threshold: 0.3,
             shadow_verify_sigma: 1.5,
             shadow_verify_history: 1.0,

@@ -41,20 +41,23 @@ fn svgf_is_the_default_with_rates_off() {
     );
     assert_eq!(s.filter.guide_sigma, 0.0, "SVGF has no hit-distance guide");
     assert_eq!(s.filter.penumbra_reach, 0.0, "SVGF has no penumbra guide");
-    assert_eq!(s.gradient.detect_radius, 0, "SVGF has no change detector");
+    assert_eq!(s.detector.radius, 0, "SVGF has no change detector");
     assert_eq!(
         s.temporal.reflection_clamp_radius, 0,
         "SVGF's clamp is the textbook one"
     );
-    let gradient = GradientSettings {
-        detect_radius: d.gradient.detect_radius,
-        ..s.gradient
+    let detector = DetectorSettings {
+        radius: d.detector.radius,
+        ..s.detector
     };
     let temporal = TemporalSettings {
         reflection_clamp_radius: d.temporal.reflection_clamp_radius,
         ..s.temporal
     };
-    assert_eq!((temporal, gradient), (d.temporal, d.gradient));
+    assert_eq!(
+        (temporal, s.prepass, detector),
+        (d.temporal, d.prepass, d.detector)
+    );
     assert_eq!(
         FilterSettings {
             skip_sigma: d.filter.skip_sigma,
@@ -125,7 +128,7 @@ fn out_of_range_filter_and_temporal_name_their_field() {
 }
 
 #[test]
-fn out_of_range_rates_and_gradient_name_their_field() {
+fn out_of_range_rates_prepass_and_detector_name_their_field() {
     let d = Settings::default();
     assert_named(&[
         (
@@ -180,33 +183,43 @@ fn out_of_range_rates_and_gradient_name_their_field() {
         ),
         (
             Settings {
-                gradient: GradientSettings {
+                prepass: PrepassSettings {
                     stratum: 9,
-                    ..d.gradient
+                    ..d.prepass
                 },
                 ..d
             },
-            "gradient.stratum",
+            "prepass.stratum",
         ),
         (
             Settings {
-                gradient: GradientSettings {
+                prepass: PrepassSettings {
                     threshold: 1.5,
-                    ..d.gradient
+                    ..d.prepass
                 },
                 ..d
             },
-            "gradient.threshold",
+            "prepass.threshold",
         ),
         (
             Settings {
-                gradient: GradientSettings {
-                    reflection_confirm_sigma: -1.0,
-                    ..d.gradient
+                detector: DetectorSettings {
+                    threshold: f32::NAN,
+                    ..d.detector
                 },
                 ..d
             },
-            "gradient.reflection_confirm_sigma",
+            "detector.threshold",
+        ),
+        (
+            Settings {
+                detector: DetectorSettings {
+                    reflection_confirm_sigma: -1.0,
+                    ..d.detector
+                },
+                ..d
+            },
+            "detector.reflection_confirm_sigma",
         ),
     ]);
 }

@@ -1,6 +1,9 @@
 //! The range checks: each stage's `validate` and the `check` they share, apart from the structs.
 
-use super::{FilterSettings, GradientSettings, RateSettings, SettingsError, TemporalSettings};
+use super::{
+    DetectorSettings, FilterSettings, PrepassSettings, RateSettings, SettingsError,
+    TemporalSettings,
+};
 
 /// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
 pub(crate) fn check(
@@ -193,97 +196,110 @@ impl RateSettings {
     }
 }
 
-impl GradientSettings {
+impl PrepassSettings {
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), SettingsError> {
         let finite = |v: f32| v.is_finite();
         check(
             self.stratum <= 8,
-            "gradient.stratum",
+            "prepass.stratum",
             self.stratum as f32,
             "0..=8",
         )?;
         check(
             self.iterations <= 5,
-            "gradient.iterations",
+            "prepass.iterations",
             self.iterations as f32,
             "0..=5",
         )?;
         check(
             finite(self.threshold) && (0.0..=1.0).contains(&self.threshold),
-            "gradient.threshold",
+            "prepass.threshold",
             self.threshold,
             "0..=1",
         )?;
         check(
             finite(self.scale) && self.scale >= 0.0,
-            "gradient.scale",
+            "prepass.scale",
             self.scale,
             ">= 0",
-        )?;
+        )
+    }
+}
+
+impl DetectorSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let finite = |v: f32| v.is_finite();
         check(
-            self.detect_radius <= 4,
-            "gradient.detect_radius",
-            self.detect_radius as f32,
+            self.radius <= 4,
+            "detector.radius",
+            self.radius as f32,
             "0..=4",
         )?;
         check(
-            finite(self.detect_sigma) && self.detect_sigma >= 1.0,
-            "gradient.detect_sigma",
-            self.detect_sigma,
+            finite(self.threshold) && (0.0..=1.0).contains(&self.threshold),
+            "detector.threshold",
+            self.threshold,
+            "0..=1",
+        )?;
+        check(
+            finite(self.sigma) && self.sigma >= 1.0,
+            "detector.sigma",
+            self.sigma,
             ">= 1",
         )?;
         check(
-            finite(self.detect_min_variance) && self.detect_min_variance >= 0.0,
-            "gradient.detect_min_variance",
-            self.detect_min_variance,
+            finite(self.min_variance) && self.min_variance >= 0.0,
+            "detector.min_variance",
+            self.min_variance,
             ">= 0",
         )?;
         check(
             (1..=16).contains(&self.refill_rays),
-            "gradient.refill_rays",
+            "detector.refill_rays",
             self.refill_rays as f32,
             "1..=16",
         )?;
         check(
-            self.shadow_detect_radius <= 4,
-            "gradient.shadow_detect_radius",
-            self.shadow_detect_radius as f32,
+            self.shadow_radius <= 4,
+            "detector.shadow_radius",
+            self.shadow_radius as f32,
             "0..=4",
         )?;
         check(
             (0.0..=1.0).contains(&self.shadow_threshold),
-            "gradient.shadow_threshold",
+            "detector.shadow_threshold",
             self.shadow_threshold,
             "0..=1",
         )?;
         check(
-            finite(self.ao_detect_sigma) && self.ao_detect_sigma >= 1.0,
-            "gradient.ao_detect_sigma",
-            self.ao_detect_sigma,
+            finite(self.ao_sigma) && self.ao_sigma >= 1.0,
+            "detector.ao_sigma",
+            self.ao_sigma,
             ">= 1",
         )?;
         check(
             finite(self.shadow_verify_sigma) && self.shadow_verify_sigma >= 0.0,
-            "gradient.shadow_verify_sigma",
+            "detector.shadow_verify_sigma",
             self.shadow_verify_sigma,
             ">= 0",
         )?;
         check(
             finite(self.shadow_verify_history) && self.shadow_verify_history >= 1.0,
-            "gradient.shadow_verify_history",
+            "detector.shadow_verify_history",
             self.shadow_verify_history,
             ">= 1",
         )?;
         check(
             finite(self.shadow_drop_sigma) && self.shadow_drop_sigma > 0.0,
-            "gradient.shadow_drop_sigma",
+            "detector.shadow_drop_sigma",
             self.shadow_drop_sigma,
             "> 0",
         )?;
         check(
             finite(self.reflection_confirm_sigma) && self.reflection_confirm_sigma >= 0.0,
-            "gradient.reflection_confirm_sigma",
+            "detector.reflection_confirm_sigma",
             self.reflection_confirm_sigma,
             ">= 0",
         )
