@@ -78,10 +78,9 @@ pub struct BenchArgs {
     pub passes: bool,
     /// Settings file (TOML, as for `vrrt run --settings`; `vrrt info --settings` prints
     /// the defaults). Every cell starts from it instead of the defaults; the cell's
-    /// configuration, budget and signal win over it (`rates.rays_per_pixel`, `planes`,
-    /// `parallax_plane`, `guide_plane`, `penumbra_plane`, `plane_groups`, `shadow_planes` and
-    /// `ao_planes` of the file are not used, nor `rates.reset_payback` for reflections alone or
-    /// `rates.reset_refill` but for shadows alone).
+    /// configuration, budget and signal win over it (`rates.rays_per_pixel` of the file is not
+    /// used, nor `rates.reset_payback` for reflections alone or `rates.reset_refill` but for
+    /// shadows alone).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Do not write the page `report.html` (with its images in `report/`): crops of what moves
@@ -395,8 +394,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         bail!("--repeats must be between 1 and {MAX_REPEATS}, got {repeats}");
     }
     let signals = or_default(&args.signals, m.signals);
-    let file = load_settings(args.settings.as_deref())?;
-    let base = file.denoiser;
+    let base = load_settings(args.settings.as_deref())?;
     let limits = args.limits.limits();
     let loaded = scenes
         .iter()
@@ -438,7 +436,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         let opts = SequenceOptions {
                             size,
                             frames,
-                            signal: kind.signal(args.ao_radius, file.reflections),
+                            signal: kind.signal(args.ao_radius),
                             spp: args.spp,
                             base,
                             config,

@@ -6,7 +6,6 @@ use crate::session::{parse_size, SignalKind};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
 use vrrt_core::plan::Executor;
-use vrrt_core::reflections::ReflectionSettings;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
 /// Options of `vrrt info`.
@@ -63,13 +62,13 @@ pub fn run(args: &InfoArgs) -> Result<()> {
     if args.settings {
         print!(
             "{}",
-            crate::settings::to_toml(&crate::settings::SettingsFile::default())
+            crate::settings::to_toml(&vrrt_core::settings::Settings::default())
         );
         return Ok(());
     }
     if args.memory {
         check_lights(args.signal, args.lights)?;
-        let signal = args.signal.signal(1.0, ReflectionSettings::default());
+        let signal = args.signal.signal(1.0);
         let report = crate::memory::report(args.size, args.signal.name(), signal, args.lights)?;
         print!("{report}");
         return Ok(());

@@ -171,10 +171,7 @@ mod tests {
     #[test]
     fn report_has_the_three_figures_and_more_signals_cost_more() {
         let ao = report((320, 180), "ao", Signal::Ao { max_distance: 1.0 }, 1).unwrap();
-        let all = Signal::All {
-            max_distance: 1.0,
-            reflections: Default::default(),
-        };
+        let all = Signal::All { max_distance: 1.0 };
         let all = report((320, 180), "all", all, 1).unwrap();
         for key in [
             "denoiser memory:",

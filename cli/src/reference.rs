@@ -8,7 +8,7 @@ use crate::session::{
     SignalKind,
 };
 use anyhow::Result;
-use vrrt_core::reflections::ReflectionSettings;
+use vrrt_core::settings::ReflectionSettings;
 
 /// Options of `vrrt reference`.
 #[derive(Clone, Debug, clap::Args)]
@@ -50,9 +50,8 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     if let Some(dir) = refs.cache_dir() {
         println!("cache: {}", dir.display());
     }
-    let signal = args
-        .signal
-        .signal(args.ao_radius, ReflectionSettings::default());
+    let signal = args.signal.signal(args.ao_radius);
+    let reflections = ReflectionSettings::default();
     let parts = parts(signal, scene.scene.lights.len());
     println!("frame  signal       source  mean_stderr");
     let mut total = 0.0;
@@ -66,6 +65,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
                     frame: &f,
                     size: args.size,
                     signal: p.signal,
+                    reflections: &reflections,
                     spp: args.spp,
                 },
             )?;

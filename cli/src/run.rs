@@ -11,11 +11,11 @@ use crate::session::{
     parse_size, plane_names, Config, FrameRecord, FrameView, LoadedScene, References,
     SequenceOptions, SequenceResult, SignalKind, WARMUP_FRAMES,
 };
-use crate::settings::SettingsFile;
 use anyhow::{anyhow, bail, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
+use vrrt_core::settings::Settings;
 use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, Image, ImageRef};
 
 /// Options of `vrrt run`.
@@ -47,15 +47,14 @@ pub struct RunArgs {
     /// `--rpp`. Wins over the settings file.
     #[arg(long, value_name = "MS", value_parser = parse_budget_ms)]
     pub budget_ms: Option<f32>,
-    /// Settings file (TOML: `planes`, the plane indices, and the tables `[temporal]`, `[rates]`,
-    /// `[gradient]`, `[filter]` and `[reflections]`; fields left out keep their defaults, unknown
-    /// fields are errors; `vrrt info --settings` prints the defaults). It replaces the defaults that
-    /// the other options start from, and they win over it: `--denoiser` applies its changes on
-    /// top (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
-    /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` sets `planes`, `parallax_plane`,
-    /// `guide_plane`, `penumbra_plane`, `plane_groups`, `shadow_planes` and `ao_planes` (and,
-    /// for reflections alone, `rates.reset_payback` 64; but for shadows alone,
-    /// `rates.reset_refill` 0).
+    /// Settings file (TOML: the tables `[temporal]`, `[rates]`, `[prepass]`, `[detector]`,
+    /// `[filter]` and `[reflections]`; fields left out keep their defaults, unknown fields are
+    /// errors; `vrrt info --settings` prints the defaults). It replaces the defaults that the
+    /// other options start from, and they win over it: `--denoiser` applies its changes on top
+    /// (svgf turns VRRT's rates and the adaptive filter off, vrrt-save keeps saved rays, …),
+    /// `--rpp` replaces `rates.rays_per_pixel`, and `--signal` decides the planes (and, for
+    /// reflections alone, `rates.reset_payback` 64; but for shadows alone, `rates.reset_refill`
+    /// 0).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.
@@ -118,8 +117,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.every == 0 {
         bail!("--every must be at least 1");
     }
-    let file = load_settings(args.settings.as_deref())?;
-    let mut base = file.denoiser;
+    let mut base = load_settings(args.settings.as_deref())?;
     if let Some(ms) = args.budget_ms {
         base.rates.budget_ms = ms;
     }
@@ -133,7 +131,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let opts = SequenceOptions {
         size: args.size,
         frames,
-        signal: args.signal.signal(args.ao_radius, file.reflections),
+        signal: args.signal.signal(args.ao_radius),
         spp: args.spp,
         base,
         config: args.denoiser,
@@ -387,8 +385,8 @@ fn timing_rows(t: &mut Table, rs: &SequenceResult) {
 }
 
 /// The settings file at `path` (see [`crate::settings`]), or the defaults without one.
-pub fn load_settings(path: Option<&Path>) -> Result<SettingsFile> {
-    path.map_or(Ok(SettingsFile::default()), crate::settings::load)
+pub fn load_settings(path: Option<&Path>) -> Result<Settings> {
+    path.map_or(Ok(Settings::default()), crate::settings::load)
 }
 
 /// Frames beyond the scene's animation are not rendered.

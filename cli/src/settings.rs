@@ -1,100 +1,27 @@
-//! Settings files: the denoiser's [`Settings`] as TOML, one table per stage (`[temporal]`, `[rates]`, `[prepass]`, `[detector]`, `[filter]`), and the
-//! reflection passes' [`ReflectionSettings`] as `[reflections]`. Fields left out keep their
-//! defaults, unknown fields are errors, and the result is validated, so a bad file fails before
-//! anything runs with the file, the line and the problem in one line.
+//! Settings files: the denoiser's [`Settings`] as TOML, one table per stage (`[temporal]`,
+//! `[rates]`, `[prepass]`, `[detector]`, `[filter]`, `[reflections]`). Fields left out keep their
+//! defaults, unknown fields are errors, and the result is validated by
+//! [`Settings::validate`], so a bad file fails before anything runs with the file, the line and
+//! the problem in one line.
 
 use anyhow::{anyhow, Result};
 use std::path::Path;
-use vrrt_core::reflections::ReflectionSettings;
-use vrrt_core::settings::{
-    DetectorSettings, FilterSettings, PrepassSettings, RateSettings, Settings, SettingsError,
-    TemporalSettings,
-};
+use vrrt_core::settings::Settings;
 
 /// First lines of [`to_toml`]'s output.
 const HEADER: &str = "\
 # VRRT-rs settings (`vrrt run --settings FILE`, `vrrt bench --settings FILE`).
 # Every field is optional: one left out keeps the default shown here; unknown fields are errors.
-# Units and ranges: vrrt_core::settings (one struct per table) and, for [reflections],
-# vrrt_core::reflections::ReflectionSettings. The planes and their roles are not settings: they
-# follow from the signal (vrrt_core::denoiser::Layout).
+# Units and ranges: vrrt_core::settings (one struct per table). The planes and their roles are
+# not settings: they follow from the signal (vrrt_core::denoiser::Layout).
 ";
-
-/// What a settings file holds: the denoiser's settings and the reflection passes'.
-#[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct SettingsFile {
-    /// Everything but `[reflections]`.
-    pub denoiser: Settings,
-    /// `[reflections]`: used wherever the signal has reflections.
-    pub reflections: ReflectionSettings,
-}
-
-/// The file's layout: [`Settings`]' fields, then `[reflections]` (a struct literal of both ways,
-/// so a field added to `Settings` fails to compile here until it is added).
-#[derive(serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct Layout {
-    temporal: TemporalSettings,
-    rates: RateSettings,
-    prepass: PrepassSettings,
-    detector: DetectorSettings,
-    filter: FilterSettings,
-    reflections: ReflectionSettings,
-}
-
-impl From<SettingsFile> for Layout {
-    fn from(f: SettingsFile) -> Self {
-        let Settings {
-            temporal,
-            rates,
-            prepass,
-            detector,
-            filter,
-        } = f.denoiser;
-        Layout {
-            temporal,
-            rates,
-            prepass,
-            detector,
-            filter,
-            reflections: f.reflections,
-        }
-    }
-}
-
-impl From<Layout> for SettingsFile {
-    fn from(l: Layout) -> Self {
-        SettingsFile {
-            denoiser: Settings {
-                temporal: l.temporal,
-                rates: l.rates,
-                prepass: l.prepass,
-                detector: l.detector,
-                filter: l.filter,
-            },
-            reflections: l.reflections,
-        }
-    }
-}
-
-impl Default for Layout {
-    fn default() -> Self {
-        SettingsFile::default().into()
-    }
-}
 
 /// Parses the text of a settings file and validates it. The error is one line: where (line and
 /// column, for a TOML or type error) and what.
-pub fn parse(text: &str) -> Result<SettingsFile, String> {
-    let layout: Layout = toml::from_str(text).map_err(|e| describe(text, &e))?;
-    let file = SettingsFile::from(layout);
-    file.denoiser
-        .validate()
-        .map_err(|e| out_of_range(text, &e))?;
-    file.reflections
-        .validate()
-        .map_err(|e| out_of_range(text, &e))?;
-    Ok(file)
+pub fn parse(text: &str) -> Result<Settings, String> {
+    let settings: Settings = toml::from_str(text).map_err(|e| describe(text, &e))?;
+    settings.validate().map_err(|e| e.to_string())?;
+    Ok(settings)
 }
 
 /// Largest settings file read: the defaults take about 2 KiB.
@@ -103,7 +30,7 @@ pub const MAX_SETTINGS_BYTES: u64 = 1 << 20;
 /// Reads and parses the settings file at `path` (a regular file of at most
 /// [`MAX_SETTINGS_BYTES`]: a FIFO or `/dev/zero` is refused, not waited on or read without end);
 /// errors name the file.
-pub fn load(path: &Path) -> Result<SettingsFile> {
+pub fn load(path: &Path) -> Result<Settings> {
     use vrrt_scene::safe_fs::{read_capped_string, ReadError};
     let text = read_capped_string(path, MAX_SETTINGS_BYTES).map_err(|e| match e {
         ReadError::Io(e) => anyhow!("cannot read settings file {}: {e}", path.display()),
@@ -112,35 +39,11 @@ pub fn load(path: &Path) -> Result<SettingsFile> {
     parse(&text).map_err(|e| anyhow!("settings file {}: {e}", path.display()))
 }
 
-/// A validation error as text, with the value as written in the file: the error holds it as
-/// `f32`, which would print an integer such as 4294967295 as 4294967300.
-fn out_of_range(text: &str, e: &SettingsError) -> String {
-    let SettingsError::OutOfRange { field, range, .. } = e else {
-        return e.to_string();
-    };
-    let Ok(table) = text.parse::<toml::Table>() else {
-        return e.to_string();
-    };
-    let mut value: Option<&toml::Value> = None;
-    for key in field.split('.') {
-        value = match value {
-            None => table.get(key),
-            Some(v) => v.get(key),
-        };
-    }
-    match value {
-        Some(toml::Value::Integer(i)) => {
-            format!("setting `{field}` = {i} is out of range ({range})")
-        }
-        _ => e.to_string(),
-    }
-}
-
-/// `file` as the text of a settings file (with a comment header). Every float is written as
+/// `settings` as the text of a settings file (with a comment header). Every float is written as
 /// the shortest decimal that reads back to the same `f32` (`0.9`, not `0.8999999761581421`), so
-/// [`parse`] gives `file` back exactly.
-pub fn to_toml(file: &SettingsFile) -> String {
-    let mut value = toml::Value::try_from(Layout::from(*file)).expect("settings serialize to TOML");
+/// [`parse`] gives `settings` back exactly.
+pub fn to_toml(settings: &Settings) -> String {
+    let mut value = toml::Value::try_from(settings).expect("settings serialize to TOML");
     shorten_floats(&mut value);
     let body = toml::to_string(&value).expect("a TOML table serializes");
     format!("{HEADER}\n{body}")
@@ -196,11 +99,14 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vrrt_core::settings::{SamplePattern, StoragePrecision};
+    use vrrt_core::settings::{
+        DetectorSettings, FilterSettings, PrepassSettings, RateSettings, ReflectionSettings,
+        SamplePattern, StoragePrecision, TemporalSettings,
+    };
 
     #[test]
     fn defaults_round_trip() {
-        let d = SettingsFile::default();
+        let d = Settings::default();
         let text = to_toml(&d);
         assert_eq!(parse(&text), Ok(d), "{text}");
         // Readable floats, the stages as tables.
@@ -220,7 +126,7 @@ mod tests {
         }
     }
 
-    /// Non-default denoiser settings everywhere, awkward floats included.
+    /// Non-default settings everywhere, awkward floats included.
     fn unusual_settings() -> Settings {
         Settings {
             temporal: TemporalSettings {
@@ -297,33 +203,28 @@ mod tests {
                 penumbra_sigma_luminance: 1.25,
                 penumbra_radius: 1,
             },
+            reflections: ReflectionSettings {
+                max_roughness: 0.25,
+                min_rate: 0.3,
+                max_rate: 3.5,
+                tile_sigma: 0.1 + 0.2,
+                reuse_radius: 2,
+                parallax: false,
+                motion_radius: 0,
+                plane_threshold: 1.0e-7,
+                light_radiance: 12.5,
+                albedo: 0.33333334,
+                sky: 0.0,
+                ambient: 0.7,
+                light_probes: 15,
+                guide_radius: 3,
+            },
         }
     }
 
     #[test]
     fn every_field_round_trips() {
-        let denoiser = unusual_settings();
-        // Non-default values everywhere, awkward floats included.
-        let reflections = ReflectionSettings {
-            max_roughness: 0.25,
-            min_rate: 0.3,
-            max_rate: 3.5,
-            tile_sigma: 0.1 + 0.2,
-            reuse_radius: 2,
-            parallax: false,
-            motion_radius: 0,
-            plane_threshold: 1.0e-7,
-            light_radiance: 12.5,
-            albedo: 0.33333334,
-            sky: 0.0,
-            ambient: 0.7,
-            light_probes: 15,
-            guide_radius: 3,
-        };
-        let s = SettingsFile {
-            denoiser,
-            reflections,
-        };
+        let s = unusual_settings();
         assert_eq!(parse(&to_toml(&s)), Ok(s));
     }
 
@@ -370,15 +271,20 @@ storage = \"f16\"
             },
             ..d
         };
-        assert_eq!(s.denoiser, denoiser);
-        assert_eq!(s.reflections, ReflectionSettings::default());
-        assert_eq!(parse(""), Ok(SettingsFile::default()));
+        assert_eq!(s, denoiser);
+        assert_eq!(parse(""), Ok(Settings::default()));
         let r = parse("[reflections]\nlight_probes = 0\n").unwrap();
         let expected = ReflectionSettings {
             light_probes: 0,
             ..ReflectionSettings::default()
         };
-        assert_eq!((r.denoiser, r.reflections), (d, expected));
+        assert_eq!(
+            r,
+            Settings {
+                reflections: expected,
+                ..d
+            }
+        );
     }
 
     #[test]
@@ -388,7 +294,7 @@ storage = \"f16\"
             ("screen-blue", SamplePattern::ScreenBlue),
         ] {
             let s = parse(&format!("[temporal]\nsampling = \"{name}\"\n")).unwrap();
-            assert_eq!(s.denoiser.temporal.sampling, pattern);
+            assert_eq!(s.temporal.sampling, pattern);
         }
         assert!(parse("[temporal]\nsampling = \"blue\"\n").is_err());
     }

@@ -18,9 +18,9 @@ use fuzzkit::{Bounds, Mutator, Report, Verdict};
 use std::ffi::OsString;
 use vrrt_cli::limits::{parse_bytes, parse_count};
 use vrrt_cli::session::{parse_backend, parse_rpp, parse_size, Config, SignalKind, MAX_DIMENSION};
-use vrrt_cli::settings::{self, SettingsFile};
+use vrrt_cli::settings;
 use vrrt_cli::{Cli, Command};
-use vrrt_core::reflections::ReflectionSettings;
+use vrrt_core::settings::ReflectionSettings;
 use vrrt_core::settings::{FilterSettings, RateSettings, Settings, TemporalSettings};
 
 /// Longest mutated input.
@@ -98,8 +98,7 @@ fn check_settings(_: usize, bytes: &[u8]) -> Result<Verdict, String> {
             }
             for config in Config::ALL {
                 for signal in SignalKind::value_variants() {
-                    let (d, r) = (s.denoiser, s.reflections);
-                    let c = config.settings(d, d.rates.rays_per_pixel, signal.signal(1.0, r));
+                    let c = config.settings(s, s.rates.rays_per_pixel, signal.signal(1.0));
                     if let Err(e) = c.validate() {
                         return Err(format!(
                             "--denoiser {} --signal {} on accepted settings gives invalid \
@@ -121,7 +120,7 @@ fn check_settings(_: usize, bytes: &[u8]) -> Result<Verdict, String> {
 
 #[test]
 fn fuzz_settings_files() {
-    let defaults = settings::to_toml(&SettingsFile::default());
+    let defaults = settings::to_toml(&Settings::default());
     let d = Settings::default();
     let custom = Settings {
         temporal: TemporalSettings {
@@ -140,13 +139,13 @@ fn fuzz_settings_files() {
         },
         ..d
     };
-    let custom = settings::to_toml(&SettingsFile {
-        denoiser: custom,
+    let custom = settings::to_toml(&Settings {
         reflections: ReflectionSettings {
             reuse_radius: 0,
             light_probes: 3,
             ..ReflectionSettings::default()
         },
+        ..custom
     });
     let seeds = [
         defaults.as_str(),

@@ -1,8 +1,8 @@
 //! The denoiser's tunables, one struct per stage (like NRD's settings): [`TemporalSettings`]
 //! (reprojection and accumulation of history), [`RateSettings`] (how many rays each pixel gets),
 //! [`PrepassSettings`] (the A-SVGF temporal-gradient prepass), [`DetectorSettings`] (the change
-//! detector and its refill lists) and [`FilterSettings`] (variance estimation and the à-trous
-//! filter), gathered in [`Settings`]. Where the planes are and this frame's ray budget are not
+//! detector and its refill lists), [`FilterSettings`] (variance estimation and the à-trous
+//! filter) and [`ReflectionSettings`] (the reflection passes), gathered in [`Settings`]. Where the planes are and this frame's ray budget are not
 //! tunables: they are the frame's ([`Layout`](crate::denoiser::Layout),
 //! [`Denoiser::rays_per_pixel`](crate::denoiser::Denoiser::rays_per_pixel)).
 //!
@@ -40,6 +40,8 @@ pub struct Settings {
     pub detector: DetectorSettings,
     /// Variance estimation and the à-trous spatial filter.
     pub filter: FilterSettings,
+    /// The reflection passes, where the signal has reflections.
+    pub reflections: ReflectionSettings,
 }
 
 /// Reprojection and accumulation of history (`kernels::reproject`, `kernels::accumulate`).
@@ -142,7 +144,7 @@ pub struct RateSettings {
     /// lag; see `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
     /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on
-    /// every pixel (0..=1; default 1; shadows alone, `Frame` sets 0 otherwise): the pixels whose
+    /// every pixel (0..=1; default 1; shadows alone: `Frame` takes 0 for any other signal): the pixels whose
     /// 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
     /// `docs/algorithms/penumbra-guide.md`).
     pub reset_refill: f32,
@@ -274,6 +276,53 @@ pub struct DetectorSettings {
     pub reflection_confirm_sigma: f32,
 }
 
+/// The reflection passes (`crate::reflections`, `kernels::reflect`): the rays' roughness cut-off
+/// and the shading of what they hit, the tile classification, ray reuse, the parallax and the
+/// hit-distance guide. Used wherever the signal has reflections.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct ReflectionSettings {
+    /// Surfaces with a larger GGX alpha reflect nothing and trace no reflection ray (0..=1;
+    /// default 0.5; the seed traces "HQ rays for roughness < 20%" and filters the rest).
+    pub max_roughness: f32,
+    /// Request scale of a tile whose reflection is flat or empty (0 < min <= max; default 0.5).
+    pub min_rate: f32,
+    /// Request scale of the noisiest tiles (min..=4; default 2).
+    pub max_rate: f32,
+    /// Standard deviation of the tone-mapped tracer values that earns `max_rate` (> 0; default
+    /// 0.15).
+    pub tile_sigma: f32,
+    /// Ray reuse radius in pixels (0..=3; 0 = no reuse; default 1, a 3×3 neighbourhood: on the
+    /// room, 5×5 reuses rays across lobes too different and the error rises again).
+    pub reuse_radius: u32,
+    /// Reproject reflections along the parallax of their hit distance (default on); off, they
+    /// follow the surface (the G-buffer motion), which smears them when the camera moves.
+    pub parallax: bool,
+    /// Radius over which last frame's hit distances are averaged for the parallax (0..=3;
+    /// default 2).
+    pub motion_radius: u32,
+    /// Reuse only neighbours within this fraction of view depth of the pixel's tangent plane
+    /// (> 0; default 0.02, the reprojection's plane test).
+    pub plane_threshold: f32,
+    /// Radiance of the lights seen in a reflection (>= 0; default 5).
+    pub light_radiance: f32,
+    /// Albedo of the surfaces seen in a reflection (0..=1; default 0.7).
+    pub albedo: f32,
+    /// Radiance of the sky (>= 0; default 0.3).
+    pub sky: f32,
+    /// Ambient irradiance at reflected hits (>= 0; default 0.1).
+    pub ambient: f32,
+    /// Extra lobe directions per ray that only test for the lights (0..=15; default 7; 0 = the
+    /// lights' part from the ray's own direction alone): unbiased, and they beat more rays at
+    /// about equal time ([`crate::kernels::reflect`], "Light probes";
+    /// `docs/algorithms/reflections.md`).
+    pub light_probes: u32,
+    /// Window radius of the hit-distance guide (`kernels::reflect::reflect_guide`; 0..=3;
+    /// default 2, a 5×5 mean: on the bunny's first frame a 3×3 one guides worse).
+    pub guide_radius: u32,
+}
+
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,
 /// `kernels::classify`, `kernels::atrous`).
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -397,6 +446,7 @@ impl Settings {
         self.prepass.validate()?;
         self.detector.validate()?;
         self.filter.validate()?;
+        self.reflections.validate()?;
         let (r, max) = (&self.rates, self.temporal.max_history);
         check(
             r.supersample_target <= max,

@@ -13,9 +13,7 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
             assert_eq!(settings::parse(&settings::to_toml(&s)), Ok(s));
             for config in Config::ALL {
                 for signal in SignalKind::value_variants() {
-                    let base = s.denoiser;
-                    let signal_of = signal.signal(1.0, s.reflections);
-                    let c = config.settings(base, base.rates.rays_per_pixel, signal_of);
+                    let c = config.settings(s, s.rates.rays_per_pixel, signal.signal(1.0));
                     if let Err(e) = c.validate() {
                         panic!(
                             "{} {} gives invalid settings: {e}",

@@ -8,7 +8,7 @@ use vrrt_core::budget::MsBudget;
 use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
-pub use vrrt_core::frame::{PlaneLayout, Signal};
+pub use vrrt_core::frame::{PlaneLayout, Signal, SignalName};
 use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
@@ -18,7 +18,7 @@ use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::plan::{BufferId, Executor};
 use vrrt_core::reflections::Reflections;
-use vrrt_core::settings::Settings;
+use vrrt_core::settings::{ReflectionSettings, Settings};
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -559,7 +559,7 @@ pub struct ReferenceBuffers {
 
 /// The buffers of one image size and signal.
 struct SizedBuffers {
-    key: (u32, u32, Signal, usize),
+    key: (u32, u32, Signal, usize, ReflectionSettings),
     gbuffer: GBuffer,
     work: BufferId,
     args: BufferId,
@@ -572,8 +572,9 @@ struct SizedBuffers {
 impl SizedBuffers {
     fn create<E: Executor>(
         exec: &mut E,
-        (width, height, signal, lights): (u32, u32, Signal, usize),
+        key: (u32, u32, Signal, usize, ReflectionSettings),
     ) -> Result<SizedBuffers, DenoiserError<E::Error>> {
+        let (width, height, signal, lights, reflections) = key;
         let pixels = (width * height) as usize;
         let n = pixels * signal.planes(lights) as usize;
         let layout = signal.layout(lights);
@@ -583,7 +584,7 @@ impl SizedBuffers {
             bytes(&[pixels as u32, (pixels as u32).div_ceil(LIST_GROUP), 1, 1]),
         )?;
         Ok(SizedBuffers {
-            key: (width, height, signal, lights),
+            key,
             gbuffer: GBuffer::create(exec, width, height)?,
             work: exec.create_buffer(pixels as u64 * 4)?,
             args,
@@ -591,29 +592,42 @@ impl SizedBuffers {
             out: exec.create_buffer((n * std::mem::size_of::<PackedSample>()) as u64)?,
             // References record no blockers: one element, never written.
             blockers: exec.create_buffer(4)?,
-            reflections: match (layout.reflections, signal.reflections()) {
-                (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
-                _ => None,
+            reflections: match layout.reflections {
+                Some(plane) => Some(Reflections::new(exec, width, height, plane, reflections)?),
+                None => None,
             },
         })
     }
 }
 
 /// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
-/// denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling `progress(done, spp)` after each.
+/// denoiser sees; reflections as `reflections` says) in passes of up to `MAX_RATE` (16) rays,
+/// calling `progress(done, spp)` after each.
 /// Its buffers are new and stay on `exec`: for more than one reference on an executor use
 /// [`reference_with`].
+#[allow(clippy::too_many_arguments)]
 pub fn reference<E: Executor>(
     exec: &mut E,
     f: &FrameGeometry,
     width: u32,
     height: u32,
     signal: Signal,
+    reflections: &ReflectionSettings,
     spp: u32,
     progress: impl FnMut(u32, u32),
 ) -> Result<Reference, DenoiserError<E::Error>> {
     let mut buffers = ReferenceBuffers::default();
-    reference_with(exec, &mut buffers, f, width, height, signal, spp, progress)
+    let size = (width, height);
+    reference_with(
+        exec,
+        &mut buffers,
+        f,
+        size,
+        signal,
+        reflections,
+        spp,
+        progress,
+    )
 }
 
 /// [`reference()`] with the buffers of `buffers`, which must have been used on `exec` only: the
@@ -624,9 +638,9 @@ pub fn reference_with<E: Executor>(
     exec: &mut E,
     buffers: &mut ReferenceBuffers,
     f: &FrameGeometry,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     signal: Signal,
+    reflections: &ReflectionSettings,
     spp: u32,
     mut progress: impl FnMut(u32, u32),
 ) -> Result<Reference, DenoiserError<E::Error>> {
@@ -635,7 +649,7 @@ pub fn reference_with<E: Executor>(
     let n = pixels * planes as usize;
     let gpu = &mut buffers.gpu;
     gpu.upload(exec, f)?;
-    let key = (width, height, signal, f.lights.len());
+    let key = (width, height, signal, f.lights.len(), *reflections);
     if buffers.sized.as_ref().is_none_or(|b| b.key != key) {
         buffers.sized = Some(SizedBuffers::create(exec, key)?);
     }

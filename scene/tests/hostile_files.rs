@@ -265,14 +265,12 @@ fn fifo_and_device_mesh_cache_entries_are_refused_without_blocking() {
 /// images as fresh buffers, across frames, signals and sizes.
 #[test]
 fn references_reusing_their_buffers_give_the_same_images() {
-    use vrrt_core::reflections::ReflectionSettings;
+    use vrrt_core::settings::ReflectionSettings;
     use vrrt_cpu::CpuExecutor;
     use vrrt_scene::render::{self, ReferenceBuffers, Signal};
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
-    let all = Signal::All {
-        max_distance: 1.0,
-        reflections: ReflectionSettings::default(),
-    };
+    let all = Signal::All { max_distance: 1.0 };
+    let r = ReflectionSettings::default();
     let ao = Signal::Ao { max_distance: 1.0 };
     let mut exec = CpuExecutor::new();
     let mut buffers = ReferenceBuffers::default();
@@ -283,11 +281,19 @@ fn references_reusing_their_buffers_give_the_same_images() {
         (31, all, (16, 8)),
     ] {
         let f = scene.frame(frame);
-        let reused =
-            render::reference_with(&mut exec, &mut buffers, &f, w, h, signal, 4, |_, _| {})
-                .unwrap();
+        let reused = render::reference_with(
+            &mut exec,
+            &mut buffers,
+            &f,
+            (w, h),
+            signal,
+            &r,
+            4,
+            |_, _| {},
+        )
+        .unwrap();
         let fresh =
-            render::reference(&mut CpuExecutor::new(), &f, w, h, signal, 4, |_, _| {}).unwrap();
+            render::reference(&mut CpuExecutor::new(), &f, w, h, signal, &r, 4, |_, _| {}).unwrap();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&reused.mean), bits(&fresh.mean), "frame {frame}");
         assert_eq!(bits(&reused.stderr), bits(&fresh.stderr), "frame {frame}");

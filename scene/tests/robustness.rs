@@ -68,8 +68,21 @@ const MIB: usize = 1 << 20;
 const SIZE: (u32, u32) = (16, 12);
 const AO: Signal = Signal::Ao { max_distance: 0.5 };
 
+/// The cache key of `signal` with the default reflection settings.
+fn key_of(
+    name: &str,
+    frame: &FrameGeometry,
+    size: (u32, u32),
+    signal: Signal,
+    spp: u64,
+    version: u32,
+) -> ReferenceKey {
+    let reflections = vrrt_core::settings::ReflectionSettings::default();
+    ReferenceKey::for_frame(name, frame, size, signal.name(&reflections), spp, version)
+}
+
 fn key(name: &str, frame: &FrameGeometry) -> ReferenceKey {
-    ReferenceKey::for_frame(name, frame, SIZE, AO, 8, 1)
+    key_of(name, frame, SIZE, AO, 8, 1)
 }
 
 fn image(value: f32) -> Image {
@@ -124,8 +137,8 @@ fn user_room_obj_does_not_reuse_the_builtin_room_references() {
     let differs = [
         key("room", &builtin::builtin("room").unwrap().frame(1)),
         key("room", &builtin::builtin("room").unwrap().frame(20)),
-        ReferenceKey::for_frame("room", &builtin_room, (16, 13), AO, 8, 1),
-        ReferenceKey::for_frame(
+        key_of("room", &builtin_room, (16, 13), AO, 8, 1),
+        key_of(
             "room",
             &builtin_room,
             SIZE,
@@ -133,9 +146,9 @@ fn user_room_obj_does_not_reuse_the_builtin_room_references() {
             8,
             1,
         ),
-        ReferenceKey::for_frame("room", &builtin_room, SIZE, Signal::Shadows, 8, 1),
-        ReferenceKey::for_frame("room", &builtin_room, SIZE, AO, 16, 1),
-        ReferenceKey::for_frame("room", &builtin_room, SIZE, AO, 8, 2),
+        key_of("room", &builtin_room, SIZE, Signal::Shadows, 8, 1),
+        key_of("room", &builtin_room, SIZE, AO, 16, 1),
+        key_of("room", &builtin_room, SIZE, AO, 8, 2),
     ];
     for k in &differs {
         assert_ne!(cache.path(k), cache.path(&a), "{k}");
@@ -145,7 +158,17 @@ fn user_room_obj_does_not_reuse_the_builtin_room_references() {
 /// Traces `frame`'s AO reference on the CPU backend.
 fn trace(frame: &FrameGeometry, spp: u32) -> Image {
     let mut exec = CpuExecutor::new();
-    let r = render::reference(&mut exec, frame, SIZE.0, SIZE.1, AO, spp, |_, _| {}).unwrap();
+    let r = render::reference(
+        &mut exec,
+        frame,
+        SIZE.0,
+        SIZE.1,
+        AO,
+        &Default::default(),
+        spp,
+        |_, _| {},
+    )
+    .unwrap();
     Image::new(SIZE.0 as usize, SIZE.1 as usize, 1, r.mean).unwrap()
 }
 

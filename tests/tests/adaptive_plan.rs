@@ -94,6 +94,7 @@ fn references(scene: &str, frames: impl Iterator<Item = u32>) -> Vec<(u32, Vec<f
                 SIZE.0,
                 SIZE.1,
                 SIGNAL,
+                &Default::default(),
                 256,
                 |_, _| {},
             );

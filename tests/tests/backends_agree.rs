@@ -21,7 +21,6 @@ use std::time::Instant;
 use vrrt_cli::backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
 use vrrt_core::plan::Executor;
-use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::Settings;
 use vrrt_scene::events::EventKind;
 use vrrt_scene::image::ImageRef;
@@ -51,10 +50,7 @@ fn signals() -> [(&'static str, Signal); 3] {
     [
         ("ao", Signal::Ao { max_distance: 1.0 }),
         ("shadows", Signal::Shadows),
-        (
-            "reflections",
-            Signal::Reflections(ReflectionSettings::default()),
-        ),
+        ("reflections", Signal::Reflections),
     ]
 }
 
@@ -114,7 +110,7 @@ fn render(exec: &mut Backend, scene: &Scene, signal: Signal) -> Vec<Frame> {
 /// scene's exposure.
 fn peak(signal: Signal, reference: &[f32]) -> f64 {
     match signal {
-        Signal::Reflections(_) => reference
+        Signal::Reflections => reference
             .iter()
             .filter(|v| v.is_finite())
             .fold(0.0f32, |m, &v| m.max(v))

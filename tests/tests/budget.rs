@@ -11,7 +11,6 @@
 use vrrt_cli::backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
 use vrrt_core::kernels::{balance, trim};
-use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::Settings;
 use vrrt_scene::render::{Readback, Renderer, Signal};
 
@@ -22,18 +21,11 @@ const FRAMES: u32 = 72;
 #[test]
 fn no_frame_traces_more_than_its_budget() {
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
-    let reflections = ReflectionSettings::default();
     let signals = [
         ("ao", Signal::Ao { max_distance: 1.0 }),
         ("shadows", Signal::Shadows),
-        ("reflections", Signal::Reflections(reflections)),
-        (
-            "all",
-            Signal::All {
-                max_distance: 1.0,
-                reflections,
-            },
-        ),
+        ("reflections", Signal::Reflections),
+        ("all", Signal::All { max_distance: 1.0 }),
     ];
     let (mut trimmed, mut refilled) = (0, 0);
     for (name, signal) in signals {

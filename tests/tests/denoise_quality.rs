@@ -98,6 +98,7 @@ fn svgf_converges_and_vrrt_beats_it_at_the_same_budget() {
                     SIZE.0,
                     SIZE.1,
                     SIGNAL,
+                    &Default::default(),
                     256,
                     |_, _| {},
                 )

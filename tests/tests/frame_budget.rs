@@ -14,7 +14,6 @@ use vrrt_core::frame::Frame;
 use vrrt_core::kernels::group_planes;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::plan::{BufferId, Executor, Groups, Pass, PassTiming};
-use vrrt_core::reflections::ReflectionSettings;
 use vrrt_core::settings::Settings;
 use vrrt_cpu::{CpuError, CpuExecutor};
 use vrrt_scene::builtin::builtin;
@@ -108,15 +107,11 @@ fn settings() -> Settings {
 
 /// Every signal: one plane, one per light, reflections, and all of them sharing one budget.
 fn signals() -> [Signal; 4] {
-    let reflections = ReflectionSettings::default();
     [
         Signal::Ao { max_distance: 1.0 },
         Signal::Shadows,
-        Signal::Reflections(reflections),
-        Signal::All {
-            max_distance: 1.0,
-            reflections,
-        },
+        Signal::Reflections,
+        Signal::All { max_distance: 1.0 },
     ]
 }
 

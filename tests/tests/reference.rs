@@ -10,11 +10,12 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
     let frame = scene.frame(10);
     let mut exec = CpuExecutor::new();
     let (w, h) = (64, 36);
+    let refl = vrrt_core::settings::ReflectionSettings::default();
     for signal in [Signal::Ao { max_distance: 1.0 }, Signal::Shadows] {
         let mut previous: Option<f64> = None;
-        let long = reference(&mut exec, &frame, w, h, signal, 4096, |_, _| {}).unwrap();
+        let long = reference(&mut exec, &frame, w, h, signal, &refl, 4096, |_, _| {}).unwrap();
         for spp in [16u32, 64, 256, 1024] {
-            let r = reference(&mut exec, &frame, w, h, signal, spp, |_, _| {}).unwrap();
+            let r = reference(&mut exec, &frame, w, h, signal, &refl, spp, |_, _| {}).unwrap();
             let mean_se = r.stderr.iter().map(|&s| s as f64).sum::<f64>() / r.stderr.len() as f64;
             // Pixels further from the long run than 5 standard errors of an spp-sample estimate
             // (estimated from the long run, which is well resolved: a 16-spp pixel can show zero
@@ -27,7 +28,10 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
                 .zip(&long.stderr)
                 .filter(|((&a, &b), &sb)| (a - b).abs() > 5.0 * sb * (scale + 1.0) + 1e-6)
                 .count();
-            println!("{signal} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}");
+            println!(
+                "{} spp {spp}: mean standard error {mean_se:.5}, outliers {outliers}",
+                signal.name(&refl)
+            );
             if let Some(prev) = previous {
                 let ratio = prev / mean_se;
                 assert!(

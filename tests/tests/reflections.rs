@@ -7,7 +7,7 @@ use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::reflect;
 use vrrt_core::payload::{PackedPayload, Payload};
-use vrrt_core::reflections::ReflectionSettings;
+use vrrt_core::settings::ReflectionSettings;
 use vrrt_core::settings::{DetectorSettings, SamplePattern, Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::animation::{CameraKey, CameraPath};
@@ -25,12 +25,12 @@ fn rel_mse(test: &[f32], reference: &[f32]) -> f64 {
     sum / test.len() as f64
 }
 
-fn reflections(reuse_radius: u32, parallax: bool) -> Signal {
-    Signal::Reflections(ReflectionSettings {
+fn reflections(reuse_radius: u32, parallax: bool) -> ReflectionSettings {
+    ReflectionSettings {
         reuse_radius,
         parallax,
         ..ReflectionSettings::default()
-    })
+    }
 }
 
 fn references(scene: &Scene, frames: &[u32], signal: Signal, spp: u32) -> Vec<Vec<f32>> {
@@ -44,6 +44,7 @@ fn references(scene: &Scene, frames: &[u32], signal: Signal, spp: u32) -> Vec<Ve
                 SIZE.0,
                 SIZE.1,
                 signal,
+                &ReflectionSettings::default(),
                 spp,
                 |_, _| {},
             )
@@ -64,7 +65,7 @@ struct Errors {
 
 fn run(
     scene: &Scene,
-    signal: Signal,
+    reflections: ReflectionSettings,
     settings: Settings,
     frames: &[u32],
     refs: &[Vec<f32>],
@@ -74,9 +75,12 @@ fn run(
         &mut exec,
         SIZE.0,
         SIZE.1,
-        signal,
+        Signal::Reflections,
         scene.lights.len(),
-        settings,
+        Settings {
+            reflections,
+            ..settings
+        },
     )
     .unwrap();
     let mut e = Errors {
@@ -114,7 +118,7 @@ fn run(
 #[test]
 fn reflections_converge_to_the_reference_of_the_same_estimator() {
     let scene = vrrt_scene::builtin::builtin("room_static").unwrap();
-    let signal = reflections(0, true);
+    let signal = Signal::Reflections;
     let refs = references(&scene, &[0], signal, 2048);
     let svgf = Settings::svgf(1.0);
     let settings = Settings {
@@ -122,6 +126,7 @@ fn reflections_converge_to_the_reference_of_the_same_estimator() {
             max_history: 1024.0,
             ..svgf.temporal
         },
+        reflections: reflections(0, true),
         ..svgf
     };
     let mut exec = CpuExecutor::new();
@@ -178,7 +183,7 @@ fn svgf_per_pixel(rpp: f32) -> Settings {
 fn ray_reuse_lowers_error_at_equal_rays() {
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
     let frames = [20, 27, 35];
-    let refs = references(&scene, &frames, reflections(0, true), 512);
+    let refs = references(&scene, &frames, Signal::Reflections, 512);
     // Fixed-rate budgets: the runs with and without reuse trace exactly the same rays.
     let none = run(
         &scene,
@@ -260,7 +265,7 @@ fn parallax_reprojection_follows_the_reflection() {
         }
     }
     let frames = [20, 27, 35];
-    let refs = references(&scene, &frames, reflections(0, true), 256);
+    let refs = references(&scene, &frames, Signal::Reflections, 256);
     // Reprojection alone: the change detector would drop much of the history the wrong motion
     // smears, hiding what is measured here.
     let settings = Settings {
@@ -319,10 +324,7 @@ fn mean_rel_mse(images: &[Vec<f32>], refs: &[Vec<f32>], range: std::ops::Range<u
 fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     let scene = vrrt_scene::builtin::builtin("room").unwrap();
     let settings = ReflectionSettings::default();
-    let signal = Signal::All {
-        max_distance: 1.0,
-        reflections: settings,
-    };
+    let signal = Signal::All { max_distance: 1.0 };
     let layout = signal.layout(scene.lights.len());
     assert_eq!(layout.planes, 3);
     // Eight frames: one frame's relMSE of the shadows varies a lot from frame to frame.
@@ -360,7 +362,7 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     let alone = [
         Signal::Ao { max_distance: 1.0 },
         Signal::Shadows,
-        Signal::Reflections(settings),
+        Signal::Reflections,
     ]
     .map(|signal| denoised_at(&scene, signal, &frames));
     let errors: Vec<(f64, f64)> = (0..3)

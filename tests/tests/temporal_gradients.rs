@@ -65,6 +65,7 @@ fn detection_beats_variance_clamping_on_moving_shadows() {
                 SIZE.0,
                 SIZE.1,
                 Signal::Shadows,
+                &Default::default(),
                 256,
                 |_, _| {},
             )

@@ -352,9 +352,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if frames as usize <= WARMUP_FRAMES {
         bail!("--passes needs more frames than the {WARMUP_FRAMES} warm-up frames, got {frames}");
     }
-    let file = load_settings(args.settings.as_deref())?;
-    let signal = kind.signal(args.ao_radius, file.reflections);
-    let settings = config.settings(file.denoiser, rpp, signal);
+    let base = load_settings(args.settings.as_deref())?;
+    let signal = kind.signal(args.ao_radius);
+    let settings = config.settings(base, rpp, signal);
     let out = crate::outdir::OutDir::prepare(&args.out, "bench-passes")?;
 
     let mut reports = Vec::new();

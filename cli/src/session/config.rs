@@ -101,7 +101,7 @@ impl Config {
                 return s;
             }
         }
-        if signal.reflections().is_some() {
+        if signal.has_reflections() {
             s.prepass.stratum = 0;
         }
         s

@@ -8,6 +8,7 @@ use crate::progress::Progress;
 use anyhow::{anyhow, Result};
 use std::cell::RefCell;
 use std::path::Path;
+use vrrt_core::settings::ReflectionSettings;
 use vrrt_scene::image::Image;
 use vrrt_scene::reference_cache::{ReferenceCache, ReferenceKey, StdErr};
 use vrrt_scene::render::{self, Signal};
@@ -42,6 +43,8 @@ pub struct ReferenceRequest<'a> {
     pub size: (u32, u32),
     /// The signal (one part's, see [`parts`](super::parts)).
     pub signal: Signal,
+    /// The reflection passes' settings, for a signal with reflections.
+    pub reflections: &'a ReflectionSettings,
     /// Reference samples per pixel.
     pub spp: u32,
 }
@@ -88,13 +91,14 @@ impl References {
             frame: f,
             size: (width, height),
             signal,
+            reflections,
             spp,
         } = request;
         let key = ReferenceKey::for_frame(
             scene_key,
             f,
             (width, height),
-            signal,
+            signal.name(reflections),
             spp as u64,
             REFERENCE_VERSION,
         );
@@ -118,9 +122,9 @@ impl References {
             exec,
             &mut buffers,
             f,
-            width,
-            height,
+            (width, height),
             signal,
+            reflections,
             spp,
             |done, total| {
                 if self.progress {
@@ -128,7 +132,7 @@ impl References {
                         let what = match signal {
                             Signal::Ao { .. } => "ao",
                             Signal::Shadows => "shadows",
-                            Signal::Reflections(_) => "reflections",
+                            Signal::Reflections => "reflections",
                             Signal::All { .. } => "all",
                         };
                         Progress::new(

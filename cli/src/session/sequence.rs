@@ -194,6 +194,7 @@ fn frame_references(
                     frame: f,
                     size: opts.size,
                     signal: p.part.signal,
+                    reflections: &opts.base.reflections,
                     spp: opts.spp,
                 },
             )?))

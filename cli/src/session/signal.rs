@@ -1,7 +1,6 @@
 //! The `--signal` values and how a signal's planes split into parts, each measured against its
 //! own reference.
 
-use vrrt_core::reflections::ReflectionSettings;
 use vrrt_scene::render::Signal;
 
 /// The signal kinds on the command line.
@@ -11,7 +10,7 @@ pub enum SignalKind {
     Ao,
     /// Area-light shadows (one plane per light).
     Shadows,
-    /// Glossy reflections (one plane of HDR radiance; default settings).
+    /// Glossy reflections (one plane of HDR radiance; the settings' `[reflections]`).
     Reflections,
     /// AO, shadows and reflections in one frame, sharing one ray budget.
     All,
@@ -28,17 +27,16 @@ impl SignalKind {
         }
     }
 
-    /// The renderer's signal, with the AO distance `ao_radius` and the reflections' settings.
-    pub fn signal(self, ao_radius: f32, reflections: ReflectionSettings) -> Signal {
+    /// The renderer's signal, with the AO distance `ao_radius`.
+    pub fn signal(self, ao_radius: f32) -> Signal {
         match self {
             SignalKind::Ao => Signal::Ao {
                 max_distance: ao_radius,
             },
             SignalKind::Shadows => Signal::Shadows,
-            SignalKind::Reflections => Signal::Reflections(reflections),
+            SignalKind::Reflections => Signal::Reflections,
             SignalKind::All => Signal::All {
                 max_distance: ao_radius,
-                reflections,
             },
         }
     }
@@ -78,10 +76,10 @@ pub fn parts(signal: Signal, lights: usize) -> Vec<Part> {
             planes,
         });
     }
-    if let (Some(plane), Some(r)) = (layout.reflections, signal.reflections()) {
+    if let Some(plane) = layout.reflections {
         parts.push(Part {
             name: "reflections",
-            signal: Signal::Reflections(r),
+            signal: Signal::Reflections,
             planes: (plane, 1),
         });
     }
@@ -112,15 +110,12 @@ mod tests {
 
     #[test]
     fn planes_are_named_by_what_they_hold() {
-        let all = SignalKind::All.signal(1.0, ReflectionSettings::default());
+        let all = SignalKind::All.signal(1.0);
         assert_eq!(
             plane_names(all, 2),
             ["ao", "shadow0", "shadow1", "reflections"]
         );
-        assert_eq!(
-            plane_names(SignalKind::Ao.signal(1.0, ReflectionSettings::default()), 2),
-            ["ao"]
-        );
+        assert_eq!(plane_names(SignalKind::Ao.signal(1.0), 2), ["ao"]);
         assert_eq!(plane_names(Signal::Shadows, 0), ["shadow0"]);
     }
 }

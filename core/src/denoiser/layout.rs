@@ -75,25 +75,25 @@ impl Layout {
         check(
             (1..=4).contains(&self.planes),
             "layout.planes",
-            self.planes as f32,
+            self.planes,
             "1..=4",
         )?;
         check(
             groups_in_order(self.plane_groups, self.planes),
             "layout.plane_groups",
-            self.plane_groups as f32,
+            self.plane_groups,
             "4 bits per plane: groups 0, 1, … in plane order, at most 4, none past the planes",
         )?;
         check(
             self.shadow_planes >> self.planes == 0,
             "layout.shadow_planes",
-            self.shadow_planes as f32,
+            self.shadow_planes,
             "one bit per plane, none past the planes",
         )?;
         check(
             self.ao_planes >> self.planes == 0 && self.ao_planes & self.shadow_planes == 0,
             "layout.ao_planes",
-            self.ao_planes as f32,
+            self.ao_planes,
             "one bit per plane, none past the planes or among the shadow planes",
         )?;
         for (plane, field) in [
@@ -102,7 +102,7 @@ impl Layout {
             (self.penumbra_plane, "layout.penumbra_plane"),
         ] {
             if let Some(z) = plane {
-                check(z < self.planes, field, z as f32, "a plane (< planes)")?;
+                check(z < self.planes, field, z, "a plane (< planes)")?;
             }
         }
         Ok(())

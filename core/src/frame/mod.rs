@@ -24,7 +24,7 @@ mod planes;
 mod signal;
 
 pub use planes::{trace_planes, GBuffer, RaygenTarget};
-pub use signal::{PlaneLayout, Signal};
+pub use signal::{PlaneLayout, Signal, SignalName};
 
 use crate::budget::{self, MsBudget, TraceCost};
 use crate::camera::{Camera, View};
@@ -89,7 +89,7 @@ impl FrameScene<'_> {
             Signal::Shadows => GradientRays::Shadows {
                 lights: self.lights,
             },
-            Signal::Reflections(_) | Signal::All { .. } => return None,
+            Signal::Reflections | Signal::All { .. } => return None,
         };
         Some(GradientScene {
             nodes: self.nodes,
@@ -181,9 +181,8 @@ impl Frame {
         mut settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         let layout = signal.layout(lights);
-        let parallax = signal.reflections().is_some_and(|r| r.parallax);
-        let planes = layout.denoiser(&settings, parallax);
-        if matches!(signal, Signal::Reflections(_)) {
+        let planes = layout.denoiser(&settings);
+        if signal == Signal::Reflections {
             // Alone, reflections pay the cut's extra rays back over the longest window: over 8
             // frames their moving highlights starve after it, while the fresh pixels gain from
             // it either way (see docs/algorithms/fresh-pixels.md).
@@ -197,15 +196,21 @@ impl Frame {
         if layout.reflections.is_some() && settings.prepass.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
                 field: "prepass.stratum",
-                value: settings.prepass.stratum as f32,
+                value: settings.prepass.stratum.into(),
                 range: "0, or 1 for host-supplied changes, with reflections (the prepass has no \
                         reflection re-trace)",
             }));
         }
         let denoiser = Denoiser::with_layout(exec, width, height, planes, settings)?;
-        let reflections = match (layout.reflections, signal.reflections()) {
-            (Some(plane), Some(r)) => Some(Reflections::new(exec, width, height, plane, r)?),
-            _ => None,
+        let reflections = match layout.reflections {
+            Some(plane) => Some(Reflections::new(
+                exec,
+                width,
+                height,
+                plane,
+                settings.reflections,
+            )?),
+            None => None,
         };
         let geometry_bytes = width as u64 * height as u64 * 8;
         let geometry = [

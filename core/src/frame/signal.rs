@@ -1,8 +1,7 @@
 //! Which signals a frame denoises and where each lives among the denoiser's planes.
 
 use crate::denoiser::Layout;
-use crate::reflections::ReflectionSettings;
-use crate::settings::Settings;
+use crate::settings::{ReflectionSettings, Settings};
 use core::fmt;
 
 /// The ray-traced signal being denoised.
@@ -15,15 +14,13 @@ pub enum Signal {
     },
     /// Area-light shadows: one plane per light of the scene (up to 4).
     Shadows,
-    /// Glossy reflections (`crate::reflections`, one plane).
-    Reflections(ReflectionSettings),
+    /// Glossy reflections (`crate::reflections`, one plane), as `Settings::reflections` says.
+    Reflections,
     /// AO, the shadows of every light and reflections in one frame: planes AO, shadows…,
     /// reflections, sharing reprojection and one ray budget.
     All {
         /// AO radius.
         max_distance: f32,
-        /// The reflections' settings.
-        reflections: ReflectionSettings,
     },
 }
 
@@ -81,12 +78,13 @@ impl PlaneLayout {
 impl PlaneLayout {
     /// The denoiser's layout of these planes under `settings`: the shadow and AO planes marked,
     /// one plane group per signal with `rates.per_signal`, the reflection plane reprojected along
-    /// the parallax with `parallax` and guided by its hit distance with `filter.guide_sigma`,
-    /// and the first shadow plane guided by its penumbra with `filter.penumbra_reach`.
-    pub fn denoiser(&self, settings: &Settings, parallax: bool) -> Layout {
+    /// the parallax with `reflections.parallax` and guided by its hit distance with
+    /// `filter.guide_sigma`, and the first shadow plane guided by its penumbra with
+    /// `filter.penumbra_reach`.
+    pub fn denoiser(&self, settings: &Settings) -> Layout {
         Layout {
             planes: self.planes,
-            parallax_plane: self.reflections.filter(|_| parallax),
+            parallax_plane: self.reflections.filter(|_| settings.reflections.parallax),
             guide_plane: self
                 .reflections
                 .filter(|_| settings.filter.guide_sigma > 0.0),
@@ -120,7 +118,7 @@ impl Signal {
                 planes: shadows,
                 ..PlaneLayout::default()
             },
-            Signal::Reflections(_) => PlaneLayout {
+            Signal::Reflections => PlaneLayout {
                 reflections: Some(0),
                 planes: 1,
                 ..PlaneLayout::default()
@@ -147,11 +145,17 @@ impl Signal {
         }
     }
 
-    /// The reflections' settings, when the signal has reflections.
-    pub fn reflections(&self) -> Option<ReflectionSettings> {
-        match *self {
-            Signal::Reflections(r) | Signal::All { reflections: r, .. } => Some(r),
-            _ => None,
+    /// Whether the signal has reflections.
+    pub fn has_reflections(&self) -> bool {
+        matches!(self, Signal::Reflections | Signal::All { .. })
+    }
+
+    /// The signal's name with the reflection settings it is rendered with: what file names and
+    /// cache keys use ([`SignalName`]).
+    pub fn name(self, reflections: &ReflectionSettings) -> SignalName<'_> {
+        SignalName {
+            signal: self,
+            reflections,
         }
     }
 
@@ -161,27 +165,32 @@ impl Signal {
     }
 }
 
-/// Short name, used in file names and cache keys: it names everything the estimator depends on
-/// (reflections: roughness cut-off and hit lighting, not reuse or tiles).
-impl fmt::Display for Signal {
+/// A signal's short name ([`Signal::name`]), used in file names and cache keys: it names
+/// everything the estimator depends on (reflections: the roughness cut-off and the hit lighting
+/// of `Settings::reflections`, not reuse or tiles).
+#[derive(Copy, Clone, Debug)]
+pub struct SignalName<'a> {
+    signal: Signal,
+    reflections: &'a ReflectionSettings,
+}
+
+impl fmt::Display for SignalName<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let reflect = |f: &mut fmt::Formatter<'_>, r: &ReflectionSettings| {
+        let r = self.reflections;
+        let reflect = |f: &mut fmt::Formatter<'_>| {
             write!(
                 f,
                 "reflect{}-{}-{}-{}-{}",
                 r.max_roughness, r.light_radiance, r.albedo, r.sky, r.ambient
             )
         };
-        match self {
+        match self.signal {
             Signal::Ao { max_distance } => write!(f, "ao{max_distance}"),
             Signal::Shadows => f.write_str("shadows"),
-            Signal::Reflections(r) => reflect(f, r),
-            Signal::All {
-                max_distance,
-                reflections,
-            } => {
+            Signal::Reflections => reflect(f),
+            Signal::All { max_distance } => {
                 write!(f, "all-ao{max_distance}-")?;
-                reflect(f, reflections)
+                reflect(f)
             }
         }
     }
@@ -193,10 +202,7 @@ mod tests {
 
     #[test]
     fn each_signal_is_its_own_plane_group() {
-        let all = Signal::All {
-            max_distance: 1.0,
-            reflections: ReflectionSettings::default(),
-        };
+        let all = Signal::All { max_distance: 1.0 };
         assert_eq!(all.layout(2).plane_groups(), 0x2110);
         assert_eq!(all.layout(1).plane_groups(), 0x210);
         assert_eq!(Signal::Shadows.layout(3).plane_groups(), 0);
@@ -204,10 +210,7 @@ mod tests {
 
     #[test]
     fn the_shadow_planes_are_marked_wherever_they_are() {
-        let all = Signal::All {
-            max_distance: 1.0,
-            reflections: ReflectionSettings::default(),
-        };
+        let all = Signal::All { max_distance: 1.0 };
         assert_eq!(all.layout(2).shadow_planes(), 0b0110);
         assert_eq!(Signal::Shadows.layout(3).shadow_planes(), 0b111);
         assert_eq!(

@@ -50,7 +50,7 @@ pub struct AccumulateParams {
     pub change_threshold: f32,
     /// `change_threshold` of the planes in `shadow_planes`.
     pub shadow_threshold: f32,
-    /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
+    /// Planes (bit per plane) that take `shadow_threshold` (`Layout::shadow_planes`).
     pub shadow_planes: u32,
     /// On the planes in `shadow_planes`, history is dropped where this frame's rays (two or
     /// more: a verified pixel's, [`super::refill`]) lie this many standard deviations from it

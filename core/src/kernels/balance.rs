@@ -85,7 +85,7 @@ pub struct BalanceParams {
     /// Least share of the rays a group gets under [`POLICY_BALANCE`], as a fraction of its equal
     /// share (0..=1); 1 gives every group `rays_per_pixel` ([`group_rates`]).
     pub signal_floor: f32,
-    /// Rays of an entry of the detector's refill lists when they fit (`gradient.refill_rays`,
+    /// Rays of an entry of the detector's refill lists when they fit (`detector.refill_rays`,
     /// [`super::refill`]).
     pub refill_rays: u32,
     /// Nonzero: last frame's lists were a reset frame's ([`refill_reserve`]).

@@ -41,9 +41,9 @@ pub struct DetectParams {
     /// Floor of the per-ray variance (signal units squared): a converged pixel's history
     /// variance may read 0.
     pub min_variance: f32,
-    /// Planes (bit per plane) that take `shadow_radius` (`Settings::shadow_planes`).
+    /// Planes (bit per plane) that take `shadow_radius` (`Layout::shadow_planes`).
     pub shadow_planes: u32,
-    /// Planes (bit per plane) that take `ao_z_full` (`Settings::ao_planes`).
+    /// Planes (bit per plane) that take `ao_z_full` (`Layout::ao_planes`).
     pub ao_planes: u32,
     /// `z_full` of the planes in `ao_planes`.
     pub ao_z_full: f32,
@@ -148,7 +148,7 @@ pub fn lambda<const N: usize>(
 
 /// The detector's setting for plane `plane` (its window radius, significance, the `λ` above
 /// which history is dropped): `special` on the planes of the mask `planes` (e.g.
-/// `Settings::shadow_planes`), `general` on the others.
+/// `Layout::shadow_planes`), `general` on the others.
 #[inline]
 pub fn per_plane<T: Copy>(general: T, special: T, planes: u32, plane: u32) -> T {
     if plane_in(planes, plane) {

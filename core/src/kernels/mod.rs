@@ -40,7 +40,7 @@ pub fn pixel_index(x: u32, y: u32, width: u32) -> usize {
 }
 
 /// Whether plane `plane` is in the bit mask `planes` (bit `z` for plane `z`; e.g.
-/// `Settings::shadow_planes`).
+/// `Layout::shadow_planes`).
 #[inline]
 pub fn plane_in(planes: u32, plane: u32) -> bool {
     plane < 32 && (planes >> plane) & 1 != 0
@@ -50,7 +50,7 @@ pub fn plane_in(planes: u32, plane: u32) -> bool {
 pub const MAX_GROUPED_PLANES: u32 = 8;
 
 /// Group of signal plane `plane` in a packed plane→group map (4 bits per plane, plane 0 in the
-/// lowest bits; `Settings::plane_groups`). Planes of one group (one signal: AO, the shadows of
+/// lowest bits; `Layout::plane_groups`). Planes of one group (one signal: AO, the shadows of
 /// every light, reflections) share one ray request and one work list; 0 puts every plane in
 /// group 0, one request per pixel for all.
 #[inline]

@@ -1,6 +1,7 @@
 //! The defaults: full VRRT, each value's reason at its field.
 
 use super::*;
+use crate::kernels::reflect::Shading;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -10,6 +11,7 @@ impl Default for Settings {
             prepass: PrepassSettings::default(),
             detector: DetectorSettings::default(),
             filter: FilterSettings::default(),
+            reflections: ReflectionSettings::default(),
         }
     }
 }
@@ -109,6 +111,28 @@ impl Default for FilterSettings {
             penumbra_reach: 0.5,
             penumbra_sigma_luminance: 2.0,
             penumbra_radius: 2,
+        }
+    }
+}
+
+impl Default for ReflectionSettings {
+    fn default() -> Self {
+        let sh = Shading::default();
+        ReflectionSettings {
+            max_roughness: sh.max_roughness,
+            min_rate: 0.5,
+            max_rate: 2.0,
+            tile_sigma: 0.15,
+            reuse_radius: 1,
+            parallax: true,
+            motion_radius: 2,
+            plane_threshold: 0.02,
+            light_radiance: sh.light_radiance,
+            albedo: sh.albedo,
+            sky: sh.sky,
+            ambient: sh.ambient,
+            light_probes: sh.light_probes,
+            guide_radius: 2,
         }
     }
 }

@@ -17,8 +17,8 @@ pub enum SettingsError {
     OutOfRange {
         /// Field path, stage first (`filter.sigma_luminance`).
         field: &'static str,
-        /// Value given.
-        value: f32,
+        /// Value given (integer fields exactly).
+        value: f64,
         /// The range, in words.
         range: &'static str,
     },
@@ -39,7 +39,13 @@ impl fmt::Display for SettingsError {
                 value,
                 range,
             } => {
-                write!(f, "setting `{field}` = {value} is out of range ({range})")
+                // Integer fields print exactly; a float prints as the `f32` it was.
+                if value.fract() == 0.0 && value.abs() < (1u64 << 53) as f64 {
+                    write!(f, "setting `{field}` = {value} is out of range ({range})")
+                } else {
+                    let value = *value as f32;
+                    write!(f, "setting `{field}` = {value} is out of range ({range})")
+                }
             }
         }
     }

@@ -260,3 +260,37 @@ fn error_message_names_the_path() {
         "setting `filter.sigma_luminance` = -1 is out of range (> 0)"
     );
 }
+
+#[test]
+fn reflection_settings_out_of_range_name_their_field() {
+    assert_eq!(ReflectionSettings::default().validate(), Ok(()));
+    let bad = [
+        ReflectionSettings {
+            max_roughness: f32::NAN,
+            ..Default::default()
+        },
+        ReflectionSettings {
+            min_rate: 3.0,
+            ..Default::default()
+        },
+        ReflectionSettings {
+            reuse_radius: 9,
+            ..Default::default()
+        },
+        ReflectionSettings {
+            sky: -1.0,
+            ..Default::default()
+        },
+    ];
+    for (s, field) in bad.iter().zip([
+        "reflections.max_roughness",
+        "reflections.min_rate",
+        "reflections.reuse_radius",
+        "reflections.sky",
+    ]) {
+        match s.validate() {
+            Err(SettingsError::OutOfRange { field: f, .. }) => assert_eq!(f, field),
+            other => panic!("{field}: {other:?}"),
+        }
+    }
+}

@@ -1,15 +1,16 @@
 //! The range checks: each stage's `validate` and the `check` they share, apart from the structs.
 
 use super::{
-    DetectorSettings, FilterSettings, PrepassSettings, RateSettings, SettingsError,
-    TemporalSettings,
+    DetectorSettings, FilterSettings, PrepassSettings, RateSettings, ReflectionSettings,
+    SettingsError, TemporalSettings,
 };
+use crate::kernels::reflect;
 
 /// `Ok` when `ok`, else the out-of-range error for `field` (the settings validators' one check).
 pub(crate) fn check(
     ok: bool,
     field: &'static str,
-    value: f32,
+    value: impl Into<f64>,
     range: &'static str,
 ) -> Result<(), SettingsError> {
     if ok {
@@ -17,7 +18,7 @@ pub(crate) fn check(
     } else {
         Err(SettingsError::OutOfRange {
             field,
-            value,
+            value: value.into(),
             range,
         })
     }
@@ -40,7 +41,7 @@ impl TemporalSettings {
         check(
             self.rng_wrap <= 1 << 16,
             "temporal.rng_wrap",
-            self.rng_wrap as f32,
+            self.rng_wrap,
             "0..=65536 (the packed history holds 16 bits)",
         )?;
         check(
@@ -58,7 +59,7 @@ impl TemporalSettings {
         check(
             self.clamp_radius <= 5,
             "temporal.clamp_radius",
-            self.clamp_radius as f32,
+            self.clamp_radius,
             "0..=5",
         )?;
         check(
@@ -70,7 +71,7 @@ impl TemporalSettings {
         check(
             self.reflection_clamp_radius <= 5,
             "temporal.reflection_clamp_radius",
-            self.reflection_clamp_radius as f32,
+            self.reflection_clamp_radius,
             "0..=5",
         )?;
         check(
@@ -184,7 +185,7 @@ impl RateSettings {
         check(
             self.reset_payback <= super::MAX_RESET_PAYBACK,
             "rates.reset_payback",
-            self.reset_payback as f32,
+            self.reset_payback,
             "0..=64",
         )?;
         check(
@@ -200,16 +201,11 @@ impl PrepassSettings {
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), SettingsError> {
         let finite = |v: f32| v.is_finite();
-        check(
-            self.stratum <= 8,
-            "prepass.stratum",
-            self.stratum as f32,
-            "0..=8",
-        )?;
+        check(self.stratum <= 8, "prepass.stratum", self.stratum, "0..=8")?;
         check(
             self.iterations <= 5,
             "prepass.iterations",
-            self.iterations as f32,
+            self.iterations,
             "0..=5",
         )?;
         check(
@@ -231,12 +227,7 @@ impl DetectorSettings {
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), SettingsError> {
         let finite = |v: f32| v.is_finite();
-        check(
-            self.radius <= 4,
-            "detector.radius",
-            self.radius as f32,
-            "0..=4",
-        )?;
+        check(self.radius <= 4, "detector.radius", self.radius, "0..=4")?;
         check(
             finite(self.threshold) && (0.0..=1.0).contains(&self.threshold),
             "detector.threshold",
@@ -258,13 +249,13 @@ impl DetectorSettings {
         check(
             (1..=16).contains(&self.refill_rays),
             "detector.refill_rays",
-            self.refill_rays as f32,
+            self.refill_rays,
             "1..=16",
         )?;
         check(
             self.shadow_radius <= 4,
             "detector.shadow_radius",
-            self.shadow_radius as f32,
+            self.shadow_radius,
             "0..=4",
         )?;
         check(
@@ -313,7 +304,7 @@ impl FilterSettings {
         check(
             self.atrous_iterations <= 5,
             "filter.atrous_iterations",
-            self.atrous_iterations as f32,
+            self.atrous_iterations,
             "0..=5",
         )?;
         check(
@@ -343,7 +334,7 @@ impl FilterSettings {
         check(
             self.spatial_radius <= 5,
             "filter.spatial_radius",
-            self.spatial_radius as f32,
+            self.spatial_radius,
             "0..=5",
         )?;
         check(
@@ -391,8 +382,82 @@ impl FilterSettings {
         check(
             self.penumbra_radius <= 3,
             "filter.penumbra_radius",
-            self.penumbra_radius as f32,
+            self.penumbra_radius,
             "0..=3",
+        )
+    }
+}
+
+impl ReflectionSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let f = |v: f32| v.is_finite();
+        check(
+            f(self.max_roughness) && (0.0..=1.0).contains(&self.max_roughness),
+            "reflections.max_roughness",
+            self.max_roughness,
+            "0..=1",
+        )?;
+        check(
+            f(self.min_rate) && self.min_rate > 0.0 && self.min_rate <= self.max_rate,
+            "reflections.min_rate",
+            self.min_rate,
+            "0 < min_rate <= max_rate",
+        )?;
+        check(
+            f(self.max_rate) && self.max_rate <= 4.0,
+            "reflections.max_rate",
+            self.max_rate,
+            "min_rate..=4",
+        )?;
+        check(
+            f(self.tile_sigma) && self.tile_sigma > 0.0,
+            "reflections.tile_sigma",
+            self.tile_sigma,
+            "> 0",
+        )?;
+        check(
+            self.reuse_radius <= 3,
+            "reflections.reuse_radius",
+            self.reuse_radius,
+            "0..=3",
+        )?;
+        check(
+            self.guide_radius <= 3,
+            "reflections.guide_radius",
+            self.guide_radius,
+            "0..=3",
+        )?;
+        check(
+            self.light_probes <= reflect::MAX_LIGHT_PROBES,
+            "reflections.light_probes",
+            self.light_probes,
+            "0..=15",
+        )?;
+        check(
+            self.motion_radius <= 3,
+            "reflections.motion_radius",
+            self.motion_radius,
+            "0..=3",
+        )?;
+        check(
+            f(self.plane_threshold) && self.plane_threshold > 0.0,
+            "reflections.plane_threshold",
+            self.plane_threshold,
+            "> 0",
+        )?;
+        for (field, v) in [
+            ("reflections.light_radiance", self.light_radiance),
+            ("reflections.sky", self.sky),
+            ("reflections.ambient", self.ambient),
+        ] {
+            check(f(v) && v >= 0.0, field, v, ">= 0")?;
+        }
+        check(
+            f(self.albedo) && (0.0..=1.0).contains(&self.albedo),
+            "reflections.albedo",
+            self.albedo,
+            "0..=1",
         )
     }
 }

@@ -9,7 +9,7 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use crate::render::Signal;
+use crate::render::SignalName;
 use crate::FrameGeometry;
 
 /// Version of the reference estimator ([`crate::render::reference`]: its rng stream, batching
@@ -68,7 +68,7 @@ pub struct ReferenceKey {
     pub height: u32,
     /// Samples per pixel the reference was accumulated with.
     pub spp: u64,
-    /// What was rendered with which parameters: [`Signal`]'s `Display`, e.g. `"ao0.5"`.
+    /// What was rendered with which parameters: [`SignalName`]'s `Display`, e.g. `"ao0.5"`.
     pub signal: String,
     /// The caller's own version (e.g. the `vrrt` command's); the key also always carries
     /// [`ESTIMATOR_VERSION`].
@@ -76,13 +76,14 @@ pub struct ReferenceKey {
 }
 
 impl ReferenceKey {
-    /// The key of `frame` of scene `scene` rendered at `size` with `signal` and `spp` samples
-    /// per pixel, under the caller's `version`.
+    /// The key of `frame` of scene `scene` rendered at `size` with `signal` (its name with the
+    /// reflection settings, [`Signal::name`](crate::render::Signal::name)) and `spp` samples per pixel, under the caller's
+    /// `version`.
     pub fn for_frame(
         scene: &str,
         frame: &FrameGeometry,
         (width, height): (u32, u32),
-        signal: Signal,
+        signal: SignalName<'_>,
         spp: u64,
         version: u32,
     ) -> Self {
