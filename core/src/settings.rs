@@ -1,9 +1,10 @@
 //! The denoiser's tunables, one struct per stage (like NRD's settings): [`TemporalSettings`]
 //! (reprojection and accumulation of history), [`RateSettings`] (how many rays each pixel gets),
 //! [`PrepassSettings`] (the A-SVGF temporal-gradient prepass), [`DetectorSettings`] (the change
-//! detector and its refill lists), [`FilterSettings`] (variance estimation and the à-trous
-//! filter) and [`ReflectionSettings`] (the reflection passes), gathered in [`Settings`]. Where the planes are and this frame's ray budget are not
-//! tunables: they are the frame's ([`Layout`](crate::denoiser::Layout),
+//! detector and its refill lists), [`FilterSettings`] (variance estimation and the à-trous filter)
+//! and [`ReflectionSettings`] (the reflection passes), gathered in [`Settings`]. Where the planes
+//! are and this frame's ray budget are not tunables: they are the frame's
+//! ([`Layout`](crate::denoiser::Layout),
 //! [`Denoiser::rays_per_pixel`](crate::denoiser::Denoiser::rays_per_pixel)).
 //!
 //! Every struct's `Default` is full VRRT, every field documents its unit, range and default, and
@@ -26,7 +27,7 @@ pub const MAX_RESET_PAYBACK: u32 = 64;
 
 /// Every tunable of the denoiser, by stage. `Settings::default()` is full VRRT; [`Settings::svgf`]
 /// the fixed-rate baseline.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct Settings {
@@ -61,7 +62,7 @@ pub struct TemporalSettings {
     pub clamp_radius: u32,
     /// Variance clamp width in standard deviations (> 0; default 1).
     pub clamp_gamma: f32,
-    /// Variance clamp of the reflections' history ([`Layout::parallax_plane`](crate::denoiser::Layout::parallax_plane)) over the pixels
+    /// Variance clamp of the reflections' history (`Layout::parallax_plane`) over the pixels
     /// of the window that lie on the pixel's own surface (normals within `normal_threshold`, view
     /// depths within `clamp_depth_tolerance`): window radius in pixels, 0 = off (0..=5; default
     /// 2; it replaces `clamp_radius` on that plane). The detector keeps a moving highlight's
@@ -101,9 +102,9 @@ pub struct RateSettings {
     /// Ray budget: average rays per pixel per frame (0 < r <= 16; default 1). With `budget_ms`
     /// it is the first frame's budget only.
     pub rays_per_pixel: f32,
-    /// Ray budget in milliseconds of tracing per frame (the `raygen_*` passes): each frame's
-    /// rays per pixel follow from the cost of recent frames ([`MsBudget`](crate::budget::MsBudget));
-    /// 0 = off, the fixed `rays_per_pixel` (0 or 0 < t <= 1000; default 0).
+    /// Ray budget in milliseconds of tracing per frame (the `raygen_*` passes): each frame's rays
+    /// per pixel follow from the cost of recent frames ([`MsBudget`](crate::budget::MsBudget)); 0 =
+    /// off, the fixed `rays_per_pixel` (0 or 0 < t <= 1000; default 0).
     pub budget_ms: f32,
     /// Lowest budget `budget_ms` may set, rays per pixel: however slow the rays, the image keeps
     /// this many (0 < r <= 16; default 0.25).
@@ -143,10 +144,10 @@ pub struct RateSettings {
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows
     /// lag; see `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
-    /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on
-    /// every pixel (0..=1; default 1; shadows alone: `Frame` takes 0 for any other signal): the pixels whose
-    /// 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
-    /// `docs/algorithms/penumbra-guide.md`).
+    /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on every
+    /// pixel (0..=1; default 1; shadows alone: `Frame` takes 0 for any other signal): the pixels
+    /// whose 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`;
+    /// see `docs/algorithms/penumbra-guide.md`).
     pub reset_refill: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
@@ -172,12 +173,12 @@ pub struct RateSettings {
     /// `spend_saved_rays` off the rays stay unspent ("save" mode). Needs `undersample` (>= 0;
     /// default 0.045).
     pub still_sigma: f32,
-    /// The engine writes a VRS-style mask every frame ([`Denoiser::mask`](crate::denoiser::Denoiser::mask),
-    /// `u32` per pixel, 0 = needs no ray) and pixels it rules out ask for none (default off: no
-    /// mask is kept, 4 bytes per pixel saved).
+    /// The engine writes a VRS-style mask every frame
+    /// ([`Denoiser::mask`](crate::denoiser::Denoiser::mask), `u32` per pixel, 0 = needs no ray) and
+    /// pixels it rules out ask for none (default off: no mask is kept, 4 bytes per pixel saved).
     pub vrs_mask: bool,
     /// A frame with several signals (`Signal::All`) gives each its own ray requests and work list
-    /// ([`Layout::plane_groups`](crate::denoiser::Layout::plane_groups)) instead of one request per pixel that traces every signal
+    /// (`Layout::plane_groups`) instead of one request per pixel that traces every signal
     /// (default on).
     pub per_signal: bool,
     /// Least share of the budget a signal keeps when the balancer shares it by the rays each
@@ -241,7 +242,7 @@ pub struct DetectorSettings {
     /// `docs/algorithms/change-detector.md`); the lists share what is left over or missing. A
     /// dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
-    /// `radius` of the shadow planes ([`Layout::shadow_planes`](crate::denoiser::Layout::shadow_planes))
+    /// `radius` of the shadow planes (`Layout::shadow_planes`)
     /// (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history
     /// lags. AO's soft, faint changes need the larger window to be significant (see
@@ -249,7 +250,7 @@ pub struct DetectorSettings {
     pub shadow_radius: u32,
     /// `threshold` of the shadow planes (0..=1; default 0.3).
     pub shadow_threshold: f32,
-    /// `sigma` of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 1;
+    /// `sigma` of the AO planes (`Layout::ao_planes`; >= 1;
     /// default 2). AO changes only where geometry moves, and reprojection already cuts the history
     /// of partial footprints there, so a 1σ detector mostly shortened converged history by chance
     /// (see `docs/algorithms/change-detector.md`).
@@ -267,10 +268,11 @@ pub struct DetectorSettings {
     /// Significance of two or more rays against their history from which accumulation drops
     /// it on the shadow planes (> 0; default 1.5).
     pub shadow_drop_sigma: f32,
-    /// Confirmation of the reflections' drops ([`Layout::parallax_plane`](crate::denoiser::Layout::parallax_plane);
-    /// >= 0, 0 = off; default 1.25): where `λ` drops history, the pixel's own rays (the refill
-    /// lists give it some) must lie this many standard deviations from it
-    /// (`kernels::detect::pixel_z`), or the history is kept whole. The 1σ window reads noise as a
+    /// Confirmation of the reflections' drops (on the
+    /// `Layout::parallax_plane`; >= 0, 0 = off; default
+    /// 1.25): where `λ` drops history, the pixel's own rays (the refill lists give it some) must
+    /// lie this many standard deviations from it (`kernels::detect::pixel_z`), or the history is
+    /// kept whole. The 1σ window reads noise as a
     /// change now and then, and a converged reflection dropped by chance comes back as blotches
     /// (see `docs/algorithms/change-detector.md`).
     pub reflection_confirm_sigma: f32,
@@ -337,7 +339,7 @@ pub struct FilterSettings {
     pub sigma_luminance: f32,
     /// Normal edge-stopping exponent (>= 0; default 128).
     pub normal_power: f32,
-    /// Normal edge-stopping exponent of the AO planes ([`Layout::ao_planes`](crate::denoiser::Layout::ao_planes); >= 0; default 8;
+    /// Normal edge-stopping exponent of the AO planes (`Layout::ao_planes`; >= 0; default 8;
     /// SVGF as published: `normal_power`). AO is a cosine-weighted integral over the hemisphere,
     /// so it turns slowly with the normal; at 128 a curved mesh at 128x72 rejects neighbours a
     /// few degrees apart and a 1-ray pixel keeps its own ray (see

@@ -3,19 +3,6 @@
 use super::*;
 use crate::kernels::reflect::Shading;
 
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            temporal: TemporalSettings::default(),
-            rates: RateSettings::default(),
-            prepass: PrepassSettings::default(),
-            detector: DetectorSettings::default(),
-            filter: FilterSettings::default(),
-            reflections: ReflectionSettings::default(),
-        }
-    }
-}
-
 impl Default for TemporalSettings {
     fn default() -> Self {
         TemporalSettings {

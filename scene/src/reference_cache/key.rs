@@ -77,8 +77,8 @@ pub struct ReferenceKey {
 
 impl ReferenceKey {
     /// The key of `frame` of scene `scene` rendered at `size` with `signal` (its name with the
-    /// reflection settings, [`Signal::name`](crate::render::Signal::name)) and `spp` samples per pixel, under the caller's
-    /// `version`.
+    /// reflection settings, [`Signal::name`](crate::render::Signal::name)) and `spp` samples per
+    /// pixel, under the caller's `version`.
     pub fn for_frame(
         scene: &str,
         frame: &FrameGeometry,
