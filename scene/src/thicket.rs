@@ -13,7 +13,8 @@ use crate::scene::Scene;
 use crate::shapes::cuboid;
 use vrrt_core::glam::{Affine3A, Vec3};
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::sampling::{pcg_hash, rand};
+use vrrt_core::sampling::rand;
+use vrrt_core::sequence::pcg_hash;
 
 /// Frame of the camera cut from the empty corner to the thicket.
 pub const THICKET_CUT_FRAME: u32 = 48;

@@ -2,7 +2,7 @@
 
 use super::{FrameScene, PlaneLayout, Signal};
 use crate::denoiser::{Denoiser, Inputs};
-use crate::kernels::{self, apply, raygen};
+use crate::kernels::{self, raygen, work_list};
 use crate::plan::{BufferId, Executor, Groups};
 use crate::reflections::Reflections;
 
@@ -114,7 +114,7 @@ impl RaygenTarget {
     pub fn groups(&self, list: u32) -> Groups {
         Groups::Indirect {
             buffer: self.args,
-            offset: 4 * apply::ARGS_LEN as u64 * list as u64 + 4,
+            offset: 4 * work_list::ARGS_LEN as u64 * list as u64 + 4,
         }
     }
 }
