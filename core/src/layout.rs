@@ -1,4 +1,5 @@
 //! The denoiser's planes and what each one is: decided by the frame from its signal, not tuned.
+//! Below the denoiser and its buffers, which both size themselves by it.
 
 use crate::kernels::{self, balance::MAX_GROUPS, MAX_GROUPED_PLANES};
 use crate::settings::{check, SettingsError};
@@ -9,8 +10,8 @@ use crate::settings::{check, SettingsError};
 /// this frame is) apart from `ReblurSettings` (how to denoise it): the settings are the user's
 /// tunables, this follows from the signal. `crate::frame::Frame` derives it from the signal's
 /// planes ([`PlaneLayout::denoiser`](crate::frame::PlaneLayout::denoiser)); a caller that drives
-/// [`Denoiser`](super::Denoiser) itself states it
-/// ([`Denoiser::with_layout`](super::Denoiser::with_layout)).
+/// [`Denoiser`](crate::denoiser::Denoiser) itself states it
+/// ([`Denoiser::with_layout`](crate::denoiser::Denoiser::with_layout)).
 /// `Default` is one plane with no special rule.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
