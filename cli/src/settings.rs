@@ -218,6 +218,7 @@ mod tests {
                 ambient: 0.7,
                 light_probes: 15,
                 guide_radius: 3,
+                reset_payback: 17,
             },
         }
     }

@@ -44,6 +44,13 @@ pub struct Layout {
     /// The AO planes (bit per plane), whose detector counts a change from `detector.ao_sigma`
     /// instead of `detector.sigma` and whose filter takes the AO variants. 0: none.
     pub ao_planes: u32,
+    /// Every plane is a shadow: reset frames spend `rates.reset_refill` of their boost on the
+    /// penumbrae (a reserve of the whole frame's boost, which in a shared frame the other signals
+    /// would pay for).
+    pub shadows_alone: bool,
+    /// The one plane is reflections: a reset's boost is paid back over
+    /// `reflections.reset_payback` frames instead of `rates.reset_payback`.
+    pub reflections_alone: bool,
 }
 
 impl Default for Layout {
@@ -63,6 +70,8 @@ impl Layout {
             plane_groups: 0,
             shadow_planes: 0,
             ao_planes: 0,
+            shadows_alone: false,
+            reflections_alone: false,
         }
     }
 

@@ -138,14 +138,15 @@ pub struct RateSettings {
     /// fresh then and holds only this frame's rays, which stay in the history the next frames
     /// add to: spent early they count in every frame, the cut's included (see
     /// `docs/algorithms/fresh-pixels.md`). The cost is a frame of twice the rays at the cut.
-    /// Reflections alone take none (`frame::Frame::new`).
+    /// Reflections alone pay it back over `reflections.reset_payback` frames.
     pub reset_boost: f32,
     /// Frames over which a reset's `reset_boost` is paid back (0 = no boost; 0..=64; default 8:
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows
     /// lag; see `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
     /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on every
-    /// pixel (0..=1; default 1; shadows alone: `Frame` takes 0 for any other signal): the pixels
+    /// pixel (0..=1; default 1; for a denoiser of the shadows alone, `Layout::shadows_alone`: in a shared
+    /// frame the other signals would pay for the penumbrae): the pixels
     /// whose 3×3 window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`;
     /// see `docs/algorithms/penumbra-guide.md`).
     pub reset_refill: f32,
@@ -323,6 +324,11 @@ pub struct ReflectionSettings {
     /// Window radius of the hit-distance guide (`kernels::reflect::reflect_guide`; 0..=3;
     /// default 2, a 5×5 mean: on the bunny's first frame a 3×3 one guides worse).
     pub guide_radius: u32,
+    /// Frames over which a frame of reflections alone pays back a reset's `rates.reset_boost`,
+    /// in place of `rates.reset_payback` (0..=64; default 64, the longest: over 8 frames their
+    /// moving highlights starve after a cut, while their fresh pixels gain from the boost either
+    /// way; `docs/algorithms/fresh-pixels.md`).
+    pub reset_payback: u32,
 }
 
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,

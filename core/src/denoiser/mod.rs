@@ -382,9 +382,15 @@ impl Denoiser {
 
     /// The rates stage as this frame runs it: the settings' with this frame's budget.
     pub(super) fn rates(&self) -> RateSettings {
+        let r = self.settings.rates;
         RateSettings {
             rays_per_pixel: self.rays_per_pixel,
-            ..self.settings.rates
+            reset_payback: if self.layout.reflections_alone {
+                self.settings.reflections.reset_payback
+            } else {
+                r.reset_payback
+            },
+            ..r
         }
     }
 
@@ -635,7 +641,7 @@ impl Denoiser {
     /// that traces refill lists: `detector.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
         let s = &self.settings;
-        s.rates.reset_refill > 0.0 && self.layout.shadow_planes != 0 && s.detector.refill
+        s.rates.reset_refill > 0.0 && self.layout.shadows_alone && s.detector.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget

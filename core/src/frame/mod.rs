@@ -170,8 +170,7 @@ pub struct Frame {
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
     /// denoiser's [`Layout`](crate::denoiser::Layout) follows from the signal's planes
-    /// ([`PlaneLayout::denoiser`]); of `settings`, for reflections alone `rates.reset_payback`
-    /// is the longest, and `rates.reset_refill` holds for shadows alone. Reflections
+    /// ([`PlaneLayout::denoiser`]); `settings` are the denoiser's as given. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `prepass.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
     pub fn new<E: Executor>(
@@ -180,21 +179,10 @@ impl Frame {
         height: u32,
         signal: Signal,
         lights: usize,
-        mut settings: Settings,
+        settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
         let layout = signal.layout(lights);
         let planes = layout.denoiser(&settings);
-        if signal == Signal::Reflections {
-            // Alone, reflections pay the cut's extra rays back over the longest window: over 8
-            // frames their moving highlights starve after it, while the fresh pixels gain from
-            // it either way (see docs/algorithms/fresh-pixels.md).
-            settings.rates.reset_payback = crate::settings::MAX_RESET_PAYBACK;
-        }
-        if !matches!(signal, Signal::Shadows) {
-            // The reserve is the whole frame's boost share; in a shared frame the other
-            // signals would pay for the shadows' penumbrae.
-            settings.rates.reset_refill = 0.0;
-        }
         if layout.reflections.is_some() && settings.prepass.stratum > 1 {
             return Err(DenoiserError::Settings(SettingsError::OutOfRange {
                 field: "prepass.stratum",

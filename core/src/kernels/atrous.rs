@@ -46,7 +46,7 @@ pub struct AtrousParams {
     /// Nonzero: the luminance test's variance (the 3×3-blurred one) is capped at the pixel's
     /// own (VRRT; SVGF as published does not cap it).
     pub cap_variance: u32,
-    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Settings::ao_planes`).
+    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Layout::ao_planes`).
     pub ao_planes: u32,
     /// Exponent of the normal weight on the planes in `ao_planes`.
     pub ao_normal_power: f32,

@@ -46,13 +46,13 @@ pub struct RefillParams {
     pub planes: u32,
     /// Which group each plane belongs to (`super::plane_group`); the dispatch's z is the group.
     pub plane_groups: u32,
-    /// `λ` above which accumulation drops history (`gradient.threshold`).
+    /// `λ` above which accumulation drops history (`detector.threshold`).
     pub threshold: f32,
     /// `threshold` of the planes in `shadow_planes`.
     pub shadow_threshold: f32,
-    /// Planes (bit per plane) that take `shadow_threshold` (`Settings::shadow_planes`).
+    /// Planes (bit per plane) that take `shadow_threshold` (`Layout::shadow_planes`).
     pub shadow_planes: u32,
-    /// Rays of each listed pixel (`gradient.refill_rays`).
+    /// Rays of each listed pixel (`detector.refill_rays`).
     pub rays: u32,
     /// Significance of one pixel's own rays against its history ([`super::detect::pixel_z`])
     /// from which a pixel that traced fewer than `rays` is listed to verify, on the planes in
@@ -60,7 +60,7 @@ pub struct RefillParams {
     pub verify_sigma: f32,
     /// History length (rays) from which a pixel's history variance is trusted for that test.
     pub verify_history: f32,
-    /// Floor of the per-ray variance of that test (`gradient.detect_min_variance`).
+    /// Floor of the per-ray variance of that test (`detector.min_variance`).
     pub min_variance: f32,
     /// Frame number: varies which entries [`fit`] keeps when the lists do not fit ([`priority`]).
     pub frame_index: u32,
@@ -315,7 +315,7 @@ pub struct FitParams {
     /// Plane groups (one invocation each).
     pub groups: u32,
     /// Rays of an entry where no budget bounds the lists (`unbounded`): `RefillParams::rays`,
-    /// the detector's `gradient.refill_rays` or a reset frame's [`MAX_RATE`].
+    /// the detector's `detector.refill_rays` or a reset frame's [`MAX_RATE`].
     pub rays: u32,
     /// Fewest rays of a kept entry: a reset frame's are what a pixel may have traced in the
     /// main pass, so a re-trace never holds fewer (`rates::reset_least`); 1 for the detector's.

@@ -46,7 +46,7 @@ pub struct VarianceParams {
     pub height: u32,
     /// Window radius of the spatial fallback (1 → 3×3).
     pub radius: u32,
-    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Settings::ao_planes`).
+    /// Planes (bit per plane) whose normal weight takes `ao_normal_power` (`Layout::ao_planes`).
     pub ao_planes: u32,
     /// History length (rays) from which the temporal estimate is used alone (SVGF: 4).
     pub spatial_until: f32,

@@ -120,6 +120,7 @@ impl Default for ReflectionSettings {
             ambient: sh.ambient,
             light_probes: sh.light_probes,
             guide_radius: 2,
+            reset_payback: super::MAX_RESET_PAYBACK,
         }
     }
 }

@@ -429,6 +429,12 @@ impl ReflectionSettings {
             "0..=3",
         )?;
         check(
+            self.reset_payback <= super::MAX_RESET_PAYBACK,
+            "reflections.reset_payback",
+            self.reset_payback,
+            "0..=64",
+        )?;
+        check(
             self.light_probes <= reflect::MAX_LIGHT_PROBES,
             "reflections.light_probes",
             self.light_probes,
