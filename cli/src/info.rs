@@ -1,10 +1,10 @@
 //! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick; with
 //! `--settings`, the default denoiser settings as TOML; with `--memory`, the memory report.
 
-use crate::backend::{Backend, BackendKind};
 use crate::session::{parse_size, SignalKind};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_core::plan::Executor;
 use vrrt_core::reflections::ReflectionSettings;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};

@@ -1,7 +1,6 @@
-//! Library side of the `vrrt` command: backend selection, shared by the CLI, the bench and the
-//! tests, and one module per subcommand.
+//! Library side of the `vrrt` command: one module per subcommand and what they share (sessions,
+//! output directories, limits); backends are chosen through `vrrt-backend`.
 
-pub mod backend;
 pub mod bench;
 pub mod fetch;
 pub mod info;

@@ -1,6 +1,5 @@
 //! `vrrt reference`: traces and caches the references of a scene's frames.
 
-use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
 use crate::run::{check_common, clamp_frames};
 use crate::session::{
@@ -8,6 +7,7 @@ use crate::session::{
     SignalKind,
 };
 use anyhow::Result;
+use vrrt_backend::BackendKind;
 use vrrt_core::reflections::ReflectionSettings;
 
 /// Options of `vrrt reference`.

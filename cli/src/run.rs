@@ -1,7 +1,6 @@
 //! `vrrt run`: renders a scene through one denoiser configuration, measures every frame against
 //! its reference and writes `frames.csv`, images and (optionally) debug overlays.
 
-use crate::backend::BackendKind;
 use crate::limits::LimitArgs;
 use crate::outdir::OutDir;
 use crate::plot;
@@ -15,6 +14,7 @@ use crate::settings::SettingsFile;
 use anyhow::{anyhow, bail, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use vrrt_backend::BackendKind;
 use vrrt_core::kernels::buckets::{bucket_to_rate, BUCKET_COUNT};
 use vrrt_scene::image::{write_exr, write_heatmap_png, write_png, Image, ImageRef};
 
@@ -401,7 +401,7 @@ pub fn clamp_frames(frames: u32, available: u32) -> u32 {
     }
 }
 
-fn exec_name(kind: BackendKind, exec: &crate::backend::Backend) -> String {
+fn exec_name(kind: BackendKind, exec: &vrrt_backend::Backend) -> String {
     use vrrt_core::plan::Executor;
     match kind {
         BackendKind::Auto => format!("auto → {}", exec.name()),

@@ -11,7 +11,7 @@
 //! procedural, so the ray kernels and the gradient re-trace need no mask buffer.
 
 use crate::math;
-use crate::sampling::{pcg_hash, R2_STEP};
+use crate::sequence::{pcg_hash, R2_STEP};
 
 /// Levels of the pixel hierarchy [`screen_point`] orders: the pattern repeats every `2^12` pixels.
 const LEVELS: u32 = 12;

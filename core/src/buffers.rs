@@ -3,9 +3,9 @@
 //! work starts — and so memory can be reported per buffer.
 
 use crate::camera::View;
-use crate::denoiser::grid_size;
 use crate::kernels::gradient::GradientSample;
-use crate::kernels::{apply, balance, buckets, classify, refill, reflect, trim};
+use crate::kernels::work_list::ARGS_LEN;
+use crate::kernels::{balance, buckets, classify, refill, reflect, trim};
 use crate::payload::{PackedFiltered, PackedPayload, PackedSample, COUNTERS_LEN};
 use crate::plan::BindingLimit;
 use crate::settings::Settings;
@@ -36,6 +36,15 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
 pub const DENOISER_BUFFERS: usize = 28;
+
+/// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
+pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
+    if stratum == 0 {
+        (1, 1)
+    } else {
+        (width.div_ceil(stratum), height.div_ceil(stratum))
+    }
+}
 
 /// Every buffer a `Denoiser` of `width × height` with `settings` allocates, in allocation order.
 pub fn denoiser_buffers(
@@ -126,15 +135,10 @@ pub fn denoiser_buffers(
             bytes(groups * refill::FIT_BINS as u64, 4),
             "u32",
         ),
-        size("args", 1, bytes(groups * apply::ARGS_LEN as u64, 4), "u32"),
+        size("args", 1, bytes(groups * ARGS_LEN as u64, 4), "u32"),
         // The refill lists' arguments: this frame's, read by the next frame's balancer
         // (`balance::refill_reserve`).
-        size(
-            "refill_args",
-            1,
-            bytes(groups * apply::ARGS_LEN as u64, 4),
-            "u32",
-        ),
+        size("refill_args", 1, bytes(groups * ARGS_LEN as u64, 4), "u32"),
         size("gradient_keys", 1, bytes(cells, 4), "GradientKey"),
         size("gradient_raw", 1, gradient, "GradientSample"),
         size("gradient", 2, gradient, "GradientSample"),

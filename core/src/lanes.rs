@@ -17,8 +17,8 @@
 //! instructions and fuses multiply-adds) they agree within the equivalence tolerances
 //! (`docs/equivalence.md`).
 
+use crate::binary16;
 use crate::math;
-use crate::quantize;
 
 /// Runs `$body` for every lane index `$l` (a `usize`) of a function generic over `N`. On the GPU,
 /// whose kernels run one lane (`N = 1`, checked when compiled), the body runs once with the
@@ -272,10 +272,10 @@ impl<const N: usize> Lanes<f32, N> {
 }
 
 impl<const N: usize> Lanes<u32, N> {
-    /// [`quantize::f16_to_f32`] of every lane's binary16 code (its low 16 bits). On x86-64 with
+    /// [`binary16::f16_to_f32`] of every lane's binary16 code (its low 16 bits). On x86-64 with
     /// F16C, eight lanes per conversion instruction: the same values for every code but
     /// signalling NaNs, which the instruction quiets. No buffer holds one: the kernels store
-    /// [`quantize::f32_to_f16`]'s codes, whose NaNs are quiet (tested over every code).
+    /// [`binary16::f32_to_f16`]'s codes, whose NaNs are quiet (tested over every code).
     #[inline(always)]
     pub fn f16_to_f32(self) -> Lanes<f32, N> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -283,12 +283,12 @@ impl<const N: usize> Lanes<u32, N> {
             // SAFETY: the CPU has F16C.
             return unsafe { f16c::widen(self) };
         }
-        self.map(|h| quantize::f16_to_f32(h & 0xffff))
+        self.map(|h| binary16::f16_to_f32(h & 0xffff))
     }
 }
 
 impl<const N: usize> Lanes<f32, N> {
-    /// [`quantize::f32_to_f16`] of every lane, the same codes for every input (tested over
+    /// [`binary16::f32_to_f16`] of every lane, the same codes for every input (tested over
     /// every exponent). On x86-64 with F16C, eight lanes per conversion instruction (round to
     /// nearest even, as `f32_to_f16`); NaNs first become the quiet NaN of their sign, the one
     /// `f32_to_f16` gives.
@@ -308,7 +308,7 @@ impl<const N: usize> Lanes<f32, N> {
             // SAFETY: the CPU has F16C.
             return unsafe { f16c::narrow(canonical) };
         }
-        self.map(quantize::f32_to_f16)
+        self.map(binary16::f32_to_f16)
     }
 }
 
@@ -404,7 +404,7 @@ mod tests {
                 chunk[l as usize % chunk.len()] | 0xabcd_0000
             });
             for (h, got) in lanes.0.iter().zip(lanes.f16_to_f32().0) {
-                let want = quantize::f16_to_f32(h & 0xffff);
+                let want = binary16::f16_to_f32(h & 0xffff);
                 assert_eq!(got.to_bits(), want.to_bits(), "{h:#x}");
             }
         }
@@ -443,7 +443,7 @@ mod tests {
             let lanes =
                 Lanes::<f32, 16>::from_index(|l| f32::from_bits(chunk[l as usize % chunk.len()]));
             for (x, got) in lanes.0.iter().zip(lanes.f32_to_f16().0) {
-                let want = quantize::f32_to_f16(*x);
+                let want = binary16::f32_to_f16(*x);
                 assert_eq!(got, want, "{:#x}", x.to_bits());
             }
         }

@@ -26,6 +26,7 @@
 extern crate std;
 
 pub mod atomic;
+pub mod binary16;
 pub mod blue_noise;
 #[cfg(not(target_arch = "spirv"))]
 pub mod budget;
@@ -48,6 +49,7 @@ pub mod quantize;
 #[cfg(not(target_arch = "spirv"))]
 pub mod reflections;
 pub mod sampling;
+pub mod sequence;
 #[cfg(not(target_arch = "spirv"))]
 pub mod settings;
 pub mod surface;

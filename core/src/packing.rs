@@ -13,9 +13,9 @@
 //! - **Hit** (the built-in renderer's own ray-generation data, not a denoiser input): the
 //!   geometric normal octahedron-encoded in 16 + 16 bits, and the instance id.
 
+use crate::binary16::{f16_to_f32, f32_to_f16, F16_MAX};
 use crate::lanes::Lanes;
 use crate::math;
-use crate::quantize::{f16_to_f32, f32_to_f16, F16_MAX};
 use glam::{Vec2, Vec3};
 
 /// Octahedral encoding of unit `n` in `[-1, 1]²` (Cigolle et al. 2014).

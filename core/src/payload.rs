@@ -21,6 +21,7 @@
 //! Untraced samples (`rays == 0`) are not inspected: their moments are not read. The accumulated
 //! moments are then stored at the storage precision ([`store`]).
 
+use crate::binary16;
 use crate::lanes::Lanes;
 use crate::math;
 use crate::packing;
@@ -111,7 +112,7 @@ impl PackedSample {
             m1,
             m2,
             rays: self.rays_first & 0xffff,
-            first: quantize::f16_to_f32(self.rays_first >> 16),
+            first: binary16::f16_to_f32(self.rays_first >> 16),
         }
     }
 

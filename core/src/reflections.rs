@@ -16,7 +16,7 @@
 
 use crate::camera::Camera;
 use crate::denoiser::Denoiser;
-use crate::frame::{GBuffer, RaygenTarget};
+use crate::frame::target::{GBuffer, RaygenTarget};
 use crate::kernels;
 use crate::kernels::reflect::{self, RayHit, Shading};
 use crate::plan::{BufferId, Executor};

@@ -10,16 +10,8 @@
 //! gradient pass needs to re-create last frame's ray.
 
 use crate::math;
+use crate::sequence::{pcg_hash, R2_STEP};
 use glam::Vec3;
-
-/// One round of the PCG output permutation as a 32-bit hash (Jarzynski & Olano 2020, "Hash
-/// Functions for GPU Rendering"). A bijection of `u32`, integer ops only.
-#[inline]
-pub fn pcg_hash(v: u32) -> u32 {
-    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
-    (word >> 22) ^ word
-}
 
 /// Seed of the random sequence of pixel `(x, y)` in signal plane `plane`.
 #[inline]
@@ -77,10 +69,6 @@ pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> Vec3 {
 pub fn parallelogram_point(corner: Vec3, edge_u: Vec3, edge_v: Vec3, u1: f32, u2: f32) -> Vec3 {
     corner + edge_u * u1 + edge_v * u2
 }
-
-/// 32-bit fixed-point steps of the R2 sequence (Roberts 2018: `1/g`, `1/g²` for the plastic
-/// number `g`), the 2D low-discrepancy sequence with the best known packing.
-pub(crate) const R2_STEP: [u32; 2] = [3_242_174_889, 2_447_445_414];
 
 /// Point `index` of pixel `seed`'s low-discrepancy sequence in `[0, 1)²`: the R2 sequence,
 /// Cranley–Patterson rotated by a hash of the seed so neighbouring pixels decorrelate. Wrapping

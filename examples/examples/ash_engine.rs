@@ -112,7 +112,7 @@ fn run(app: &App) -> Result<(), Error> {
         }?;
 
         // An engine's ray-tracing pass would read the work list `d.work()` on the GPU (pixels
-        // and their rays, `apply::work_item`; `d.args()` is its indirect dispatch); this example
+        // and their rays, `work_list::work_item`; `d.args()` is its indirect dispatch); this example
         // reads it back (the executor's own readback, synchronized by its own barriers) and traces on
         // the host.
         let rays = d.read_rays(&mut ex)?;

@@ -77,7 +77,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         queue.submit([encoder.finish()]);
 
         // An engine's ray-tracing pass would read the work list `d.work()` on the GPU (pixels
-        // and their rays, `apply::work_item`; `d.args()` is its indirect dispatch); this
+        // and their rays, `work_list::work_item`; `d.args()` is its indirect dispatch); this
         // example traces on the host.
         let rays = d.read_rays(&mut gpu)?;
         assert_eq!(

@@ -236,7 +236,7 @@ pub fn assert_close(what: &str, got: &[f32], want: &[f32], half_ulps: u32) -> u3
     assert_eq!(got.len(), want.len(), "{what}: lengths differ");
     // Sign-magnitude codes on one monotonic line (+0 and −0 meet).
     let line = |x: f32| {
-        let h = vrrt_core::quantize::f32_to_f16(x) as i32;
+        let h = vrrt_core::binary16::f32_to_f16(x) as i32;
         if h & 0x8000 != 0 {
             -(h & 0x7fff)
         } else {

@@ -18,9 +18,10 @@ pub struct RigidKey {
     pub rotation: Quat,
 }
 
-/// A transform as a function of time.
+/// A transform as a function of time: how an instance or a light moves (named apart from
+/// core's `Motion`, the per-pixel motion vectors the renderer derives from it).
 #[derive(Clone, Debug, PartialEq)]
-pub enum Motion {
+pub enum Trajectory {
     /// Never moves.
     Static(Affine3A),
     /// `base`, then translated by `velocity · t`.
@@ -54,13 +55,13 @@ pub enum Motion {
     Keyframes(Vec<RigidKey>),
 }
 
-impl Motion {
+impl Trajectory {
     /// Every parameter is finite, so every `at(t)` is (given a finite `t`).
     pub fn is_finite(&self) -> bool {
         match self {
-            Motion::Static(base) => base.is_finite(),
-            Motion::Linear { base, velocity } => base.is_finite() && velocity.is_finite(),
-            Motion::Oscillate {
+            Trajectory::Static(base) => base.is_finite(),
+            Trajectory::Linear { base, velocity } => base.is_finite() && velocity.is_finite(),
+            Trajectory::Oscillate {
                 base,
                 amplitude,
                 period,
@@ -72,26 +73,26 @@ impl Motion {
                     && *period != 0.0
                     && phase.is_finite()
             }
-            Motion::Spin {
+            Trajectory::Spin {
                 base,
                 turns_per_second,
             } => base.is_finite() && turns_per_second.is_finite(),
-            Motion::Keyframes(keys) => keys
+            Trajectory::Keyframes(keys) => keys
                 .iter()
                 .all(|k| k.time.is_finite() && k.translation.is_finite() && k.rotation.is_finite()),
         }
     }
 
     /// A motion that never moves, at translation `t`.
-    pub fn fixed(t: Vec3) -> Motion {
-        Motion::Static(Affine3A::from_translation(t))
+    pub fn fixed(t: Vec3) -> Trajectory {
+        Trajectory::Static(Affine3A::from_translation(t))
     }
 
     /// True when the transform does not depend on time.
     pub fn is_static(&self) -> bool {
         match self {
-            Motion::Static(_) => true,
-            Motion::Keyframes(keys) => keys.len() <= 1,
+            Trajectory::Static(_) => true,
+            Trajectory::Keyframes(keys) => keys.len() <= 1,
             _ => false,
         }
     }
@@ -99,9 +100,11 @@ impl Motion {
     /// The transform at time `t` (seconds).
     pub fn at(&self, t: f32) -> Affine3A {
         match self {
-            Motion::Static(m) => *m,
-            Motion::Linear { base, velocity } => Affine3A::from_translation(*velocity * t) * *base,
-            Motion::Oscillate {
+            Trajectory::Static(m) => *m,
+            Trajectory::Linear { base, velocity } => {
+                Affine3A::from_translation(*velocity * t) * *base
+            }
+            Trajectory::Oscillate {
                 base,
                 amplitude,
                 period,
@@ -110,7 +113,7 @@ impl Motion {
                 let (s, _) = math::sin_cos_turns(t / *period + *phase);
                 Affine3A::from_translation(*amplitude * s) * *base
             }
-            Motion::Spin {
+            Trajectory::Spin {
                 base,
                 turns_per_second,
             } => {
@@ -123,7 +126,7 @@ impl Motion {
                     * Affine3A::from_translation(-origin)
                     * *base
             }
-            Motion::Keyframes(keys) => match keys.as_slice() {
+            Trajectory::Keyframes(keys) => match keys.as_slice() {
                 [] => Affine3A::IDENTITY,
                 [k] => Affine3A::from_rotation_translation(k.rotation, k.translation),
                 _ => {
@@ -228,13 +231,13 @@ impl CameraPath {
     }
 }
 
-/// A rectangular area light moved rigidly by a [`Motion`].
+/// A rectangular area light moved rigidly by a [`Trajectory`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
     /// The light at the identity transform.
     pub base: AreaLight,
     /// Its motion.
-    pub motion: Motion,
+    pub motion: Trajectory,
 }
 
 impl Light {
@@ -255,7 +258,7 @@ mod tests {
 
     #[test]
     fn keyframes_interpolate_and_hold() {
-        let m = Motion::Keyframes(vec![
+        let m = Trajectory::Keyframes(vec![
             RigidKey {
                 time: 1.0,
                 translation: Vec3::ZERO,
@@ -270,7 +273,7 @@ mod tests {
         assert_eq!(m.at(0.0).translation, Vec3::ZERO.into());
         assert_eq!(m.at(2.0).translation, (Vec3::X * 2.0).into());
         assert_eq!(m.at(9.0).translation, (Vec3::X * 4.0).into());
-        let osc = Motion::Oscillate {
+        let osc = Trajectory::Oscillate {
             base: Affine3A::IDENTITY,
             amplitude: Vec3::X,
             period: 4.0,
@@ -299,7 +302,7 @@ mod tests {
         assert_eq!(path.key_at(1.5).position.x, 1.0, "held until the cut");
         assert_eq!(path.key_at(2.0).position.x, 9.0);
         assert!(path.cut_between(1.9, 2.0) && !path.cut_between(2.0, 2.1));
-        let spin = Motion::Spin {
+        let spin = Trajectory::Spin {
             base: Affine3A::from_translation(Vec3::X),
             turns_per_second: 0.25,
         };

@@ -4,7 +4,7 @@
 //!
 //! Y is up, units are metres, 30 fps.
 
-use crate::animation::{CameraKey, CameraPath, Light, Motion, RigidKey};
+use crate::animation::{CameraKey, CameraPath, Light, RigidKey, Trajectory};
 use crate::error::SceneError;
 use crate::mesh::Mesh;
 use crate::mesh_cache::{self, CachedMesh};
@@ -103,7 +103,7 @@ fn room(animated: bool) -> Scene {
     add_room_fixtures(&mut s);
     // A 1.2 m square light near the top, facing down, sweeping over the room.
     let light = AreaLight::new(Vec3::new(-0.6, 3.8, -1.8), Vec3::Z * 1.2, Vec3::X * 1.2);
-    let sweep = Motion::Oscillate {
+    let sweep = Trajectory::Oscillate {
         base: Affine3A::IDENTITY,
         amplitude: Vec3::new(2.5, 0.0, 0.0),
         period: 6.0,
@@ -119,11 +119,11 @@ fn room(animated: bool) -> Scene {
 }
 
 /// `m`, or its pose at time 0 for the static room.
-fn freeze(animated: bool, m: Motion) -> Motion {
+fn freeze(animated: bool, m: Trajectory) -> Trajectory {
     if animated {
         m
     } else {
-        Motion::Static(m.at(0.0))
+        Trajectory::Static(m.at(0.0))
     }
 }
 
@@ -131,7 +131,7 @@ fn freeze(animated: bool, m: Motion) -> Motion {
 fn add_room_movers(s: &mut Scene, animated: bool) {
     // Moving objects first, so their ids are fixed (see `room_ids`).
     let box_size = 0.8;
-    let sliding = Motion::Oscillate {
+    let sliding = Trajectory::Oscillate {
         base: Affine3A::from_translation(Vec3::new(0.0, 0.0, -5.0 + 0.12 + box_size * 0.5)),
         amplitude: Vec3::new(2.2, 0.0, 0.0),
         period: 4.0,
@@ -144,7 +144,7 @@ fn add_room_movers(s: &mut Scene, animated: bool) {
         freeze(animated, sliding),
         0.4,
     );
-    let crossing = Motion::Keyframes(vec![
+    let crossing = Trajectory::Keyframes(vec![
         RigidKey {
             time: 0.3,
             translation: Vec3::new(-6.5, 1.3, 2.6),
@@ -177,7 +177,7 @@ fn add_room_movers(s: &mut Scene, animated: bool) {
 /// The room's static geometry: floor, three walls (open front and top: sky shows above the
 /// walls), pillars, a railing of thin poles and a resting sphere.
 fn add_room_fixtures(s: &mut Scene) {
-    let fixed = Motion::Static(Affine3A::IDENTITY);
+    let fixed = Trajectory::Static(Affine3A::IDENTITY);
     add_floor_and_walls(s);
     s.add_object(
         "right wall",
@@ -270,7 +270,7 @@ pub(crate) fn room_camera_key(time: f32, position: Vec3, target: Vec3, cut: bool
 
 /// The room's floor (12 × 11 m), back wall and left wall (3.5 m high), static.
 pub(crate) fn add_floor_and_walls(s: &mut Scene) {
-    let fixed = Motion::Static(Affine3A::IDENTITY);
+    let fixed = Trajectory::Static(Affine3A::IDENTITY);
     s.add_object(
         "floor",
         quad(Vec3::new(-6.0, 0.0, 6.0), Vec3::X * 12.0, Vec3::Z * -11.0),
@@ -296,8 +296,13 @@ pub(crate) fn add_floor_and_walls(s: &mut Scene) {
 pub fn showcase(name: &str, mesh: &Mesh) -> Scene {
     let mut s = Scene::new(name, "a loaded mesh on a floor in front of a wall");
     s.frame_count = 64;
-    s.add_object(name, mesh.clone(), Motion::Static(on_floor(mesh, 2.0)), 1.0);
-    let fixed = Motion::Static(Affine3A::IDENTITY);
+    s.add_object(
+        name,
+        mesh.clone(),
+        Trajectory::Static(on_floor(mesh, 2.0)),
+        1.0,
+    );
+    let fixed = Trajectory::Static(Affine3A::IDENTITY);
     s.add_object(
         "floor",
         quad(Vec3::new(-5.0, 0.0, 5.0), Vec3::X * 10.0, Vec3::Z * -7.0),
@@ -312,7 +317,7 @@ pub fn showcase(name: &str, mesh: &Mesh) -> Scene {
     );
     s.add_light(Light {
         base: AreaLight::new(Vec3::new(0.5, 3.5, -0.5), Vec3::Z * 1.0, Vec3::X * 1.0),
-        motion: Motion::Static(Affine3A::IDENTITY),
+        motion: Trajectory::Static(Affine3A::IDENTITY),
     });
     s.camera = CameraPath::fixed(Vec3::new(0.8, 1.6, 4.0), Vec3::new(0.0, 0.9, 0.0), 0.9);
     s

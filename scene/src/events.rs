@@ -114,7 +114,7 @@ fn differs(a: &Affine3A, b: &Affine3A) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::animation::{Motion, RigidKey};
+    use crate::animation::{RigidKey, Trajectory};
     use crate::builtin::{builtin, room_ids, ROOM_CUT_FRAME};
     use crate::shapes;
     use vrrt_core::glam::{Quat, Vec3};
@@ -173,7 +173,7 @@ mod tests {
         s.frame_count = 30;
         s.fps = 10.0;
         // Held until 0.5 s, moves to 1.0 s, held, moves again from 2.0 s to 2.5 s.
-        let motion = Motion::Keyframes(vec![
+        let motion = Trajectory::Keyframes(vec![
             key(0.5, 0.0),
             key(1.0, 1.0),
             key(2.0, 1.0),

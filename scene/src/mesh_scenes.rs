@@ -6,7 +6,7 @@
 //! cached, tests pass a small procedural stand-in (everything is placed from the mesh's bounds
 //! and vertices, so any mesh gives a valid scene).
 
-use crate::animation::{CameraKey, CameraPath, Light, Motion, RigidKey};
+use crate::animation::{CameraKey, CameraPath, Light, RigidKey, Trajectory};
 use crate::mesh::Mesh;
 use crate::mesh_cache::CachedMesh;
 use crate::scene::Scene;
@@ -77,14 +77,14 @@ pub fn bunny(mesh: &Mesh) -> Scene {
     s.add_object(
         "bunny",
         mesh.clone(),
-        Motion::Static(on_floor(mesh, 1.4)),
+        Trajectory::Static(on_floor(mesh, 1.4)),
         1.0,
     );
     add_floor_and_walls(&mut s, 6.0, 3.5, -3.0, Some(-3.5));
     // Spin turns the light about the world's vertical axis: its shadows sweep round the bunny.
     s.add_light(Light {
         base: AreaLight::new(Vec3::new(1.2, 3.0, -0.5), Vec3::Z, Vec3::X),
-        motion: Motion::Spin {
+        motion: Trajectory::Spin {
             base: Affine3A::IDENTITY,
             turns_per_second: 0.2,
         },
@@ -124,10 +124,10 @@ pub fn dragon(mesh: &Mesh) -> Scene {
     s.add_object(
         "sphere",
         uv_sphere(Vec3::ZERO, r, 24, 48),
-        Motion::Keyframes(sphere_path(&placed.positions, lo, hi, s.fps)),
+        Trajectory::Keyframes(sphere_path(&placed.positions, lo, hi, s.fps)),
         0.2,
     );
-    s.add_object("dragon", mesh.clone(), Motion::Static(place), 1.0);
+    s.add_object("dragon", mesh.clone(), Trajectory::Static(place), 1.0);
     add_floor_and_walls(&mut s, 9.0, 5.0, lo.z - 1.5, None);
 
     // The light holds, slides 2 m across (the dragon's shadow swings), then holds again.
@@ -139,7 +139,7 @@ pub fn dragon(mesh: &Mesh) -> Scene {
     let top = hi.y + 2.6;
     s.add_light(Light {
         base: AreaLight::new(Vec3::new(-0.6, top, -0.6), Vec3::Z * 1.2, Vec3::X * 1.2),
-        motion: Motion::Keyframes(vec![slide(54.0 / s.fps, 0.8), slide(78.0 / s.fps, -1.2)]),
+        motion: Trajectory::Keyframes(vec![slide(54.0 / s.fps, 0.8), slide(78.0 / s.fps, -1.2)]),
     });
 
     let cut = DRAGON_CUT_FRAME as f32 / s.fps;
@@ -232,7 +232,7 @@ fn sphere_path(placed: &[Vec3], lo: Vec3, hi: Vec3, fps: f32) -> Vec<RigidKey> {
 /// A floor `2·half` metres square centred on the origin (glossy), a back wall at `z = back` and,
 /// if given, a left wall at `x = left` (both `height` metres high, diffuse).
 fn add_floor_and_walls(s: &mut Scene, half: f32, height: f32, back: f32, left: Option<f32>) {
-    let fixed = Motion::Static(Affine3A::IDENTITY);
+    let fixed = Trajectory::Static(Affine3A::IDENTITY);
     s.add_object(
         "floor",
         quad(

@@ -9,10 +9,10 @@ use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal};
-use vrrt_core::kernels::apply::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
+use vrrt_core::kernels::work_list::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::{self, classify, group_planes, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
@@ -228,7 +228,7 @@ pub struct FrameOutput {
     pub requested: f64,
     /// Expected rays granted, per plane.
     pub granted: f64,
-    /// Per-pixel flags of reprojection (`reproject::FLAG_*`).
+    /// Per-pixel flags of reprojection (`requests::FLAG_*`).
     pub flags: Vec<u32>,
     /// Overlays, when asked for: requested bucket per pixel (`0xffff`: none), of the first
     /// signal (plane group 0).
@@ -473,7 +473,10 @@ impl Renderer {
         );
         // Resolve does not write the requests (with the flags).
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
-        let flags = requests.iter().map(|&r| reproject::flags_of(r)).collect();
+        let flags = requests
+            .iter()
+            .map(|&r| kernels::requests::flags_of(r))
+            .collect();
         let tiles: Vec<u32> = read(exec, d.tile_histogram(), classify::HISTOGRAM_LEN as usize)?;
         // The refill lists' rays (`Denoiser::detect_changes`), as `refill::fit` gave them, per
         // plane of their group: in the total, and with the prepass's when they are the
@@ -513,7 +516,10 @@ impl Renderer {
         if readback.overlays {
             let pixels = (w * h) as usize;
             let history: Vec<PackedPayload> = read(exec, d.history(), pixels)?;
-            out.requests = requests.iter().map(|&r| reproject::bucket_of(r)).collect();
+            out.requests = requests
+                .iter()
+                .map(|&r| kernels::requests::bucket_of(r))
+                .collect();
             out.history_accumulated = history.iter().map(|p| p.unpack().count).collect();
         }
         Ok(out)

@@ -6,7 +6,7 @@
 //! come from a per-instance current→previous transform ([`InstanceData`]) and the previous frame's
 //! camera.
 
-use crate::animation::{CameraPath, Light, Motion};
+use crate::animation::{CameraPath, Light, Trajectory};
 use crate::bvh::{self, Bvh};
 use crate::error::SceneError;
 use crate::mesh::{normal_matrix, Mesh};
@@ -28,7 +28,7 @@ pub struct Instance {
     /// Index into [`Scene::meshes`].
     pub mesh: usize,
     /// Object-to-world transform over time.
-    pub motion: Motion,
+    pub motion: Trajectory,
     /// GGX alpha of the surface (1 = diffuse).
     pub roughness: f32,
 }
@@ -133,7 +133,13 @@ impl Scene {
     }
 
     /// Adds an instance of mesh `mesh` and returns its id.
-    pub fn add_instance(&mut self, name: &str, mesh: usize, motion: Motion, roughness: f32) -> u32 {
+    pub fn add_instance(
+        &mut self,
+        name: &str,
+        mesh: usize,
+        motion: Trajectory,
+        roughness: f32,
+    ) -> u32 {
         assert!(
             mesh < self.meshes.len(),
             "instance of a mesh that does not exist"
@@ -149,7 +155,13 @@ impl Scene {
     }
 
     /// Adds a mesh and one instance of it.
-    pub fn add_object(&mut self, name: &str, mesh: Mesh, motion: Motion, roughness: f32) -> u32 {
+    pub fn add_object(
+        &mut self,
+        name: &str,
+        mesh: Mesh,
+        motion: Trajectory,
+        roughness: f32,
+    ) -> u32 {
         let m = self.add_mesh(mesh);
         self.add_instance(name, m, motion, roughness)
     }
@@ -351,7 +363,7 @@ mod tests {
         room.add_object(
             "mirrored",
             shapes::uv_sphere(Vec3::ZERO, 0.5, 6, 9),
-            Motion::Static(Affine3A::from_scale(Vec3::new(-1.0, 2.0, 1.0))),
+            Trajectory::Static(Affine3A::from_scale(Vec3::new(-1.0, 2.0, 1.0))),
             0.5,
         );
         for t in [0.0, 0.7, 1.3] {
@@ -387,7 +399,7 @@ mod tests {
         s.add_object(
             "box",
             shapes::cuboid(Vec3::ZERO, Vec3::ONE),
-            Motion::fixed(Vec3::X),
+            Trajectory::fixed(Vec3::X),
             1.0,
         );
         let a = s.frame(0);

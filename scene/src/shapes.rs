@@ -141,7 +141,7 @@ pub fn sphere_field(target: usize) -> Mesh {
     let mut out = Mesh::default();
     let mut state = 0x2545_f491u32;
     let mut next = || {
-        state = vrrt_core::sampling::pcg_hash(state);
+        state = vrrt_core::sequence::pcg_hash(state);
         (state >> 8) as f32 / 16_777_216.0
     };
     for _ in 0..count {

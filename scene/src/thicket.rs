@@ -7,13 +7,14 @@
 //! blades before it hits or leaves. Nothing moves but the camera, so the step in cost is the
 //! scene's only change.
 
-use crate::animation::{CameraPath, Light, Motion};
+use crate::animation::{CameraPath, Light, Trajectory};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 use crate::shapes::cuboid;
 use vrrt_core::glam::{Affine3A, Vec3};
 use vrrt_core::kernels::raygen::AreaLight;
-use vrrt_core::sampling::{pcg_hash, rand};
+use vrrt_core::sampling::rand;
+use vrrt_core::sequence::pcg_hash;
 
 /// Frame of the camera cut from the empty corner to the thicket.
 pub const THICKET_CUT_FRAME: u32 = 48;
@@ -32,10 +33,15 @@ pub fn thicket() -> Scene {
     s.fps = 30.0;
     s.frame_count = 96;
     crate::builtin::add_floor_and_walls(&mut s);
-    s.add_object("thicket", blades(), Motion::Static(Affine3A::IDENTITY), 0.6);
+    s.add_object(
+        "thicket",
+        blades(),
+        Trajectory::Static(Affine3A::IDENTITY),
+        0.6,
+    );
     s.add_light(Light {
         base: AreaLight::new(Vec3::new(-0.5, 3.8, -2.5), Vec3::Z * 1.0, Vec3::X * 1.0),
-        motion: Motion::Static(Affine3A::IDENTITY),
+        motion: Trajectory::Static(Affine3A::IDENTITY),
     });
     let key = crate::builtin::room_camera_key;
     let cut = THICKET_CUT_FRAME as f32 / s.fps;

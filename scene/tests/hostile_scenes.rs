@@ -5,7 +5,7 @@
 use vrrt_core::glam::{Affine3A, Vec3};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
-use vrrt_scene::animation::{CameraPath, Motion};
+use vrrt_scene::animation::{CameraPath, Trajectory};
 use vrrt_scene::builtin::{builtin, BUILTINS};
 use vrrt_scene::render::{Readback, Renderer, Signal};
 use vrrt_scene::shapes::cuboid;
@@ -16,7 +16,7 @@ fn boxed(camera: CameraPath) -> Scene {
     s.add_object(
         "box",
         cuboid(Vec3::splat(-2.0), Vec3::splat(2.0)),
-        Motion::fixed(Vec3::ZERO),
+        Trajectory::fixed(Vec3::ZERO),
         1.0,
     );
     s.camera = camera;
@@ -84,17 +84,17 @@ fn nan_cameras_transforms_and_lights_are_refused_by_name() {
     );
 
     let mut s = boxed(ok.clone());
-    s.instances[0].motion = Motion::Static(Affine3A::from_translation(Vec3::NAN));
+    s.instances[0].motion = Trajectory::Static(Affine3A::from_translation(Vec3::NAN));
     refused(&s, "instance `box`");
     let mut s = boxed(ok.clone());
-    s.instances[0].motion = Motion::Linear {
+    s.instances[0].motion = Trajectory::Linear {
         base: Affine3A::IDENTITY,
         velocity: Vec3::new(0.0, f32::NAN, 0.0),
     };
     refused(&s, "instance `box`");
 
     let mut s = builtin("room").unwrap();
-    s.lights[0].motion = Motion::Spin {
+    s.lights[0].motion = Trajectory::Spin {
         base: Affine3A::IDENTITY,
         turns_per_second: f32::INFINITY,
     };

@@ -204,7 +204,7 @@ fn a_bare_floor_is_unoccluded_and_lit_from_above() {
     floor.add_object(
         "floor",
         vrrt_scene::shapes::quad(Vec3::new(-5.0, 0.0, 5.0), Vec3::X * 10.0, Vec3::Z * -10.0),
-        vrrt_scene::animation::Motion::fixed(Vec3::ZERO),
+        vrrt_scene::animation::Trajectory::fixed(Vec3::ZERO),
         1.0,
     );
     floor.camera =

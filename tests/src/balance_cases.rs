@@ -6,7 +6,7 @@ use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Word};
 use rand::Rng;
 use rand_pcg::Pcg32;
-use vrrt_core::kernels::{apply, balance, buckets, refill, trim};
+use vrrt_core::kernels::{apply, balance, buckets, refill, trim, work_list};
 use vrrt_core::payload::{PackedSample, Sample};
 
 /// Random requests of two plane groups (group-stacked) and their bucket histograms, as
@@ -357,7 +357,7 @@ pub(crate) fn refill_cap_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let pixels = w * h;
     let counts = [0, 1].map(|_| rng.random_range(0..=pixels));
     let work: Vec<u32> = (0..2 * pixels)
-        .map(|i| apply::work_entry(rng.random_range(0..pixels), 1 + (i % 16)))
+        .map(|i| work_list::work_entry(rng.random_range(0..pixels), 1 + (i % 16)))
         .collect();
     let args = [
         counts[0],

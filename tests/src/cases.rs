@@ -455,7 +455,7 @@ fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         })
         .collect();
     let mask: Vec<u32> = (0..w * h).map(|_| rng.random_range(0..4)).collect();
-    let (gw, gh) = vrrt_core::denoiser::grid_size(w, h, params.gradient_stratum);
+    let (gw, gh) = vrrt_core::buffers::grid_size(w, h, params.gradient_stratum);
     let params = reproject::ReprojectParams {
         gradient_width: gw,
         gradient_height: gh,

@@ -11,7 +11,7 @@ use vrrt_core::camera::View;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gbuffer::surface_at;
 use vrrt_core::kernels::raygen::{self, AreaLight};
-use vrrt_core::kernels::{apply, penumbra};
+use vrrt_core::kernels::{penumbra, work_list};
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::surface::Surface;
 use vrrt_scene::FrameGeometry;
@@ -118,7 +118,7 @@ pub fn gbuffer_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 }
 
 /// A work list over a random subset of pixels in random order, each entry with the rays it traces
-/// (1..=4, `apply::work_entry`), and the reprojected history holding each pixel's rng index (including indices about to wrap).
+/// (1..=4, `work_list::work_entry`), and the reprojected history holding each pixel's rng index (including indices about to wrap).
 pub(crate) struct WorkList {
     work: Vec<u32>,
     args: [u32; 8],
@@ -141,7 +141,7 @@ impl WorkList {
                 .collect();
             let mut entries: Vec<u32> = traced
                 .into_iter()
-                .map(|pix| apply::work_entry(pix, rng.random_range(1..5)))
+                .map(|pix| work_list::work_entry(pix, rng.random_range(1..5)))
                 .collect();
             for i in (1..entries.len()).rev() {
                 entries.swap(i, rng.random_range(0..=i));

@@ -18,7 +18,7 @@
 mod gpu;
 
 use std::time::Instant;
-use vrrt_cli::backend::{Backend, BackendKind};
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
 use vrrt_core::plan::Executor;
 use vrrt_core::reflections::ReflectionSettings;

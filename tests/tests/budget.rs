@@ -8,7 +8,7 @@
 //! ([`vrrt_core::kernels::refill::fit`]). Their unit tests cover random rates and lists; here
 //! the rays are counted from the frames themselves.
 
-use vrrt_cli::backend::{Backend, BackendKind};
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
 use vrrt_core::kernels::{balance, trim};
 use vrrt_core::reflections::ReflectionSettings;

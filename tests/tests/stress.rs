@@ -14,10 +14,10 @@ mod rig;
 use rig::{hash, long, mean, noise, non_finite, on_every_backend, pattern, plane, sky, Rig};
 use std::time::Instant;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
-use vrrt_core::quantize;
 use vrrt_core::settings::{
     FilterSettings, Settings, SettingsError, StoragePrecision, TemporalSettings,
 };
+use vrrt_core::{binary16, quantize};
 
 /// 1% of samples NaN, +Inf, -Inf, 1e30 or negative for 60 frames: no output pixel is ever
 /// non-finite, the counters see every one, and once injection stops the output returns to within
@@ -163,8 +163,8 @@ fn f16_history_does_not_drift_or_stick() {
             let hist = f16_run.history(b);
             for (i, p) in hist.iter().enumerate() {
                 let (x, y) = (i as u32 % w, i as u32 / w);
-                let want = quantize::f32_to_f16(stepped(x, y));
-                let got = quantize::f32_to_f16(p.m1);
+                let want = binary16::f32_to_f16(stepped(x, y));
+                let got = binary16::f32_to_f16(p.m1);
                 if reached[i].is_none() && want.abs_diff(got) <= 1 {
                     reached[i] = Some(k);
                 }
@@ -414,8 +414,8 @@ mod properties {
     use vrrt_core::glam::Vec3;
     use vrrt_core::math;
     use vrrt_core::payload::{self, Payload, Sample};
-    use vrrt_core::quantize;
     use vrrt_core::surface;
+    use vrrt_core::{binary16, quantize};
 
     fn unit() -> impl Strategy<Value = Vec3> {
         (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)
@@ -498,11 +498,11 @@ mod properties {
             let accum = (prev + delta * scale * prev.max(1.0)).max(0.0);
             let s = quantize::STORAGE_F16;
             let stored = quantize::store_with_correction(s, accum, prev, accum);
-            let (qs, qa) = (quantize::f32_to_f16(stored), quantize::f32_to_f16(quantize::quantize(s, accum)));
+            let (qs, qa) = (binary16::f32_to_f16(stored), binary16::f32_to_f16(quantize::quantize(s, accum)));
             prop_assert!(qs.abs_diff(qa) <= 1);
             let qp = quantize::quantize(s, prev);
             if accum > prev {
-                prop_assert!(stored >= qp.min(quantize::F16_MAX));
+                prop_assert!(stored >= qp.min(binary16::F16_MAX));
             } else if accum < prev {
                 prop_assert!(stored <= qp);
             }

@@ -11,13 +11,13 @@ mod crop;
 mod html;
 mod region;
 
-use crate::backend::Backend;
 use crate::outdir::OutDir;
 use crate::session::{self, Config, FrameView, LoadedScene, SequenceOptions};
 use anyhow::{Context, Result};
 use region::Rect;
 use std::path::PathBuf;
 use std::rc::Rc;
+use vrrt_backend::Backend;
 use vrrt_scene::image::{write_heatmap_png, write_png, Image};
 use vrrt_scene::render::Signal;
 use vrrt_scene::{Event, EventKind};

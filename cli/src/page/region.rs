@@ -224,7 +224,7 @@ mod tests {
         let mut room = builtin("room").unwrap();
         let sphere = room_ids::CROSSING_SPHERE as usize;
         // The camera at z = 7.5 looks towards −z: a sphere at z = 40 is wholly behind it.
-        room.instances[sphere].motion = vrrt_scene::animation::Motion::Linear {
+        room.instances[sphere].motion = vrrt_scene::animation::Trajectory::Linear {
             base: vrrt_core::glam::Affine3A::from_translation(Vec3::new(0.0, 1.0, 40.0)),
             velocity: Vec3::X,
         };
@@ -235,7 +235,7 @@ mod tests {
         };
         assert_eq!(crop(&room, &e, &[10, 11], (160, 90)), None);
         // Around the eye (z = 7.5) its bounds straddle the eye's plane: the whole view.
-        room.instances[sphere].motion = vrrt_scene::animation::Motion::Linear {
+        room.instances[sphere].motion = vrrt_scene::animation::Trajectory::Linear {
             base: vrrt_core::glam::Affine3A::from_translation(Vec3::new(0.0, 2.2, 7.5)),
             velocity: Vec3::X,
         };

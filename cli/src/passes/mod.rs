@@ -7,13 +7,13 @@ pub(crate) mod recorder;
 
 pub use recorder::{bandwidth, Bandwidth, Dispatched, Recorder, COPY_REPEATS, SPIN_UP};
 
-use crate::backend::BackendKind;
 use crate::bench::BenchArgs;
 use crate::progress::Progress;
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{load_scene, open_backend, Config, SignalKind, WARMUP_FRAMES};
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
+use vrrt_backend::BackendKind;
 use vrrt_core::plan::{Executor, KernelDesc, PassBytes};
 use vrrt_scene::render::Renderer;
 

@@ -3,7 +3,7 @@
 
 use super::FrameReference;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::kernels::reproject::FLAG_DISOCCLUDED;
+use vrrt_core::kernels::requests::FLAG_DISOCCLUDED;
 use vrrt_scene::image::Image;
 
 /// Reference change (per frame, any plane; relative above 1, see [`moving_mask`]) above which a

@@ -1,7 +1,7 @@
 //! Command-line value parsers (`value_parser`s) for sizes, ray budgets and backends, with the
 //! range checks that turn a bad argument into a one-line error before anything runs.
 
-use crate::backend::BackendKind;
+use vrrt_backend::BackendKind;
 
 /// Largest accepted width or height.
 pub const MAX_DIMENSION: u32 = 8192;

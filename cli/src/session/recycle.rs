@@ -6,8 +6,8 @@
 //! a buffer of the same size that an earlier sequence released, zeroed (a new buffer's
 //! contract), before asking the executor for a new one.
 
-use crate::backend::{Backend, BackendError};
 use std::collections::HashMap;
+use vrrt_backend::{Backend, BackendError};
 use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
 
 /// Buffers by size: released ones, free for the taking, and those taken since the last release.

@@ -3,11 +3,11 @@
 
 use super::recycle::BufferPool;
 use super::{mean, planes_to_image};
-use crate::backend::Backend;
 use crate::progress::Progress;
 use anyhow::{anyhow, Result};
 use std::cell::RefCell;
 use std::path::Path;
+use vrrt_backend::Backend;
 use vrrt_scene::image::Image;
 use vrrt_scene::reference_cache::{ReferenceCache, ReferenceKey, StdErr};
 use vrrt_scene::render::{self, Signal};

@@ -7,10 +7,10 @@ use super::{
     Detection, FrameRecord, FrameReference, FrameView, LoadedScene, PartFrame, PartMetrics,
     ReferenceRequest, References, SequenceResult,
 };
-use crate::backend::Backend;
 use anyhow::{anyhow, Context, Result};
 use std::collections::HashMap;
 use std::time::Instant;
+use vrrt_backend::Backend;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::plan::Executor;
 use vrrt_core::settings::Settings;

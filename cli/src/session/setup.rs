@@ -1,9 +1,9 @@
 //! Opening what a command works on: the backend and the scene (built-in or a mesh file), with
 //! failures turned into one-line errors.
 
-use crate::backend::{Backend, BackendKind};
 use anyhow::{anyhow, bail, Result};
 use std::path::Path;
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_scene::load::LoadLimits;
 use vrrt_scene::Scene;
 

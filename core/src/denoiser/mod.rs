@@ -37,7 +37,7 @@ use crate::camera::View;
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
-    reproject, trim, variance,
+    reproject, requests, trim, variance, work_list,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::plan::{BufferId, Executor, Groups};
@@ -238,15 +238,6 @@ pub struct Denoiser {
     since_reset: u32,
 }
 
-/// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
-pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
-    if stratum == 0 {
-        (1, 1)
-    } else {
-        (width.div_ceil(stratum), height.div_ceil(stratum))
-    }
-}
-
 impl Denoiser {
     /// Validates `settings` and allocates every buffer for a `width × height` image.
     pub fn new<E: Executor>(
@@ -255,7 +246,7 @@ impl Denoiser {
         height: u32,
         settings: Settings,
     ) -> Result<Self, DenoiserError<E::Error>> {
-        if width == 0 || height == 0 || width as u64 * height as u64 > apply::MAX_PIXELS {
+        if width == 0 || height == 0 || width as u64 * height as u64 > work_list::MAX_PIXELS {
             return Err(DenoiserError::Settings(SettingsError::Resolution {
                 width,
                 height,
@@ -278,8 +269,8 @@ impl Denoiser {
         exec.write_buffer(counters, &[0; COUNTERS_LEN as usize * 4])?;
         // The first balancer reads it as last frame's refill counts.
         let refill_args = id("refill_args")[0];
-        let zeros = [0u8; (balance::MAX_GROUPS * apply::ARGS_LEN * 4) as usize];
-        let args_bytes = (settings.groups() * apply::ARGS_LEN * 4) as usize;
+        let zeros = [0u8; (balance::MAX_GROUPS * work_list::ARGS_LEN * 4) as usize];
+        let args_bytes = (settings.groups() * work_list::ARGS_LEN * 4) as usize;
         exec.write_buffer(refill_args, &zeros[..args_bytes])?;
         Ok(Denoiser {
             settings,
@@ -422,8 +413,8 @@ impl Denoiser {
     }
 
     /// Per pixel and plane group (after [`Self::plan_rays`]; group-stacked like planes): the
-    /// requested bucket and the reprojection flags (`reproject::FLAG_*`) in one word;
-    /// `reproject::bucket_of` and `reproject::flags_of` read them.
+    /// requested bucket and the reprojection flags (`requests::FLAG_*`) in one word;
+    /// `requests::bucket_of` and `requests::flags_of` read them.
     pub fn requests(&self) -> BufferId {
         self.requests
     }
@@ -434,7 +425,7 @@ impl Denoiser {
     }
 
     /// Compacted lists of tracing pixels and their granted rays, one per plane group at
-    /// `group × pixels` (one `u32` each, `apply::work_entry`, decoded by `apply::work_item`):
+    /// `group × pixels` (one `u32` each, `work_list::work_entry`, decoded by `work_list::work_item`):
     /// raygen traces exactly these, `args[4 · group]` of them. Valid from [`Self::plan_rays`] to
     /// [`Self::resolve`]: it lives in the filter's scratch copy, which is free until the variance
     /// pass (the copy that does not hold the output; it has a word per pixel and plane, and there
@@ -462,7 +453,7 @@ impl Denoiser {
         Ok((0..pixels * groups)
             .map(|i| {
                 let (g, pix) = (i / pixels, i % pixels);
-                let bucket = reproject::bucket_of(requests[i as usize]);
+                let bucket = requests::bucket_of(requests[i as usize]);
                 let d = &decision[g as usize];
                 apply::resolve_rays(pix % w, pix / w, g, bucket, &p, d, &noise)
             })
@@ -478,7 +469,7 @@ impl Denoiser {
     /// The refill lists ([`Self::detect_changes`]): the detector's dropped pixels that traced
     /// nothing, with the rays [`refill::fit`] gave them, one list per plane group at
     /// `group × pixels` (as [`Self::work`]); an entry that did not fit is
-    /// [`refill::SKIPPED`] and traces nothing. Valid from [`Self::detect_changes`] to
+    /// [`work_list::SKIPPED`] and traces nothing. Valid from [`Self::detect_changes`] to
     /// [`Self::resolve`], in the filter buffer that holds neither the detector's `λ` nor, by
     /// then, a live work list.
     pub fn refill_work(&self) -> BufferId {
@@ -541,9 +532,9 @@ impl Denoiser {
         }
     }
 
-    /// Gradient cells across and down ([`grid_size`] of the settings).
+    /// Gradient cells across and down ([`buffers::grid_size`] of the settings).
     pub fn gradient_size(&self) -> (u32, u32) {
-        grid_size(self.width, self.height, self.settings.gradient.stratum)
+        buffers::grid_size(self.width, self.height, self.settings.gradient.stratum)
     }
 
     /// Raw temporal gradient of this frame (`GradientSample` per cell and plane, plane-stacked;

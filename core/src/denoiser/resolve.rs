@@ -107,7 +107,7 @@ impl Denoiser {
             };
             let groups = Groups::Indirect {
                 buffer: self.refill_args,
-                offset: 4 * (apply::ARGS_LEN * list + 1) as u64,
+                offset: 4 * (work_list::ARGS_LEN * list + 1) as u64,
             };
             exec.dispatch(&pass.pass(&p, groups))?;
         }

@@ -22,9 +22,11 @@
 
 mod planes;
 mod signal;
+pub mod target;
 
-pub use planes::{trace_planes, GBuffer, RaygenTarget};
+pub use planes::trace_planes;
 pub use signal::{PlaneLayout, Signal};
+pub use target::{GBuffer, RaygenTarget};
 
 use crate::budget::{self, MsBudget, TraceCost};
 use crate::camera::{Camera, View};

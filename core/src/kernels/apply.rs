@@ -1,6 +1,6 @@
 //! VRRT apply: turns each pixel's requested bucket and the balancer's thresholds into the rays it
 //! traces this frame, and compacts the pixels that trace into a work list for an indirect raygen.
-//! Each work entry carries its pixel and its ray count ([`work_entry`]), so ray generation needs
+//! Each work entry carries its pixel and its ray count ([`work_entry`](super::work_list::work_entry)), so ray generation needs
 //! no per-pixel ray buffer: it reads only the list.
 //!
 //! Seed: vrrt-call-of-duty-2026, "VRRT Apply / Produce ray args" (`VrrtApply`) and "Undersampling"
@@ -11,39 +11,12 @@
 
 use super::balance::Balance;
 use super::trim;
+use super::work_list::append;
 use super::ApplyIo;
-use crate::atomic;
 use crate::lanes::{self, clamp_column, Lanes};
 use crate::payload::PackedSample;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
-
-/// Invocations per workgroup of list-driven kernels (the work list's dispatch granularity).
-pub const LIST_GROUP: u32 = 64;
-/// Words of the indirect-arguments buffer: `[count, groups_x, groups_y, groups_z]`.
-pub const ARGS_LEN: u32 = 4;
-
-/// Bits of a [`work_entry`] holding the pixel index: images up to 2^28 pixels (16384²).
-pub const WORK_PIXEL_BITS: u32 = 28;
-/// Most pixels an image may have, so every pixel index fits a [`work_entry`] (the last index is
-/// left out: with all bits set it is `refill::SKIPPED`).
-pub const MAX_PIXELS: u64 = (1 << WORK_PIXEL_BITS) - 1;
-
-/// The work-list word of pixel `pix` tracing `rays` rays (1 to [`MAX_RATE`](super::buckets::MAX_RATE)): the pixel in the low
-/// [`WORK_PIXEL_BITS`], `rays - 1` above.
-#[inline]
-pub fn work_entry(pix: u32, rays: u32) -> u32 {
-    pix | ((rays - 1) << WORK_PIXEL_BITS)
-}
-
-/// The pixel index and ray count of a [`work_entry`].
-#[inline]
-pub fn work_item(entry: u32) -> (usize, u32) {
-    (
-        (entry & ((1 << WORK_PIXEL_BITS) - 1)) as usize,
-        (entry >> WORK_PIXEL_BITS) + 1,
-    )
-}
 
 /// Push constants of [`apply`].
 #[repr(C)]
@@ -90,9 +63,9 @@ impl ApplyParams {
 }
 
 /// One call per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]). Appends
-/// each tracing pixel and its rays to the group's list, `work[group · pixels..]` ([`work_entry`]),
+/// each tracing pixel and its rays to the group's list, `work[group · pixels..]` ([`work_entry`](super::work_list::work_entry)),
 /// and counts them in `args[4 · group]`; `args[4 · group + 1]` ends as the number of
-/// [`LIST_GROUP`]-wide groups (the balancer reset the arguments to `[0, 0, 1, 1]` before this
+/// [`LIST_GROUP`](super::work_list::LIST_GROUP)-wide groups (the balancer reset the arguments to `[0, 0, 1, 1]` before this
 /// pass; [`append`]). A pixel that traces nothing gets empty samples in the group's planes.
 #[inline(always)]
 pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
@@ -119,7 +92,7 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let mut rays = Lanes::<u32, N>::splat(0);
     lanes::each_lane!(l in N {
         let x = clamp_column(x0 + l as i32, w);
-        let bucket = super::reproject::bucket_of(requests.0[l]);
+        let bucket = super::requests::bucket_of(requests.0[l]);
         rays.0[l] = resolve_rays(x, id.y, group, bucket, p, d, noise);
     });
     let traces = live.zip(rays, |live, n| live && n > 0);
@@ -136,42 +109,4 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
         z += 1;
     }
     append(work, args, group, pixels, row + id.x, traces, rays);
-}
-
-/// Appends the lanes that `trace` (pixels `pix0 + l`, `rays[l]` rays each) to group `group`'s
-/// work list (`work[group · pixels..]`, counted in `args[4 · group]`, whose `args[4 · group + 1]`
-/// ends as the number of [`LIST_GROUP`]-wide groups). The row reserves its slots with one
-/// atomic add: invocations contending for one counter are what a CPU core pays for (two threads
-/// adding per pixel were slower than one; see `docs/results/per-pass.md`).
-#[inline(always)]
-pub fn append<const N: usize>(
-    work: &mut [u32],
-    args: &mut [u32],
-    group: u32,
-    pixels: u32,
-    pix0: u32,
-    traces: Lanes<bool, N>,
-    rays: Lanes<u32, N>,
-) {
-    let mut count = 0;
-    lanes::each_lane!(l in N {
-        count += traces.0[l] as u32;
-    });
-    if count == 0 {
-        return;
-    }
-    let a = (group * ARGS_LEN) as usize;
-    let first = atomic::add(&mut args[a], count);
-    let mut slot = first;
-    lanes::each_lane!(l in N {
-        if traces.0[l] {
-            work[(group * pixels + slot) as usize] = work_entry(pix0 + l as u32, rays.0[l]);
-            slot += 1;
-        }
-    });
-    // The slots that start a list group raise its group count (the last such slot wins).
-    let last = slot - 1;
-    if first.is_multiple_of(LIST_GROUP) || last / LIST_GROUP != first / LIST_GROUP {
-        atomic::max(&mut args[a + 1], last / LIST_GROUP + 1);
-    }
 }

@@ -131,7 +131,7 @@ pub fn count(
         return;
     }
     let layer = (id.z * p.width * p.height) as usize;
-    let b = super::reproject::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
+    let b = super::requests::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
     if b < BUCKET_COUNT {
         atomic::add_workgroup(&mut local[b as usize], 1);
     }

@@ -19,9 +19,11 @@ pub mod raygen;
 pub mod refill;
 pub mod reflect;
 pub mod reproject;
+pub mod requests;
 mod table;
 pub mod trim;
 pub mod variance;
+pub mod work_list;
 
 pub use table::*;
 
@@ -112,9 +114,9 @@ pub mod names {
     pub type Motion = [u32; 2];
     /// The built-in renderer's geometric normal and instance (`crate::packing::pack_hit`).
     pub type Geometry = [u32; 2];
-    /// Requested bucket and reprojection flags (`reproject::request_word`).
+    /// Requested bucket and reprojection flags (`requests::request_word`).
     pub type Request = u32;
-    /// Work-list entry: pixel and rays (`apply::work_entry`).
+    /// Work-list entry: pixel and rays (`work_list::work_entry`).
     pub type WorkEntry = u32;
     /// The engine's VRS mask (0 = no ray).
     pub type VrsMask = u32;

@@ -38,7 +38,7 @@
 //! of the light's area visible from the point (from above its geometric surface). Light geometry
 //! is never in the BVH.
 
-use super::apply;
+use super::work_list;
 use super::RaygenAoIo;
 use super::RaygenShadowIo;
 use crate::math;
@@ -352,9 +352,9 @@ pub fn shadow_pixel(
     (finish(sum, sum_sq, first, rays), penumbra)
 }
 
-/// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`apply::work_item`]);
+/// The work-list entry of invocation `id`, if any: `(pixel index, rays)` ([`work_list::work_item`]);
 /// none past the list's end or for an entry the refill lists had no room for
-/// ([`super::refill::SKIPPED`]).
+/// ([`super::work_list::SKIPPED`]).
 #[inline]
 pub(crate) fn work_item(
     id: UVec3,
@@ -363,14 +363,14 @@ pub(crate) fn work_item(
     work: &[u32],
     args: &[u32],
 ) -> Option<(usize, u32)> {
-    if id.x >= args[(list * apply::ARGS_LEN) as usize] {
+    if id.x >= args[(list * work_list::ARGS_LEN) as usize] {
         return None;
     }
     let entry = work[(list * pixels + id.x) as usize];
-    if entry == super::refill::SKIPPED {
+    if entry == super::work_list::SKIPPED {
         return None;
     }
-    Some(apply::work_item(entry))
+    Some(work_list::work_item(entry))
 }
 
 /// One invocation per work-list entry: AO samples of every plane of that pixel.

@@ -23,10 +23,10 @@
 //! frame set aside (`rates.reset_refill`) among them: the penumbrae get the cut's extra rays that
 //! a second ray everywhere would spend on lit and umbra pixels.
 
-use super::apply::{self, append, ARGS_LEN};
 use super::balance::Balance;
 use super::buckets::{BUCKET_COUNT, MAX_RATE};
 use super::detect::DetectParams;
+use super::work_list::{self, append, ARGS_LEN, SKIPPED};
 use super::{DetectRefillIo, RefillCapIo, RefillFitIo, RefillIo};
 use crate::atomic;
 use crate::lanes::{self, Lanes};
@@ -218,7 +218,7 @@ fn list<const N: usize>(
     let requests = Lanes::<u32, N>::load_row(requests, id.z * pixels + row, id.x as i32, w);
     let mut refills = Lanes::<bool, N>::splat(false);
     lanes::each_lane!(l in N {
-        let asked = super::reproject::bucket_of(requests.0[l]) < BUCKET_COUNT;
+        let asked = super::requests::bucket_of(requests.0[l]) < BUCKET_COUNT;
         refills.0[l] = id.x + (l as u32) < w && asked && listed.0[l];
         if refills.0[l] {
             let b = priority(row + id.x + l as u32, p.frame_index);
@@ -300,16 +300,12 @@ pub fn reserve(decision: &Balance, share: f32) -> u32 {
 /// Bins of the refill lists' histogram ([`priority`]).
 pub const FIT_BINS: u32 = 256;
 
-/// A work-list entry that traces nothing: what [`cap`] leaves of an entry the lists had no room
-/// for (raygen skips it, `raygen::work_item`).
-pub const SKIPPED: u32 = u32::MAX;
-
 /// The bin of pixel `pix`'s entry in frame `frame`: a hash, so the entries that go when the lists
 /// do not fit are spread over the image and change from frame to frame, and the histogram, not
 /// the order of the appends, decides which (the same on every backend and run).
 #[inline]
 pub fn priority(pix: u32, frame: u32) -> u32 {
-    crate::sampling::pcg_hash(pix ^ crate::sampling::pcg_hash(frame)) >> 24
+    crate::sequence::pcg_hash(pix ^ crate::sequence::pcg_hash(frame)) >> 24
 }
 
 /// Push constants of [`fit`].
@@ -410,7 +406,7 @@ pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
         return;
     }
     let i = (p.list * p.pixels + id.x) as usize;
-    let (pix, _) = apply::work_item(work[i]);
+    let (pix, _) = work_list::work_item(work[i]);
     let d = &decision[p.list as usize];
     let rays = if priority(pix as u32, p.frame_index) >= d.refill_cut {
         d.refill_hi
@@ -420,14 +416,13 @@ pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
     work[i] = if rays == 0 {
         SKIPPED
     } else {
-        apply::work_entry(pix as u32, rays)
+        work_list::work_entry(pix as u32, rays)
     };
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernels::apply;
     use crate::payload::{Payload, Sample};
 
     /// The work list of one pixel of plane 0 that asked for rays, traced `rays` of value `value`
@@ -472,7 +467,7 @@ mod tests {
         detect_refill::<1>(UVec3::ZERO, &p, io);
         work[..args[0] as usize]
             .iter()
-            .map(|&e| apply::work_item(e))
+            .map(|&e| work_list::work_item(e))
             .collect()
     }
 
@@ -518,7 +513,7 @@ mod tests {
         }
         let mut listed: std::vec::Vec<usize> = work[..args[0] as usize]
             .iter()
-            .map(|&e| apply::work_item(e).0)
+            .map(|&e| work_list::work_item(e).0)
             .collect();
         listed.sort();
         listed
@@ -562,8 +557,9 @@ mod tests {
             decision: &mut decision,
         };
         fit(UVec3::ZERO, &p, io);
-        let mut work: std::vec::Vec<u32> =
-            (0..count).map(|pix| apply::work_entry(pix, rays)).collect();
+        let mut work: std::vec::Vec<u32> = (0..count)
+            .map(|pix| work_list::work_entry(pix, rays))
+            .collect();
         let p = CapParams {
             pixels: count,
             list: 0,
@@ -583,7 +579,7 @@ mod tests {
                 if e == SKIPPED {
                     0
                 } else {
-                    apply::work_item(e).1
+                    work_list::work_item(e).1
                 }
             })
             .collect();

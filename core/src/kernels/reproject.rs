@@ -29,6 +29,7 @@
 
 use super::buckets::rate_to_bucket;
 use super::gradient::GradientSample;
+use super::requests::{request_word, FLAG_DISOCCLUDED, FLAG_SKY};
 use super::ReprojectIo;
 use super::{pixel_index, plane_index};
 use crate::camera::{Camera, PixelRays};
@@ -39,11 +40,6 @@ use crate::payload::{PackedPayload, Payload, PayloadLanes};
 use crate::surface::{self, Moved};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
-
-/// Flag: no texel of the footprint was valid — history is lost (disocclusion, camera cut).
-pub const FLAG_DISOCCLUDED: u32 = 1;
-/// Flag: the pixel hit no geometry.
-pub const FLAG_SKY: u32 = 2;
 
 /// `parallax_plane` when no plane reprojects along the reflection parallax.
 pub const NO_PLANE: u32 = u32::MAX;
@@ -554,27 +550,6 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
             max_variance = Lanes::splat(0.0);
         }
     }
-}
-
-/// The word reprojection writes per pixel and plane group: the requested bucket in the low 16
-/// bits ([`buckets::NO_RAYS`](super::buckets::NO_RAYS) becomes `0xffff`, still no bucket) and
-/// the group's `FLAG_*` in the high 16 bits, so one buffer carries both.
-#[inline]
-pub fn request_word(bucket: u32, flags: u32) -> u32 {
-    let bucket = if bucket < 0xffff { bucket } else { 0xffff };
-    bucket | (flags << 16)
-}
-
-/// The requested bucket of a [`request_word`] (`0xffff`: none).
-#[inline]
-pub fn bucket_of(word: u32) -> u32 {
-    word & 0xffff
-}
-
-/// The `FLAG_*` bits of a [`request_word`].
-#[inline]
-pub fn flags_of(word: u32) -> u32 {
-    word >> 16
 }
 
 #[cfg(test)]

@@ -185,7 +185,7 @@ pub fn count(ids: WorkgroupIds, p: &TrimParams, io: TrimCountIo<'_>, local: &mut
         return;
     }
     let layer = (id.z * p.width * p.height) as usize;
-    let bucket = super::reproject::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
+    let bucket = super::requests::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
     if bucket >= BUCKET_COUNT {
         return;
     }

@@ -6,7 +6,7 @@ use core::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub enum SettingsError {
     /// Width or height is zero, or the image has more than 2^28 pixels (the work list's pixel
-    /// index, `kernels::apply::MAX_PIXELS`).
+    /// index, `kernels::work_list::MAX_PIXELS`).
     Resolution {
         /// Width asked for.
         width: u32,

@@ -1,6 +1,6 @@
 //! The GPU backends of the cross-backend tests, opened and checked one way.
 
-use vrrt_cli::backend::{Backend, BackendKind};
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_core::plan::Executor;
 
 /// The Vulkan backends that open (wgpu, ash), with validation on. One that does not open prints

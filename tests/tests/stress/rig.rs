@@ -1,7 +1,7 @@
 //! The stress suite's synthetic frame loop ([`Rig`]) and the helpers its cases share, kept apart.
 
 use std::time::Instant;
-use vrrt_cli::backend::{Backend, BackendKind};
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, FrameInfo};
 use vrrt_core::glam::Vec3;

@@ -372,7 +372,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
         };
         let rates = group_rates(&c, &p);
         // Last frame's refill lists: their counts times their rays come off each group's budget.
-        let mut refill = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
+        let mut refill = vec![7u32; (groups * crate::kernels::work_list::ARGS_LEN) as usize];
         for g in 0..groups as usize {
             refill[4 * g] = next(3) * next(200);
         }
@@ -390,7 +390,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             })
             .collect();
         let mut out = last.clone();
-        let mut args = vec![7u32; (groups * crate::kernels::apply::ARGS_LEN) as usize];
+        let mut args = vec![7u32; (groups * crate::kernels::work_list::ARGS_LEN) as usize];
         let mut local: Shared = bytemuck::Zeroable::zeroed();
         let phases: [fn(WorkgroupIds, &BalanceParams, BalanceIo<'_>, &mut Shared); 5] =
             [setup, sums, pick, super::rings, write];

@@ -1,7 +1,6 @@
 //! `vrrt bench`: error against cost over a matrix of denoiser configurations × ray budgets ×
 //! signals × scenes × backends at one size. Writes `bench.csv`, `bench.md` and error-vs-cost plots.
 
-use crate::backend::{Backend, BackendKind};
 use crate::limits::LimitArgs;
 use crate::outdir::OutDir;
 use crate::page::Page;
@@ -16,6 +15,7 @@ use anyhow::{bail, Result};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
+use vrrt_backend::{Backend, BackendKind};
 use vrrt_scene::metrics::ErrorSpectrum;
 
 mod spectrum;

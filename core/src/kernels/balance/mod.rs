@@ -482,7 +482,7 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
     let g = ids.local_index;
     if g < groups(p) {
         let rates = group_rates(io.counts, p);
-        let count = io.refill[(g * super::apply::ARGS_LEN) as usize];
+        let count = io.refill[(g * super::work_list::ARGS_LEN) as usize];
         let spent = refill_reserve(count, p);
         let base = g * COUNTS_LEN;
         local.search[g as usize] = Search::new(io.counts, base, rates[g as usize], spent, p);
@@ -562,7 +562,7 @@ pub fn write(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
         } else {
             s.decision
         };
-        let a = (g * super::apply::ARGS_LEN) as usize;
+        let a = (g * super::work_list::ARGS_LEN) as usize;
         // Written out: an array of the two storage references is a pointer to a pointer, which
         // SPIR-V's logical addressing does not have.
         args[a] = 0;

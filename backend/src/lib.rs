@@ -57,7 +57,7 @@ impl std::error::Error for BackendError {}
 /// rule, or a backend by name, then any denoiser or renderer on it.
 ///
 /// ```
-/// use vrrt_cli::backend::{Backend, BackendKind};
+/// use vrrt_backend::{Backend, BackendKind};
 /// use vrrt_core::denoiser::Denoiser;
 /// use vrrt_core::settings::Settings;
 ///
