@@ -5,11 +5,17 @@
 //! `vrrt_core::plan::KernelDesc::cpu`). Storage
 //! buffers are plain `Vec<u32>`, so the CPU backend is also the easiest way to use VRRT-rs from a
 //! Rust program: create buffers, write slices, dispatch, read back.
+//!
+//! A buffer made by [`Executor::create_buffer_shared`] keeps the caller's bytes instead of a
+//! copy for as long as nothing writes it: a scene's triangles and BVH are then held once in the
+//! process, by the scene, however many renderers bind them.
 
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 use vrrt_core::plan::{
     BufferId, CpuBindings, ExecError, Executor, GroupSpan, Groups, Pass, PassTiming, RawBuffer,
+    SharedBytes,
 };
 
 /// Errors of the CPU backend: only those every backend shares (the CPU has no device that could
@@ -79,8 +85,36 @@ pub type CpuError = ExecError;
 /// ```
 #[derive(Default)]
 pub struct CpuExecutor {
-    buffers: Vec<Vec<u32>>,
+    buffers: Vec<Storage>,
     timings: Vec<PassTiming>,
+}
+
+/// A buffer's memory: the executor's own, or bytes it shares with the caller (read-only, 4-byte
+/// aligned, a whole number of words), copied into its own the first time anything writes them.
+enum Storage {
+    Owned(Vec<u32>),
+    Shared(Arc<dyn SharedBytes>),
+}
+
+impl Storage {
+    fn words(&self) -> &[u32] {
+        match self {
+            Storage::Owned(v) => v,
+            // Checked aligned and a whole number of words when it was shared.
+            Storage::Shared(s) => bytemuck::cast_slice(s.bytes()),
+        }
+    }
+
+    /// The buffer's words to write, copying shared bytes into the executor's own first.
+    fn owned(&mut self) -> &mut Vec<u32> {
+        if let Storage::Shared(s) = self {
+            *self = Storage::Owned(bytemuck::cast_slice(s.bytes()).to_vec());
+        }
+        match self {
+            Storage::Owned(v) => v,
+            Storage::Shared(_) => unreachable!("made owned above"),
+        }
+    }
 }
 
 impl CpuExecutor {
@@ -89,26 +123,42 @@ impl CpuExecutor {
         Self::default()
     }
 
-    fn buffer(&self, id: BufferId) -> Result<&Vec<u32>, CpuError> {
+    fn buffer(&self, id: BufferId) -> Result<&[u32], CpuError> {
         self.buffers
             .get(id.0 as usize)
+            .map(Storage::words)
             .ok_or(ExecError::UnknownBuffer(id))
     }
 
     fn buffer_mut(&mut self, id: BufferId) -> Result<&mut Vec<u32>, CpuError> {
         self.buffers
             .get_mut(id.0 as usize)
+            .map(Storage::owned)
             .ok_or(ExecError::UnknownBuffer(id))
     }
 
-    /// Contents of a buffer, without copying.
+    /// Contents of a buffer, without copying (for a shared buffer nothing has written, the very
+    /// bytes it was created from).
     pub fn contents(&self, id: BufferId) -> Result<&[u8], CpuError> {
         Ok(bytemuck::cast_slice(self.buffer(id)?))
     }
 
+    /// Bytes of the buffers this executor holds itself: shared buffers
+    /// ([`Executor::create_buffer_shared`]) that nothing has written are the caller's memory
+    /// and not counted.
+    pub fn owned_bytes(&self) -> u64 {
+        self.buffers
+            .iter()
+            .map(|b| match b {
+                Storage::Owned(v) => v.len() as u64 * 4,
+                Storage::Shared(_) => 0,
+            })
+            .sum()
+    }
+
     /// Size in bytes of buffer `id`, `None` if unknown.
     fn size_of(&self, id: BufferId) -> Option<u64> {
-        self.buffers.get(id.0 as usize).map(|b| b.len() as u64 * 4)
+        self.buffer(id).ok().map(|b| b.len() as u64 * 4)
     }
 
     /// Workgroup counts of a checked pass (indirect counts exist: see [`Pass::check`]).
@@ -133,13 +183,33 @@ impl Executor for CpuExecutor {
 
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, CpuError> {
         ExecError::check_size(size_bytes)?;
-        self.buffers.push(vec![0u32; (size_bytes / 4) as usize]);
+        self.buffers
+            .push(Storage::Owned(vec![0u32; (size_bytes / 4) as usize]));
+        Ok(BufferId(self.buffers.len() as u32 - 1))
+    }
+
+    /// Keeps `data` itself when it is a non-empty whole number of 4-byte-aligned words (a
+    /// kernel reads it in place); anything else is copied, as by the default.
+    fn create_buffer_shared(&mut self, data: Arc<dyn SharedBytes>) -> Result<BufferId, CpuError> {
+        let bytes = data.bytes();
+        let words = !bytes.is_empty()
+            && bytes.len().is_multiple_of(4)
+            && bytes.as_ptr().align_offset(4) == 0;
+        if !words {
+            let id = self.create_buffer((bytes.len() as u64).max(4).next_multiple_of(4))?;
+            self.write_buffer(id, bytes)?;
+            return Ok(id);
+        }
+        self.buffers.push(Storage::Shared(data));
         Ok(BufferId(self.buffers.len() as u32 - 1))
     }
 
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), CpuError> {
+        let size = self
+            .size_of(buffer)
+            .ok_or(ExecError::UnknownBuffer(buffer))?;
+        ExecError::check_range(buffer, data.len() as u64, size)?;
         let b = self.buffer_mut(buffer)?;
-        ExecError::check_range(buffer, data.len() as u64, b.len() as u64 * 4)?;
         bytemuck::cast_slice_mut::<u32, u8>(b)[..data.len()].copy_from_slice(data);
         Ok(())
     }
@@ -150,17 +220,27 @@ impl Executor for CpuExecutor {
         let raw: Vec<RawBuffer> = pass
             .buffers
             .iter()
-            .map(|id| {
+            .zip(pass.kernel.bindings)
+            .map(|(id, binding)| {
                 let b = &mut self.buffers[id.0 as usize];
+                if binding.access.writes() {
+                    let v = b.owned();
+                    return RawBuffer {
+                        ptr: v.as_mut_ptr() as *mut u8,
+                        len: v.len() * 4,
+                    };
+                }
+                let words = b.words();
                 RawBuffer {
-                    ptr: b.as_mut_ptr() as *mut u8,
-                    len: b.len() * 4,
+                    ptr: words.as_ptr() as *mut u8,
+                    len: words.len() * 4,
                 }
             })
             .collect();
         let start = Instant::now();
-        // SAFETY: every pointer comes from a distinct live Vec<u32> (aliasing checked above) that
-        // is not touched until the dispatch returns.
+        // SAFETY: every pointer comes from a distinct live buffer (aliasing checked above) that
+        // is not touched until the dispatch returns; shared bytes are bound only where the
+        // kernel declares a read, and kernels write only what they declare.
         let bindings = unsafe { CpuBindings::new(&raw, pass.params, pass.kernel.workgroup_size) };
         let run = pass.kernel.cpu;
         let spans: Vec<GroupSpan> =

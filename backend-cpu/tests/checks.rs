@@ -1,8 +1,9 @@
 //! The checks every backend shares (`Pass::check`, `ExecError`), through the CPU backend: bad
 //! passes and buffer accesses are reported with the shared error, never run.
 
+use vrrt_core::kernels::copy::CopyParams;
 use vrrt_core::kernels::fill::FillParams;
-use vrrt_core::kernels::FILL;
+use vrrt_core::kernels::{COPY, FILL};
 use vrrt_core::plan::{BufferId, ExecError, Executor, Groups, Pass, PlanError};
 use vrrt_cpu::{CpuError, CpuExecutor};
 
@@ -112,4 +113,62 @@ fn aliased_binding() {
     let e = ex.dispatch(&pass).unwrap_err();
     assert_eq!(e, ExecError::AliasedBinding(a));
     assert_eq!(e.to_string(), "buffer BufferId(0) bound twice in one pass");
+}
+
+/// A shared buffer is the caller's bytes, not a copy, for as long as it is only read: a pass
+/// reads it in place; writing it, or binding it where a pass writes, gives the executor its own
+/// copy and leaves the caller's bytes as they were.
+#[test]
+fn shared_buffers_are_read_in_place_and_copied_on_write() {
+    use std::sync::Arc;
+    let words: Vec<u32> = (0..256).collect();
+    let data = Arc::new(words.clone());
+    let mut ex = CpuExecutor::new();
+    let src = ex.create_buffer_shared(data.clone()).unwrap();
+    let dst = ex.create_buffer(1024).unwrap();
+    assert_eq!(ex.owned_bytes(), 1024, "the shared buffer is not a copy");
+    assert_eq!(
+        ex.contents(src).unwrap().as_ptr(),
+        data.as_ptr() as *const u8
+    );
+    let params = CopyParams { row: 64, len: 256 };
+    ex.dispatch(&copy(&[src, dst], &params)).unwrap();
+    assert_eq!(ex.contents(dst).unwrap(), bytemuck::cast_slice(&words));
+    assert_eq!(ex.owned_bytes(), 1024, "read in place");
+    // Written by a pass: the executor's own copy; the caller's bytes are unchanged.
+    ex.write_buffer(dst, &[0; 1024]).unwrap();
+    ex.dispatch(&copy(&[dst, src], &params)).unwrap();
+    assert_eq!(ex.owned_bytes(), 2048);
+    assert_eq!(ex.contents(src).unwrap(), &[0; 1024][..]);
+    assert_eq!(*data, words);
+    // Written from the host, the same.
+    let shared = ex.create_buffer_shared(data.clone()).unwrap();
+    ex.write_buffer(shared, &[9; 4]).unwrap();
+    assert_eq!(
+        &ex.contents(shared).unwrap()[..8],
+        &[9, 9, 9, 9, 1, 0, 0, 0]
+    );
+    assert_eq!(*data, words);
+    // Bytes that are not whole aligned words are copied, sized as `create_buffer` would.
+    let odd = ex.create_buffer_shared(Arc::new(OddBytes)).unwrap();
+    assert_eq!(ex.contents(odd).unwrap(), &[1, 2, 3, 0]);
+}
+
+/// Three bytes: not a whole word.
+struct OddBytes;
+
+impl vrrt_core::plan::SharedBytes for OddBytes {
+    fn bytes(&self) -> &[u8] {
+        &[1, 2, 3]
+    }
+}
+
+/// The copy kernel from the first buffer to the second.
+fn copy<'a>(buffers: &'a [BufferId], params: &'a CopyParams) -> Pass<'a> {
+    Pass {
+        kernel: &COPY,
+        buffers,
+        params: bytemuck::bytes_of(params),
+        groups: Groups::Direct([1, 1, 1]),
+    }
 }

@@ -5,8 +5,9 @@
 //! native CPU backend, so it is only used when asked for by name.
 
 use std::fmt;
+use std::sync::Arc;
 use vrrt_ash::{AdapterType, AshExecutor, AshOptions};
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
+use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
 use vrrt_cpu::CpuExecutor;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
@@ -236,6 +237,13 @@ impl Executor for Backend {
 
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), BackendError> {
         delegate!(self, e => e.write_buffer(buffer, data))
+    }
+
+    fn create_buffer_shared(
+        &mut self,
+        data: Arc<dyn SharedBytes>,
+    ) -> Result<BufferId, BackendError> {
+        delegate!(self, e => e.create_buffer_shared(data))
     }
 
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), BackendError> {

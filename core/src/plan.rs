@@ -487,6 +487,22 @@ pub trait Executor {
     fn create_buffer(&mut self, size_bytes: u64) -> Result<BufferId, Self::Error>;
     /// Copies `data` to the start of `buffer`.
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), Self::Error>;
+    /// A buffer holding `data` (its size `data`'s length, rounded up to a multiple of 4 and at
+    /// least 4), which the caller will not change: an executor whose buffers are host memory
+    /// may keep `data` itself instead of a copy, so that large read-only inputs (a scene's
+    /// triangles and BVH) are held once in the process rather than once by the host and once
+    /// by the executor. The buffer behaves as any other: writing it, or binding it to a pass
+    /// that writes it, leaves `data` unchanged. The default creates a buffer and copies `data`.
+    #[cfg(feature = "std")]
+    fn create_buffer_shared(
+        &mut self,
+        data: std::sync::Arc<dyn SharedBytes>,
+    ) -> Result<BufferId, Self::Error> {
+        let bytes = data.bytes();
+        let id = self.create_buffer((bytes.len() as u64).max(4).next_multiple_of(4))?;
+        self.write_buffer(id, bytes)?;
+        Ok(id)
+    }
     /// Records (or runs) one pass.
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), Self::Error>;
     /// Waits for recorded work, then copies the start of `buffer` into `out`.
@@ -497,6 +513,21 @@ pub trait Executor {
     fn timings(&self) -> &[PassTiming];
     /// Forgets recorded timings.
     fn clear_timings(&mut self);
+}
+
+/// Bytes that an executor may keep for the life of a buffer instead of copying them
+/// ([`Executor::create_buffer_shared`]); they must not change while it does.
+#[cfg(feature = "std")]
+pub trait SharedBytes: Send + Sync {
+    /// The bytes.
+    fn bytes(&self) -> &[u8];
+}
+
+#[cfg(feature = "std")]
+impl SharedBytes for std::vec::Vec<u32> {
+    fn bytes(&self) -> &[u8] {
+        bytemuck::cast_slice(self)
+    }
 }
 
 /// A storage buffer as the CPU backend hands it to a kernel.

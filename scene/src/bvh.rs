@@ -134,6 +134,29 @@ pub fn build_owned(mut triangles: Vec<Triangle>, mut normals: Vec<TriangleNormal
     }
 }
 
+/// Builds with default options from owned triangles, reordered in place, and only then makes
+/// their normals, in leaf order (`normal(i)`: those of input triangle `i`). The same BVH as
+/// [`build_owned`] given those normals, but the normals are never held in input order: the
+/// build's own arrays (boxes, centroids, order, nodes) are freed before the normals exist, so
+/// a large mesh's peak memory is the built BVH's and not more.
+pub fn build_owned_then_normals(
+    mut triangles: Vec<Triangle>,
+    normal: impl FnMut(usize) -> TriangleNormals,
+) -> Bvh {
+    check_lengths(&triangles, &[]);
+    let (nodes, idx) = tree(&triangles, &BuildOptions::default());
+    let mut done = vec![false; idx.len()];
+    gather_in_place(&mut triangles, &idx, &mut done);
+    drop(done);
+    let normals = idx.iter().map(|&i| i as usize).map(normal).collect();
+    Bvh {
+        nodes,
+        triangles,
+        normals,
+        order: idx,
+    }
+}
+
 /// Reorders `v` so that `v[k]` becomes the old `v[order[k]]` (`order` a permutation), one cycle
 /// at a time; `done` (all false, `v`'s length) marks the positions filled.
 fn gather_in_place<T: Copy>(v: &mut [T], order: &[u32], done: &mut [bool]) {

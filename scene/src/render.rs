@@ -16,7 +16,7 @@ use vrrt_core::kernels::work_list::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::{self, classify, group_planes, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
-use vrrt_core::plan::{BufferId, Executor};
+use vrrt_core::plan::{BufferId, Executor, SharedBytes};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::{ReflectionSettings, Settings};
 
@@ -65,7 +65,48 @@ fn ensure<E: Executor>(
     Ok(s.id)
 }
 
-/// A frame's geometry on the executor; static geometry is uploaded once.
+/// One array of a scene's geometry, shared with an executor: it holds the geometry, not a copy.
+struct GeometryPart(
+    Arc<crate::scene::Geometry>,
+    fn(&crate::scene::Geometry) -> &[u8],
+);
+
+impl SharedBytes for GeometryPart {
+    fn bytes(&self) -> &[u8] {
+        (self.1)(&self.0)
+    }
+}
+
+/// Puts one array of `g` (`part`) on the executor: written into the slot's buffer when that is
+/// large enough (a moving scene's next frame), else shared with a new buffer
+/// ([`Executor::create_buffer_shared`]), so that the CPU backend binds the scene's own array
+/// instead of a copy.
+fn share<E: Executor>(
+    exec: &mut E,
+    slot: &mut Option<Slot>,
+    g: &Arc<crate::scene::Geometry>,
+    part: fn(&crate::scene::Geometry) -> &[u8],
+) -> Result<(), E::Error> {
+    let data = part(g);
+    let need = (data.len() as u64).max(4).next_multiple_of(4);
+    if let Some(s) = *slot {
+        if s.bytes >= need {
+            return match data.is_empty() {
+                true => Ok(()),
+                false => exec.write_buffer(s.id, data),
+            };
+        }
+        // Executors cannot free a buffer. Writing the one left behind makes it the executor's
+        // own (the size of this one array), so it no longer holds an earlier frame's geometry.
+        exec.write_buffer(s.id, &[0; 4])?;
+    }
+    let id = exec.create_buffer_shared(Arc::new(GeometryPart(g.clone(), part)))?;
+    *slot = Some(Slot { id, bytes: need });
+    Ok(())
+}
+
+/// A frame's geometry on the executor; static geometry is uploaded once, and shared with the
+/// executor rather than copied where it can be (the CPU backend).
 #[derive(Default)]
 pub struct GpuScene {
     nodes: Option<Slot>,
@@ -85,9 +126,9 @@ impl GpuScene {
             .as_ref()
             .is_some_and(|g| Arc::ptr_eq(g, &f.geometry))
         {
-            ensure(exec, &mut self.nodes, bytes(&f.geometry.nodes))?;
-            ensure(exec, &mut self.tris, bytes(&f.geometry.triangles))?;
-            ensure(exec, &mut self.normals, bytes(&f.geometry.normals))?;
+            share(exec, &mut self.nodes, &f.geometry, |g| bytes(&g.nodes))?;
+            share(exec, &mut self.tris, &f.geometry, |g| bytes(&g.triangles))?;
+            share(exec, &mut self.normals, &f.geometry, |g| bytes(&g.normals))?;
             self.uploaded = Some(f.geometry.clone());
         }
         ensure(exec, &mut self.instances, bytes(&f.instances))?;

@@ -12,7 +12,7 @@ use crate::error::SceneError;
 use crate::mesh::{normal_matrix, Mesh};
 use std::sync::{Arc, OnceLock};
 use vrrt_core::camera::Camera;
-use vrrt_core::glam::{Affine3A, Vec3};
+use vrrt_core::glam::{Affine3A, Mat3, Vec3};
 use vrrt_core::kernels::gbuffer::{GbufferParams, InstanceData};
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::trace::{Triangle, TriangleNormals};
@@ -250,31 +250,40 @@ impl Scene {
     }
 
     /// World-space triangles and BVH at time `t`.
+    ///
+    /// Vertices are transformed at each corner rather than into a world-space copy of each
+    /// mesh (the same arithmetic, so the same bits), and the normals are made after the BVH, in
+    /// its leaf order ([`bvh::build_owned_then_normals`]): the largest arrays alive at once are
+    /// the meshes and the built geometry.
     pub fn geometry_at(&self, t: f32) -> Geometry {
-        let n = self.triangle_count();
-        let mut tris = Vec::with_capacity(n);
-        let mut normals = Vec::with_capacity(n);
-        for (id, inst) in self.instances.iter().enumerate() {
+        let placed: Vec<Affine3A> = self.instances.iter().map(|i| i.motion.at(t)).collect();
+        let mut tris = Vec::with_capacity(self.triangle_count());
+        for (id, (inst, m)) in self.instances.iter().zip(&placed).enumerate() {
             let mesh = &self.meshes[inst.mesh];
-            let m = inst.motion.at(t);
-            let nm = normal_matrix(&m);
-            let p: Vec<Vec3> = mesh
-                .positions
-                .iter()
-                .map(|&p| m.transform_point3(p))
-                .collect();
-            let nrm: Vec<Vec3> = mesh
-                .normals
-                .iter()
-                .map(|&v| (nm * v).normalize_or(Vec3::Y))
-                .collect();
-            for t in &mesh.indices {
-                let [a, b, c] = t.map(|i| i as usize);
-                tris.push(Triangle::new(p[a], p[b], p[c], id as u32));
-                normals.push(TriangleNormals::new(nrm[a], nrm[b], nrm[c]));
-            }
+            tris.extend(mesh.indices.iter().map(|t| {
+                let [a, b, c] = t.map(|i| m.transform_point3(mesh.positions[i as usize]));
+                Triangle::new(a, b, c, id as u32)
+            }));
         }
-        bvh::build_owned(tris, normals)
+        // The first triangle of each instance, to find a triangle's instance by its index.
+        let starts: Vec<usize> = self
+            .instances
+            .iter()
+            .scan(0, |n, inst| {
+                let start = *n;
+                *n += self.meshes[inst.mesh].triangle_count();
+                Some(start)
+            })
+            .collect();
+        let normal_matrices: Vec<Mat3> = placed.iter().map(normal_matrix).collect();
+        bvh::build_owned_then_normals(tris, |i| {
+            let id = starts.partition_point(|&s| s <= i) - 1;
+            let mesh = &self.meshes[self.instances[id].mesh];
+            let nm = normal_matrices[id];
+            let n = mesh.indices[i - starts[id]]
+                .map(|v| (nm * mesh.normals[v as usize]).normalize_or(Vec3::Y));
+            TriangleNormals::new(n[0], n[1], n[2])
+        })
     }
 
     /// Everything the GPU needs for frame `i`.
@@ -343,6 +352,45 @@ mod tests {
         let d = instance_data(&m, 0.5);
         let p = Vec3::new(-0.5, 0.25, 4.0);
         assert!((d.previous_position(p) - m.transform_point3(p)).length() < 1e-6);
+    }
+
+    /// The geometry transformed at each corner, with normals made in leaf order, is the BVH
+    /// built the plain way over world-space copies of the meshes' vertices: bit for bit, moving
+    /// and mirrored instances included.
+    #[test]
+    fn geometry_equals_the_plain_build() {
+        let mut room = crate::builtin::builtin("room").unwrap();
+        room.add_object(
+            "mirrored",
+            shapes::uv_sphere(Vec3::ZERO, 0.5, 6, 9),
+            Trajectory::Static(Affine3A::from_scale(Vec3::new(-1.0, 2.0, 1.0))),
+            0.5,
+        );
+        for t in [0.0, 0.7, 1.3] {
+            let mut tris = Vec::new();
+            let mut normals = Vec::new();
+            for (id, inst) in room.instances.iter().enumerate() {
+                let mesh = &room.meshes[inst.mesh];
+                let m = inst.motion.at(t);
+                let nm = normal_matrix(&m);
+                let p: Vec<Vec3> = mesh
+                    .positions
+                    .iter()
+                    .map(|&p| m.transform_point3(p))
+                    .collect();
+                let n: Vec<Vec3> = mesh
+                    .normals
+                    .iter()
+                    .map(|&v| (nm * v).normalize_or(Vec3::Y))
+                    .collect();
+                for tri in &mesh.indices {
+                    let [a, b, c] = tri.map(|i| i as usize);
+                    tris.push(Triangle::new(p[a], p[b], p[c], id as u32));
+                    normals.push(TriangleNormals::new(n[a], n[b], n[c]));
+                }
+            }
+            assert_eq!(room.geometry_at(t), bvh::build(&tris, &normals), "t = {t}");
+        }
     }
 
     #[test]

@@ -332,3 +332,83 @@ fn a_ply_gz_bomb_is_refused_without_holding_it() {
     }
     assert!(largest < 4 << 20, "largest allocation {largest} bytes");
 }
+
+/// The CPU executor binds a scene's geometry where the scene holds it: neither the frame
+/// renderer nor the reference renderer keeps a copy of the triangles, normals or BVH (each
+/// copy was about 90 bytes a triangle), and the images are those of an executor given copies.
+#[test]
+fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
+    use std::sync::Arc;
+    use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+    use vrrt_core::settings::Settings;
+    use vrrt_cpu::CpuExecutor;
+    use vrrt_scene::render::{self, Readback, ReferenceBuffers, Renderer, Signal};
+
+    /// The CPU executor as an executor that copies what it is given to share (the default).
+    struct Copying(CpuExecutor);
+    impl Executor for Copying {
+        type Error = vrrt_cpu::CpuError;
+        fn name(&self) -> &'static str {
+            "copying"
+        }
+        fn create_buffer(&mut self, size: u64) -> Result<BufferId, Self::Error> {
+            self.0.create_buffer(size)
+        }
+        fn write_buffer(&mut self, b: BufferId, data: &[u8]) -> Result<(), Self::Error> {
+            self.0.write_buffer(b, data)
+        }
+        fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), Self::Error> {
+            self.0.dispatch(pass)
+        }
+        fn read_buffer(&mut self, b: BufferId, out: &mut [u8]) -> Result<(), Self::Error> {
+            self.0.read_buffer(b, out)
+        }
+        fn finish(&mut self) -> Result<(), Self::Error> {
+            self.0.finish()
+        }
+        fn timings(&self) -> &[PassTiming] {
+            self.0.timings()
+        }
+        fn clear_timings(&mut self) {
+            self.0.clear_timings()
+        }
+    }
+
+    let sphere = vrrt_scene::shapes::uv_sphere(vrrt_core::glam::Vec3::ZERO, 1.0, 150, 300);
+    let scene = vrrt_scene::builtin::showcase("sphere", &sphere);
+    let f = scene.frame(0);
+    let g = &f.geometry;
+    let geometry_bytes = std::mem::size_of_val(&g.nodes[..])
+        + std::mem::size_of_val(&g.triangles[..])
+        + std::mem::size_of_val(&g.normals[..]);
+    assert!(geometry_bytes > 8 << 20, "{geometry_bytes}");
+    let (w, h) = (16, 9);
+    let signal = Signal::Ao { max_distance: 1.0 };
+    let mut cpu = CpuExecutor::new();
+    let mut renderer = Renderer::new(&mut cpu, w, h, signal, 1, Settings::default()).unwrap();
+    let shared = renderer.render(&mut cpu, &f, Readback::default()).unwrap();
+    let mut buffers = ReferenceBuffers::default();
+    let reference =
+        render::reference_with(&mut cpu, &mut buffers, &f, w, h, signal, 4, |_, _| {}).unwrap();
+    // Only the denoiser's and the references' per-pixel buffers are the executor's own.
+    assert!(
+        cpu.owned_bytes() < geometry_bytes as u64 / 8,
+        "{} bytes owned for {geometry_bytes} bytes of geometry",
+        cpu.owned_bytes()
+    );
+    assert!(
+        Arc::strong_count(g) > 2,
+        "the executor holds the scene's geometry"
+    );
+
+    let mut copying = Copying(CpuExecutor::new());
+    let mut renderer = Renderer::new(&mut copying, w, h, signal, 1, Settings::default()).unwrap();
+    let copied = renderer
+        .render(&mut copying, &f, Readback::default())
+        .unwrap();
+    let reference_copied = render::reference(&mut copying, &f, w, h, signal, 4, |_, _| {}).unwrap();
+    assert!(copying.0.owned_bytes() > 2 * geometry_bytes as u64);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&shared.denoised), bits(&copied.denoised));
+    assert_eq!(bits(&reference.mean), bits(&reference_copied.mean));
+}

@@ -5,7 +5,9 @@ use anyhow::{bail, Result};
 use std::collections::HashMap;
 use vrrt_core::kernels::copy::{CopyParams, WORDS_PER_INVOCATION};
 use vrrt_core::kernels::CopyBindings;
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, KernelDesc, Pass, PassBytes, PassTiming};
+use vrrt_core::plan::{
+    BindingLimit, BufferId, Executor, KernelDesc, Pass, PassBytes, PassTiming, SharedBytes,
+};
 
 /// One dispatched pass: its kernel and the bytes it moves ([`Pass::bytes_moved`]).
 #[derive(Copy, Clone, Debug)]
@@ -65,6 +67,16 @@ impl<E: Executor> Executor for Recorder<E> {
 
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), E::Error> {
         self.inner.write_buffer(buffer, data)
+    }
+
+    fn create_buffer_shared(
+        &mut self,
+        data: std::sync::Arc<dyn SharedBytes>,
+    ) -> Result<BufferId, E::Error> {
+        let size = (data.bytes().len() as u64).max(4).next_multiple_of(4);
+        let id = self.inner.create_buffer_shared(data)?;
+        self.sizes.insert(id, size);
+        Ok(id)
     }
 
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), E::Error> {

@@ -8,7 +8,7 @@
 
 use std::collections::HashMap;
 use vrrt_backend::{Backend, BackendError};
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
+use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
 
 /// Buffers by size: released ones, free for the taking, and those taken since the last release.
 #[derive(Default)]
@@ -65,6 +65,18 @@ impl Executor for Recycling<'_> {
 
     fn write_buffer(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), BackendError> {
         self.exec.write_buffer(buffer, data)
+    }
+
+    /// Shared bytes are the executor's to keep (no copy on the CPU backend); the buffer is
+    /// pooled by its size like any other, and zeroing it for its next user drops them.
+    fn create_buffer_shared(
+        &mut self,
+        data: std::sync::Arc<dyn SharedBytes>,
+    ) -> Result<BufferId, BackendError> {
+        let size = (data.bytes().len() as u64).max(4).next_multiple_of(4);
+        let id = self.exec.create_buffer_shared(data)?;
+        self.pool.taken.push((size, id));
+        Ok(id)
     }
 
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), BackendError> {
