@@ -340,7 +340,7 @@ fn a_ply_gz_bomb_is_refused_without_holding_it() {
 fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     use std::sync::Arc;
     use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
-    use vrrt_core::settings::Settings;
+    use vrrt_core::settings::{ReflectionSettings, Settings};
     use vrrt_cpu::CpuExecutor;
     use vrrt_scene::render::{self, Readback, ReferenceBuffers, Renderer, Signal};
 
@@ -384,12 +384,22 @@ fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     assert!(geometry_bytes > 8 << 20, "{geometry_bytes}");
     let (w, h) = (16, 9);
     let signal = Signal::Ao { max_distance: 1.0 };
+    let reflections = ReflectionSettings::default();
     let mut cpu = CpuExecutor::new();
     let mut renderer = Renderer::new(&mut cpu, w, h, signal, 1, Settings::default()).unwrap();
     let shared = renderer.render(&mut cpu, &f, Readback::default()).unwrap();
     let mut buffers = ReferenceBuffers::default();
-    let reference =
-        render::reference_with(&mut cpu, &mut buffers, &f, w, h, signal, 4, |_, _| {}).unwrap();
+    let reference = render::reference_with(
+        &mut cpu,
+        &mut buffers,
+        &f,
+        (w, h),
+        signal,
+        &reflections,
+        4,
+        |_, _| {},
+    )
+    .unwrap();
     // Only the denoiser's and the references' per-pixel buffers are the executor's own.
     assert!(
         cpu.owned_bytes() < geometry_bytes as u64 / 8,
@@ -406,7 +416,8 @@ fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     let copied = renderer
         .render(&mut copying, &f, Readback::default())
         .unwrap();
-    let reference_copied = render::reference(&mut copying, &f, w, h, signal, 4, |_, _| {}).unwrap();
+    let reference_copied =
+        render::reference(&mut copying, &f, w, h, signal, &reflections, 4, |_, _| {}).unwrap();
     assert!(copying.0.owned_bytes() > 2 * geometry_bytes as u64);
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&shared.denoised), bits(&copied.denoised));
