@@ -3,7 +3,7 @@
 
 use crate::AshError;
 use ash::vk;
-use vrrt_core::plan::{BufferId, PassTiming};
+use vrrt_core::executor::{BufferId, PassTiming};
 
 const SETS_PER_POOL: u32 = 64;
 const DESCRIPTORS_PER_SET: u32 = 8;

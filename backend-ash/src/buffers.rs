@@ -7,7 +7,7 @@ use crate::stream::StreamState;
 use crate::track::{BarrierBatch, Hazard};
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::plan::{BufferId, ExecError, Executor};
+use vrrt_core::executor::{BufferId, ExecError, Executor};
 
 /// One buffer of the executor.
 pub(crate) struct BufferEntry {
@@ -58,7 +58,7 @@ impl AshExecutor {
     /// memory, and outlives its use (until [`AshExecutor::destroy_buffer`] or the executor's
     /// drop). It must have usage `STORAGE_BUFFER`, plus `TRANSFER_DST` to be written with
     /// [`Executor::write_buffer`], `TRANSFER_SRC` to be read with [`Executor::read_buffer`], and
-    /// `INDIRECT_BUFFER` to hold [`Groups::Indirect`](vrrt_core::plan::Groups::Indirect) counts.
+    /// `INDIRECT_BUFFER` to hold [`Groups::Indirect`](vrrt_core::executor::Groups::Indirect) counts.
     pub unsafe fn import_buffer(
         &mut self,
         buffer: vk::Buffer,

@@ -8,7 +8,7 @@ use crate::pipelines::Pipeline;
 use crate::track::BarrierBatch;
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::plan::{Groups, Pass};
+use vrrt_core::executor::{Groups, Pass};
 
 impl AshExecutor {
     /// Checks a pass against its kernel, the buffers ([`Pass::check`], shared by every backend)

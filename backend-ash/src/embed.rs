@@ -5,9 +5,9 @@
 
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::plan::Pass;
+use vrrt_core::executor::Pass;
 #[cfg(doc)]
-use vrrt_core::plan::{Executor, Groups};
+use vrrt_core::executor::{Executor, Groups};
 
 /// Vulkan objects of an engine that an executor borrows (see [`AshExecutor::from_raw`]).
 #[derive(Clone)]

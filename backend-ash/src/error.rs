@@ -4,7 +4,7 @@
 
 use ash::vk;
 use std::fmt;
-use vrrt_core::plan::{BufferId, ExecError, PlanError};
+use vrrt_core::executor::{BufferId, ExecError, PlanError};
 
 /// Errors of [`AshExecutor`](crate::AshExecutor).
 #[derive(Debug)]

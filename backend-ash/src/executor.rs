@@ -15,7 +15,7 @@ use ash::vk;
 use std::collections::HashMap;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
+use vrrt_core::executor::{BindingLimit, BufferId, Executor, Pass, PassTiming};
 
 /// Runs plans with raw Vulkan. See the [crate docs](crate).
 pub struct AshExecutor {

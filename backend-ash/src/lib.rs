@@ -55,10 +55,10 @@ pub use ash;
 pub use embed::{RawVulkan, Recording};
 pub use error::AshError;
 pub use executor::AshExecutor;
-pub use vrrt_core::plan::ExecError;
+pub use vrrt_core::executor::ExecError;
 
 #[cfg(doc)]
-use vrrt_core::plan::{Executor, Groups, KernelDesc};
+use vrrt_core::executor::{Executor, Groups, KernelDesc};
 
 /// Options of [`AshExecutor::new_headless`].
 #[derive(Clone, Debug)]

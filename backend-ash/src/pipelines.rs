@@ -5,7 +5,7 @@
 use crate::{AshError, AshExecutor};
 use ash::vk;
 use std::ffi::CString;
-use vrrt_core::plan::KernelDesc;
+use vrrt_core::executor::KernelDesc;
 
 #[derive(Copy, Clone)]
 /// A kernel's compute pipeline and layouts.

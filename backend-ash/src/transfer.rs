@@ -7,7 +7,7 @@ use crate::alloc::HostBuffer;
 use crate::track::BarrierBatch;
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::plan::{BufferId, ExecError, Executor};
+use vrrt_core::executor::{BufferId, ExecError, Executor};
 
 impl AshExecutor {
     /// Copies `data` to the start of `buffer` through the staging ring, recorded into the

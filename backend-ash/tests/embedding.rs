@@ -8,8 +8,8 @@ mod common;
 use common::executor as host;
 use vrrt_ash::ash::vk;
 use vrrt_ash::{AshError, AshExecutor, RawVulkan};
+use vrrt_core::executor::{Executor, Pass};
 use vrrt_core::kernels::buckets::{BucketParams, BUCKET_COUNT, COUNTS_LEN};
-use vrrt_core::plan::{Executor, Pass};
 use vrrt_cpu::CpuExecutor;
 
 #[test]
@@ -199,7 +199,7 @@ fn buffers_in_use_are_kept(
     d: &vrrt_ash::ash::Device,
     cmd: vk::CommandBuffer,
     pass: Pass<'_>,
-    req: vrrt_core::plan::BufferId,
+    req: vrrt_core::executor::BufferId,
 ) {
     // SAFETY: `cmd` is not in use (its last submission was waited for) and is never submitted.
     unsafe {

@@ -15,6 +15,7 @@ use harness::{assert_within, check_validation, read, run_both, upload, Launch, R
 use vrrt_ash::ash::vk;
 use vrrt_ash::{AshError, ExecError};
 use vrrt_core::camera::{Camera, View};
+use vrrt_core::executor::{BufferId, Executor, Groups, Pass};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::accumulate::AccumulateParams;
 use vrrt_core::kernels::atrous::AtrousParams;
@@ -23,7 +24,6 @@ use vrrt_core::kernels::classify;
 use vrrt_core::kernels::reflect::NO_GUIDE;
 use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::payload::{Filtered, PackedFiltered};
-use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
 use vrrt_tests::{layouts, Tolerance};

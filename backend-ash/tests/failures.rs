@@ -6,7 +6,7 @@
 mod common;
 
 use vrrt_ash::AshError;
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 
 #[test]
 fn a_buffer_beyond_max_memory_allocation_size_is_refused_by_name() {

@@ -2,7 +2,7 @@
 //!
 //! Runs of workgroups ([`GroupSpan`]) run in parallel on rayon's pool; within a workgroup,
 //! invocations run in order (and kernels with barriers run phase by phase, see
-//! `vrrt_core::plan::KernelDesc::cpu`). Storage
+//! `vrrt_core::executor::KernelDesc::cpu`). Storage
 //! buffers are plain `Vec<u32>`, so the CPU backend is also the easiest way to use VRRT-rs from a
 //! Rust program: create buffers, write slices, dispatch, read back.
 //!
@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
-use vrrt_core::plan::{
+use vrrt_core::executor::{
     BufferId, CpuBindings, ExecError, Executor, GroupSpan, Groups, Pass, PassTiming, RawBuffer,
     SharedBytes,
 };
@@ -33,7 +33,7 @@ pub type CpuError = ExecError;
 /// use vrrt_core::glam::Vec3;
 /// use vrrt_core::packing::{pack_motion, pack_normal_roughness};
 /// use vrrt_core::payload::{PackedFiltered, Sample};
-/// use vrrt_core::plan::Executor;
+/// use vrrt_core::executor::Executor;
 /// use vrrt_core::settings::Settings;
 /// use vrrt_cpu::CpuExecutor;
 ///

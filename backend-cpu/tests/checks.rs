@@ -1,10 +1,10 @@
 //! The checks every backend shares (`Pass::check`, `ExecError`), through the CPU backend: bad
 //! passes and buffer accesses are reported with the shared error, never run.
 
+use vrrt_core::executor::{BufferId, ExecError, Executor, Groups, Pass, PlanError};
 use vrrt_core::kernels::copy::CopyParams;
 use vrrt_core::kernels::fill::FillParams;
 use vrrt_core::kernels::{COPY, FILL};
-use vrrt_core::plan::{BufferId, ExecError, Executor, Groups, Pass, PlanError};
 use vrrt_cpu::{CpuError, CpuExecutor};
 
 const PARAMS: FillParams = FillParams { len: 4, value: 7 };
@@ -157,7 +157,7 @@ fn shared_buffers_are_read_in_place_and_copied_on_write() {
 /// Three bytes: not a whole word.
 struct OddBytes;
 
-impl vrrt_core::plan::SharedBytes for OddBytes {
+impl vrrt_core::executor::SharedBytes for OddBytes {
     fn bytes(&self) -> &[u8] {
         &[1, 2, 3]
     }

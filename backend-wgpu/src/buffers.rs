@@ -3,7 +3,7 @@
 //! they stay ordered with the passes recorded before and after them.
 
 use crate::{WgpuError, WgpuExecutor};
-use vrrt_core::plan::{BufferId, ExecError};
+use vrrt_core::executor::{BufferId, ExecError};
 
 impl WgpuExecutor {
     /// The wgpu buffer behind `id`, to use in the application's own passes.
@@ -78,7 +78,7 @@ impl WgpuExecutor {
         Ok(id)
     }
 
-    /// Writes `data` to the start of `buffer` (see [`vrrt_core::plan::Executor::write_buffer`]).
+    /// Writes `data` to the start of `buffer` (see [`vrrt_core::executor::Executor::write_buffer`]).
     pub(crate) fn write(&mut self, buffer: BufferId, data: &[u8]) -> Result<(), WgpuError> {
         let dst = self.require(buffer, wgpu::BufferUsages::COPY_DST)?.clone();
         ExecError::check_range(buffer, data.len() as u64, dst.size())?;

@@ -5,18 +5,18 @@
 
 use crate::timings::Timer;
 use crate::{WgpuError, WgpuExecutor};
-use vrrt_core::plan::{Groups, Pass};
+use vrrt_core::executor::{Groups, Pass};
 
 impl WgpuExecutor {
     /// Records `passes` into the application's `encoder` (which must come from this executor's
     /// device), without timestamps.
     ///
     /// Work still pending in the executor (e.g. from
-    /// [`Executor::write_buffer`](vrrt_core::plan::Executor::write_buffer)) is submitted first,
+    /// [`Executor::write_buffer`](vrrt_core::executor::Executor::write_buffer)) is submitted first,
     /// so it runs before the application's command buffer once that is submitted. wgpu inserts
     /// the barriers between the passes and with the application's own commands. Nothing runs
     /// until the application finishes and submits `encoder` to the queue; to read results,
-    /// submit, then call [`Executor::read_buffer`](vrrt_core::plan::Executor::read_buffer) (or
+    /// submit, then call [`Executor::read_buffer`](vrrt_core::executor::Executor::read_buffer) (or
     /// copy and map them yourself). Validation errors in the recorded passes are reported by wgpu
     /// when the encoder is finished or submitted, to the application's error scopes or handler.
     pub fn encode(

@@ -3,7 +3,7 @@
 //! kernel or alias buffers), which come from `vrrt-core` so that all backends report them alike.
 
 use std::fmt;
-use vrrt_core::plan::{BufferId, ExecError, PlanError};
+use vrrt_core::executor::{BufferId, ExecError, PlanError};
 
 /// Errors of the wgpu backend.
 #[derive(Debug)]

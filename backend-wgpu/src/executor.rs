@@ -9,7 +9,7 @@ use crate::pipelines::Kernel;
 use crate::timings::Timer;
 use crate::validation::{Messenger, ValidationLog};
 use crate::{WgpuError, BUFFER_USAGES, MIN_IMMEDIATE_SIZE};
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming};
+use vrrt_core::executor::{BindingLimit, BufferId, Executor, Pass, PassTiming};
 
 /// How [`WgpuExecutor::new_headless`] picks and configures its device.
 #[derive(Clone, Debug)]
@@ -88,7 +88,7 @@ impl WgpuExecutor {
     /// ```no_run
     /// use vrrt_core::denoiser::Denoiser;
     /// use vrrt_core::payload::PackedFiltered;
-    /// use vrrt_core::plan::Executor;
+    /// use vrrt_core::executor::Executor;
     /// use vrrt_core::settings::Settings;
     /// use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
     ///

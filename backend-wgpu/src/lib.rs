@@ -3,15 +3,15 @@
 //!
 //! The SPIR-V module is embedded at build time and translated by naga (`ShaderSource::SpirV`),
 //! which wgpu validates like any other shader; one compute pipeline per
-//! [`KernelDesc::entry`](vrrt_core::plan::KernelDesc) is created on first use and cached.
+//! [`KernelDesc::entry`](vrrt_core::executor::KernelDesc) is created on first use and cached.
 //! Kernels take their parameters as *immediates* (Vulkan push constants,
 //! [`wgpu::Features::IMMEDIATES`]) and their storage buffers at group 0, binding `i`.
 //!
 //! Two ways to use it:
 //! - **Standalone** ([`WgpuExecutor::new_headless`]): the executor owns a device and queue and
-//!   implements [`Executor`](vrrt_core::plan::Executor): passes are recorded into a pending
-//!   command encoder, submitted by [`Executor::read_buffer`](vrrt_core::plan::Executor::read_buffer)
-//!   / [`Executor::finish`](vrrt_core::plan::Executor::finish), which wait for the GPU.
+//!   implements [`Executor`](vrrt_core::executor::Executor): passes are recorded into a pending
+//!   command encoder, submitted by [`Executor::read_buffer`](vrrt_core::executor::Executor::read_buffer)
+//!   / [`Executor::finish`](vrrt_core::executor::Executor::finish), which wait for the GPU.
 //! - **Embedded in an engine** ([`WgpuExecutor::from_device`] + [`WgpuExecutor::encode`]): the
 //!   executor uses the application's device and queue and records passes into the
 //!   application's own [`wgpu::CommandEncoder`]. Buffers can be shared both ways
@@ -22,7 +22,7 @@
 //! encoder and across submissions on the same queue.
 //!
 //! Source layout, one responsibility per module: `executor` (device setup, the embedding API and
-//! the [`Executor`](vrrt_core::plan::Executor) impl), `buffers`, `pipelines`, `dispatch`
+//! the [`Executor`](vrrt_core::executor::Executor) impl), `buffers`, `pipelines`, `dispatch`
 //! (recording passes), `submit` (submission and readback), `timings` (GPU timestamps), `error`,
 //! and [`validation`] (counting validation errors).
 
@@ -37,7 +37,7 @@ pub mod validation;
 
 pub use error::WgpuError;
 pub use executor::{WgpuExecutor, WgpuOptions};
-pub use vrrt_core::plan::ExecError;
+pub use vrrt_core::executor::ExecError;
 
 /// The embedded SPIR-V module, from `vrrt-spirv` (which ships `shaders/vrrt.spv`).
 pub use vrrt_spirv::SPIRV;

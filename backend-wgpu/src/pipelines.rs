@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 
 use crate::{WgpuError, WgpuExecutor, SPIRV};
-use vrrt_core::plan::KernelDesc;
+use vrrt_core::executor::KernelDesc;
 
 /// A cached pipeline with its bind group layout.
 pub(crate) struct Kernel {

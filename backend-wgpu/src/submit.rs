@@ -1,12 +1,12 @@
 //! Submission and readback: the pending encoder is submitted (with the resolve of its
 //! timestamps) when work must run, and the only waits for the device happen here, when a buffer
-//! is read back or [`Executor::finish`](vrrt_core::plan::Executor::finish) is called. A wait maps
+//! is read back or [`Executor::finish`](vrrt_core::executor::Executor::finish) is called. A wait maps
 //! the readback buffer and the timestamp batches together, so one poll serves both.
 
 use std::sync::{Arc, Mutex};
 
 use crate::{WgpuError, WgpuExecutor};
-use vrrt_core::plan::{BufferId, ExecError};
+use vrrt_core::executor::{BufferId, ExecError};
 
 impl WgpuExecutor {
     /// Submits the pending encoder (with the resolve of its timestamps), without waiting.

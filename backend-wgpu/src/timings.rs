@@ -1,11 +1,11 @@
-//! GPU timestamps of the passes [`Executor::dispatch`](vrrt_core::plan::Executor::dispatch)
+//! GPU timestamps of the passes [`Executor::dispatch`](vrrt_core::executor::Executor::dispatch)
 //! records. One query set is reused by successive batches: each submission resolves the queries
 //! of its passes into a readback buffer of its own (queue order makes the resolve of a batch run
 //! before the next batch's writes), and the durations are read when the executor next waits for
 //! the device. Readback buffers are recycled.
 
 use crate::WgpuError;
-use vrrt_core::plan::PassTiming;
+use vrrt_core::executor::PassTiming;
 
 /// Timestamped passes per query-set batch (two queries each); a full batch is submitted.
 pub(crate) const TIMESTAMP_PASSES: u32 = 256;

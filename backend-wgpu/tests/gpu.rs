@@ -14,10 +14,10 @@ use harness::{
     surfaces, tile_levels, Both, Rng, H, PLANES, W,
 };
 use vrrt_core::camera::{Camera, View};
+use vrrt_core::executor::{BufferId, Executor, Groups, Pass};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::{atrous, buckets};
 use vrrt_core::payload;
-use vrrt_core::plan::{BufferId, Executor, Groups, Pass};
 use vrrt_cpu::CpuExecutor;
 use vrrt_tests::{layouts, Tolerance};
 use vrrt_wgpu::{ExecError, WgpuError, WgpuExecutor};

@@ -7,7 +7,7 @@
 use std::fmt;
 use std::sync::Arc;
 use vrrt_ash::{AdapterType, AshExecutor, AshOptions};
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
+use vrrt_core::executor::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
 use vrrt_cpu::CpuExecutor;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 

@@ -1,11 +1,11 @@
 //! `vrrt info`: the backends, the Vulkan adapters each sees, and what `auto` would pick; with
 //! `--settings`, the default denoiser settings as TOML; with `--memory`, the memory report.
 
-use crate::session::{parse_size, SignalKind};
+use crate::session::{parse_size, SignalArg};
 use anyhow::Result;
 use vrrt_ash::{AshExecutor, AshOptions};
 use vrrt_backend::{Backend, BackendKind};
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 use vrrt_wgpu::{WgpuExecutor, WgpuOptions};
 
 /// Options of `vrrt info`.
@@ -24,7 +24,7 @@ pub struct InfoArgs {
     pub size: (u32, u32),
     /// Signal of `--memory`.
     #[arg(long, value_enum, default_value = "ao")]
-    pub signal: SignalKind,
+    pub signal: SignalArg,
     /// Lights in the scene of `--memory` (one shadow plane each): 1 to 4, and with `--signal
     /// all` 1 or 2 (AO, the shadows and the reflections share the 4 planes).
     #[arg(long, default_value = "1", value_parser = parse_lights)]
@@ -46,8 +46,8 @@ fn parse_lights(s: &str) -> Result<usize, String> {
 
 /// Refuses more lights than `signal` leaves planes for (with `all`, AO and reflections take
 /// two of the four), with the reason, before the layout's own check fails on a plane count.
-fn check_lights(signal: SignalKind, lights: usize) -> Result<()> {
-    if signal == SignalKind::All && lights > MAX_LIGHTS - 2 {
+fn check_lights(signal: SignalArg, lights: usize) -> Result<()> {
+    if signal == SignalArg::All && lights > MAX_LIGHTS - 2 {
         anyhow::bail!(
             "--signal all has planes for at most {} lights (AO and reflections take 2 of the {MAX_LIGHTS} \
              planes, each light a shadow plane), got --lights {lights}",

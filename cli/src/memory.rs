@@ -9,12 +9,12 @@ use anyhow::Result;
 use std::convert::Infallible;
 use vrrt_core::buffers::denoiser_buffers;
 use vrrt_core::camera::Camera;
+use vrrt_core::executor::{BufferId, Executor, Pass, PassTiming};
 use vrrt_core::frame::{Frame, FrameScene, Signal};
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::names::format_of;
 use vrrt_core::kernels::raygen::AreaLight;
 use vrrt_core::payload::PackedSample;
-use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::Settings;
 

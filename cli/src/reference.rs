@@ -4,7 +4,7 @@ use crate::limits::LimitArgs;
 use crate::run::{check_common, clamp_frames};
 use crate::session::{
     load_scene, open_backend, parse_backend, parse_size, parts, ReferenceRequest, References,
-    SignalKind,
+    SignalArg,
 };
 use anyhow::Result;
 use vrrt_backend::BackendKind;
@@ -27,7 +27,7 @@ pub struct ReferenceArgs {
     pub spp: u32,
     /// Signal.
     #[arg(long, value_enum, default_value = "ao")]
-    pub signal: SignalKind,
+    pub signal: SignalArg,
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,

@@ -8,7 +8,7 @@ use crate::progress::Progress;
 use crate::session::{
     self, fmt, load_scene, mean_finite, open_backend, parse_backend, parse_budget_ms, parse_rpp,
     parse_size, plane_names, Config, FrameRecord, FrameView, LoadedScene, References,
-    SequenceOptions, SequenceResult, SignalKind, WARMUP_FRAMES,
+    SequenceOptions, SequenceResult, SignalArg, WARMUP_FRAMES,
 };
 use anyhow::{anyhow, bail, Result};
 use std::fmt::Write as _;
@@ -59,7 +59,7 @@ pub struct RunArgs {
     pub settings: Option<PathBuf>,
     /// Signal to trace and denoise.
     #[arg(long, value_enum, default_value = "ao")]
-    pub signal: SignalKind,
+    pub signal: SignalArg,
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
@@ -400,7 +400,7 @@ pub fn clamp_frames(frames: u32, available: u32) -> u32 {
 }
 
 fn exec_name(kind: BackendKind, exec: &vrrt_backend::Backend) -> String {
-    use vrrt_core::plan::Executor;
+    use vrrt_core::executor::Executor;
     match kind {
         BackendKind::Auto => format!("auto → {}", exec.name()),
         _ => exec.name().to_string(),

@@ -17,7 +17,7 @@ use clap::{Parser, ValueEnum};
 use fuzzkit::{Bounds, Mutator, Report, Verdict};
 use std::ffi::OsString;
 use vrrt_cli::limits::{parse_bytes, parse_count};
-use vrrt_cli::session::{parse_backend, parse_rpp, parse_size, Config, SignalKind, MAX_DIMENSION};
+use vrrt_cli::session::{parse_backend, parse_rpp, parse_size, Config, SignalArg, MAX_DIMENSION};
 use vrrt_cli::settings;
 use vrrt_cli::{Cli, Command};
 use vrrt_core::settings::ReflectionSettings;
@@ -97,7 +97,7 @@ fn check_settings(_: usize, bytes: &[u8]) -> Result<Verdict, String> {
                 return Err(format!("settings do not read back: {s:?} gives {again:?}"));
             }
             for config in Config::ALL {
-                for signal in SignalKind::value_variants() {
+                for signal in SignalArg::value_variants() {
                     let c = config.settings(s, s.rates.rays_per_pixel, signal.signal(1.0));
                     if let Err(e) = c.validate() {
                         return Err(format!(
@@ -225,7 +225,7 @@ fn check_names(i: usize, bytes: &[u8]) -> Result<Verdict, String> {
             return Err(format!("`{s}` parses as configuration {}", c.name()));
         }
     }
-    let signal = SignalKind::from_str(&s, false);
+    let signal = SignalArg::from_str(&s, false);
     if let Ok(k) = signal {
         if k.name() != s {
             return Err(format!("`{s}` parses as signal {}", k.name()));
@@ -266,7 +266,7 @@ fn check_names(i: usize, bytes: &[u8]) -> Result<Verdict, String> {
             .eq(a.configs.iter().map(|c| Ok(*c))),
         Command::Bench(a) if form[1] == "--signals" => items
             .iter()
-            .map(|s| SignalKind::from_str(s, false))
+            .map(|s| SignalArg::from_str(s, false))
             .eq(a.signals.iter().map(|k| Ok(*k))),
         Command::Bench(a) => items
             .iter()

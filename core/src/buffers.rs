@@ -3,12 +3,12 @@
 //! work starts — and so memory can be reported per buffer.
 
 use crate::camera::View;
+use crate::executor::BindingLimit;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::work_list::ARGS_LEN;
 use crate::kernels::{balance, buckets, classify, refill, reflect, trim};
 use crate::layout::Layout;
 use crate::payload::{PackedFiltered, PackedPayload, PackedSample, COUNTERS_LEN};
-use crate::plan::BindingLimit;
 use crate::settings::Settings;
 use core::fmt;
 use core::mem::size_of;

@@ -3,11 +3,11 @@
 //! [`kernel_table!`](crate::kernel_table) is invoked once, in `kernels::table`, with one entry per
 //! kernel: its SPIR-V entry name, the function in core, workgroup size, push-constant type and
 //! its bindings (name, access, element type). From each entry come
-//! - the [`KernelDesc`](crate::plan::KernelDesc) static the backends read (bindings with names,
+//! - the [`KernelDesc`](crate::executor::KernelDesc) static the backends read (bindings with names,
 //!   element types and sizes, access),
 //! - the CPU runner inside it (the native counterpart of the SPIR-V entry),
 //! - a named bindings struct the plan code fills (`AtrousBindings { input, surfaces, .. }`) and
-//!   turns into a [`Pass`](crate::plan::Pass),
+//!   turns into a [`Pass`](crate::executor::Pass),
 //! - the `#[spirv(compute)]` entry point, emitted by the exported `spirv_entries!()` macro that
 //!   `vrrt-shaders` expands once at its crate root,
 //! - `kernels::ALL`, the list of every kernel.
@@ -17,7 +17,7 @@
 //! - `lanes(N) path`: one call per `N` invocations consecutive in x, `f::<N>(id of the first,
 //!   &params, bindings..)` ([`crate::lanes`]); the SPIR-V entry calls `f::<1>`, the CPU runner
 //!   `f::<N>` per row of `N / width` workgroups side by side, walking a run of workgroups
-//!   ([`GroupSpan`](crate::plan::GroupSpan)) row by row (compiled for AVX2 too, chosen at run
+//!   ([`GroupSpan`](crate::executor::GroupSpan)) row by row (compiled for AVX2 too, chosen at run
 //!   time), so the GPU keeps its workgroup shape whatever width suits the CPU.
 //!   `lanes(N, avx512 M)` adds a runner compiled for AVX-512 that calls `f::<M>`, taken where
 //!   the CPU has it (each width measured per kernel: AVX-512's 32 registers hold wider rows);
@@ -110,14 +110,14 @@ macro_rules! kernel_table {
 
             $($doc)*
             #[cfg(not(target_arch = "spirv"))]
-            pub static $desc: $crate::plan::KernelDesc = $crate::plan::KernelDesc {
+            pub static $desc: $crate::executor::KernelDesc = $crate::executor::KernelDesc {
                 entry: stringify!($entry),
                 workgroup_size: [$x, $y, $z],
-                bindings: &[$($crate::plan::Binding {
+                bindings: &[$($crate::executor::Binding {
                     name: stringify!($bn),
                     ty: stringify!($bt),
                     elem_size: core::mem::size_of::<$bt>() as u32,
-                    access: $crate::plan::Access::$acc,
+                    access: $crate::executor::Access::$acc,
                 }),*],
                 params_size: core::mem::size_of::<$params>() as u32,
                 cpu: $crate::kernel_table!(@cpu [$($kind)*] ($x, $y, $z) $io [$params]
@@ -132,17 +132,17 @@ macro_rules! kernel_table {
                 $(
                     #[doc = concat!("Binding ", stringify!($n), ": `", stringify!($bt), "` elements, ",
                         stringify!($acc), ".")]
-                    pub $bn: $crate::plan::BufferId,
+                    pub $bn: $crate::executor::BufferId,
                 )*
             }
 
             #[cfg(not(target_arch = "spirv"))]
             impl $binds {
                 /// The kernel these bindings are for.
-                pub const KERNEL: &'static $crate::plan::KernelDesc = &$desc;
+                pub const KERNEL: &'static $crate::executor::KernelDesc = &$desc;
 
                 /// The buffers in binding order.
-                pub fn buffers(&self) -> &[$crate::plan::BufferId] {
+                pub fn buffers(&self) -> &[$crate::executor::BufferId] {
                     bytemuck::cast_slice(core::slice::from_ref(self))
                 }
 
@@ -150,9 +150,9 @@ macro_rules! kernel_table {
                 pub fn pass<'a>(
                     &'a self,
                     params: &'a $params,
-                    groups: $crate::plan::Groups,
-                ) -> $crate::plan::Pass<'a> {
-                    $crate::plan::Pass {
+                    groups: $crate::executor::Groups,
+                ) -> $crate::executor::Pass<'a> {
+                    $crate::executor::Pass {
                         kernel: &$desc,
                         buffers: self.buffers(),
                         params: bytemuck::bytes_of(params),
@@ -167,8 +167,8 @@ macro_rules! kernel_table {
                     width: u32,
                     height: u32,
                     planes: u32,
-                ) -> $crate::plan::Pass<'a> {
-                    $crate::plan::Pass::over_grid(
+                ) -> $crate::executor::Pass<'a> {
+                    $crate::executor::Pass::over_grid(
                         &$desc,
                         self.buffers(),
                         bytemuck::bytes_of(params),
@@ -182,7 +182,7 @@ macro_rules! kernel_table {
 
         /// Every kernel, for backends that build all pipelines up front and for the tests.
         #[cfg(not(target_arch = "spirv"))]
-        pub static ALL: &[&$crate::plan::KernelDesc] = &[$(&$desc),*];
+        pub static ALL: &[&$crate::executor::KernelDesc] = &[$(&$desc),*];
 
         /// The `#[spirv(compute)]` entry point of every kernel, for the crate root of the shader
         /// crate (entry names are the function names only at the root).
@@ -202,7 +202,7 @@ macro_rules! kernel_table {
     // ---- the native runner of a run of workgroups ----
     (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
-        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
@@ -218,8 +218,8 @@ macro_rules! kernel_table {
         [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
         #[inline(always)]
         unsafe fn lanes<const L: usize>(
-            span: $crate::plan::GroupSpan,
-            b: &$crate::plan::CpuBindings<'_>,
+            span: $crate::executor::GroupSpan,
+            b: &$crate::executor::CpuBindings<'_>,
         ) {
             // Each call covers `L` pixels of a row, `L / width` workgroups side by side; the
             // run's rows are walked one after another across the whole run (`GroupSpan`).
@@ -228,7 +228,7 @@ macro_rules! kernel_table {
             // their instructions.
             const {
                 assert!(
-                    L % $x == 0 && $crate::plan::GroupSpan::ALIGN as usize % (L / $x) == 0,
+                    L % $x == 0 && $crate::executor::GroupSpan::ALIGN as usize % (L / $x) == 0,
                     "lanes a multiple of the workgroup width that divides a run's alignment"
                 )
             };
@@ -250,12 +250,12 @@ macro_rules! kernel_table {
         // The same code compiled for AVX2 (8 lanes in one register) and F16C, chosen at run time.
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         #[target_feature(enable = "avx2,f16c")]
-        unsafe fn lanes_avx2(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn lanes_avx2(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$lanes>(span, b) }
         }
         $crate::kernel_table!(@avx512 [$($wide)?]);
-        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
                 $crate::kernel_table!(@run_avx512 [$($wide)?] span b);
@@ -275,7 +275,7 @@ macro_rules! kernel_table {
     (@avx512 [$wide:tt]) => {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         #[target_feature(enable = "avx2,avx512f,avx512bw,avx512dq,avx512vl")]
-        unsafe fn lanes_avx512(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn lanes_avx512(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$wide>(span, b) }
         }
@@ -293,7 +293,7 @@ macro_rules! kernel_table {
     };
     (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
-        unsafe fn run(span: $crate::plan::GroupSpan, b: &$crate::plan::CpuBindings<'_>) {
+        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*

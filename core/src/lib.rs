@@ -3,7 +3,7 @@
 //! The `no_std` heart of VRRT-rs. Every piece of per-pixel logic (denoiser, load balancer,
 //! sampling, tracing) is a plain function here, compiled twice: to SPIR-V by rust-gpu (through the
 //! thin entry points of `vrrt-shaders`) and natively for the CPU backend. Backends only move bytes
-//! and launch work; they read *what* to launch from [`plan`].
+//! and launch work; they read *what* to launch from [`executor`].
 //!
 //! Layout rules shared by every kernel:
 //! - Images are row-major storage buffers; signal planes are stacked along `z`
@@ -37,6 +37,8 @@ pub mod declare;
 #[cfg(not(target_arch = "spirv"))]
 pub mod denoiser;
 #[cfg(not(target_arch = "spirv"))]
+pub mod executor;
+#[cfg(not(target_arch = "spirv"))]
 pub mod frame;
 pub mod kernels;
 pub mod lanes;
@@ -45,8 +47,6 @@ pub mod layout;
 pub mod math;
 pub mod packing;
 pub mod payload;
-#[cfg(not(target_arch = "spirv"))]
-pub mod plan;
 pub mod quantize;
 #[cfg(not(target_arch = "spirv"))]
 pub mod reflections;

@@ -16,10 +16,10 @@
 
 use crate::camera::Camera;
 use crate::denoiser::Denoiser;
+use crate::executor::{BufferId, Executor};
 use crate::frame::target::{GBuffer, RaygenTarget};
 use crate::kernels;
 use crate::kernels::reflect::{self, RayHit, Shading};
-use crate::plan::{BufferId, Executor};
 use crate::settings::ReflectionSettings;
 
 /// What the reflection passes trace against in this frame.

@@ -20,8 +20,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use vrrt_ash::ash::{self, vk};
 use vrrt_ash::{AshExecutor, RawVulkan};
 use vrrt_core::denoiser::Denoiser;
+use vrrt_core::executor::Pass;
 use vrrt_core::payload::PackedFiltered;
-use vrrt_core::plan::Pass;
 use vrrt_examples::{
     assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
     validation, values, FRAMES, HALF_STEPS, HEIGHT, PIXELS, WIDTH,

@@ -5,9 +5,9 @@
 //! `cargo run --release -p vrrt-examples --example cpu_slices`
 
 use vrrt_core::denoiser::Denoiser;
+use vrrt_core::executor::Executor;
 use vrrt_core::kernels::balance::Balance;
 use vrrt_core::payload::{PackedFiltered, PackedSample};
-use vrrt_core::plan::Executor;
 use vrrt_cpu::CpuExecutor;
 use vrrt_examples::{
     frame_info, gbuffer, read, settings, trace, truth, values, FRAMES, HEIGHT, PIXELS, WIDTH,

@@ -15,11 +15,11 @@
 
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
+use vrrt_core::executor::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::glam::Vec3;
 use vrrt_core::packing;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedSample, Sample};
-use vrrt_core::plan::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
 

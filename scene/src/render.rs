@@ -7,6 +7,7 @@ use std::sync::Arc;
 use vrrt_core::budget::MsBudget;
 use vrrt_core::camera::View;
 use vrrt_core::denoiser::{Denoiser, DenoiserError};
+use vrrt_core::executor::{BufferId, Executor, SharedBytes};
 use vrrt_core::frame::{trace_planes, Frame, FrameReport, FrameScene, GBuffer, RaygenTarget};
 pub use vrrt_core::frame::{PlaneLayout, Signal, SignalName};
 use vrrt_core::kernels::balance::Balance;
@@ -16,7 +17,6 @@ use vrrt_core::kernels::work_list::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::{self, classify, group_planes, reproject};
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
-use vrrt_core::plan::{BufferId, Executor, SharedBytes};
 use vrrt_core::reflections::Reflections;
 use vrrt_core::settings::{ReflectionSettings, Settings};
 
@@ -66,10 +66,7 @@ fn ensure<E: Executor>(
 }
 
 /// One array of a scene's geometry, shared with an executor: it holds the geometry, not a copy.
-struct GeometryPart(
-    Arc<crate::scene::Geometry>,
-    fn(&crate::scene::Geometry) -> &[u8],
-);
+struct GeometryPart(Arc<crate::bvh::Bvh>, fn(&crate::bvh::Bvh) -> &[u8]);
 
 impl SharedBytes for GeometryPart {
     fn bytes(&self) -> &[u8] {
@@ -84,8 +81,8 @@ impl SharedBytes for GeometryPart {
 fn share<E: Executor>(
     exec: &mut E,
     slot: &mut Option<Slot>,
-    g: &Arc<crate::scene::Geometry>,
-    part: fn(&crate::scene::Geometry) -> &[u8],
+    g: &Arc<crate::bvh::Bvh>,
+    part: fn(&crate::bvh::Bvh) -> &[u8],
 ) -> Result<(), E::Error> {
     let data = part(g);
     let need = (data.len() as u64).max(4).next_multiple_of(4);
@@ -115,7 +112,7 @@ pub struct GpuScene {
     instances: Option<Slot>,
     lights: Option<Slot>,
     next: Option<Slot>,
-    uploaded: Option<Arc<crate::scene::Geometry>>,
+    uploaded: Option<Arc<crate::bvh::Bvh>>,
 }
 
 impl GpuScene {

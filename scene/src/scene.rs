@@ -33,9 +33,6 @@ pub struct Instance {
     pub roughness: f32,
 }
 
-/// World-space triangles and their BVH, as the kernels bind them.
-pub type Geometry = Bvh;
-
 /// Everything one frame needs on the GPU side.
 #[derive(Clone, Debug)]
 pub struct FrameGeometry {
@@ -44,7 +41,7 @@ pub struct FrameGeometry {
     /// Time in seconds (`index / fps`).
     pub time: f32,
     /// Triangles, normals and BVH (shared between frames when the geometry is static).
-    pub geometry: Arc<Geometry>,
+    pub geometry: Arc<Bvh>,
     /// Per-instance data, indexed by [`Triangle::instance`].
     pub instances: Vec<InstanceData>,
     /// This frame's camera.
@@ -88,7 +85,7 @@ pub struct Scene {
     pub fps: f32,
     /// Length of the sequence in frames.
     pub frame_count: u32,
-    static_geometry: OnceLock<Arc<Geometry>>,
+    static_geometry: OnceLock<Arc<Bvh>>,
 }
 
 impl Scene {
@@ -255,7 +252,7 @@ impl Scene {
     /// mesh (the same arithmetic, so the same bits), and the normals are made after the BVH, in
     /// its leaf order ([`bvh::build_owned_then_normals`]): the largest arrays alive at once are
     /// the meshes and the built geometry.
-    pub fn geometry_at(&self, t: f32) -> Geometry {
+    pub fn geometry_at(&self, t: f32) -> Bvh {
         let placed: Vec<Affine3A> = self.instances.iter().map(|i| i.motion.at(t)).collect();
         let mut tris = Vec::with_capacity(self.triangle_count());
         for (id, (inst, m)) in self.instances.iter().zip(&placed).enumerate() {

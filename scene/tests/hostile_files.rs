@@ -339,7 +339,7 @@ fn a_ply_gz_bomb_is_refused_without_holding_it() {
 #[test]
 fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     use std::sync::Arc;
-    use vrrt_core::plan::{BufferId, Executor, Pass, PassTiming};
+    use vrrt_core::executor::{BufferId, Executor, Pass, PassTiming};
     use vrrt_core::settings::{ReflectionSettings, Settings};
     use vrrt_cpu::CpuExecutor;
     use vrrt_scene::render::{self, Readback, ReferenceBuffers, Renderer, Signal};

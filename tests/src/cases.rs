@@ -7,11 +7,11 @@ use crate::layouts::{FLOATS, INTS, PAYLOAD, SAMPLE};
 use crate::{BufferSpec, Case, Tolerance};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
+use vrrt_core::executor::KernelDesc;
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::gradient::GradientSample;
 use vrrt_core::kernels::{accumulate, buckets, copy, detect, fill, reproject};
 use vrrt_core::payload::{self, PackedPayload, PackedSample, Payload, Sample};
-use vrrt_core::plan::KernelDesc;
 use vrrt_core::quantize;
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 

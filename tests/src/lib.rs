@@ -21,7 +21,7 @@ pub mod reflect_cases;
 pub mod spirv;
 pub mod trace_cases;
 
-use vrrt_core::plan::{Executor, Groups, KernelDesc, Pass};
+use vrrt_core::executor::{Executor, Groups, KernelDesc, Pass};
 
 /// How to compare one 4-byte word of a buffer.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]

@@ -74,7 +74,7 @@ pub(crate) fn raygen_inputs(g: &Images, frame: &FrameGeometry) -> [BufferSpec; 4
 }
 
 pub(crate) fn groups(
-    kernel: &vrrt_core::plan::KernelDesc,
+    kernel: &vrrt_core::executor::KernelDesc,
     w: u32,
     h: u32,
     planes: u32,

@@ -4,7 +4,7 @@
 //! and skips the gradient prepass within 5% of the unskipped error; on the moving scene the skipped filter
 //! work costs less than 2%; a signal without a source costs no pass.
 
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 use vrrt_core::settings::{FilterSettings, PrepassSettings, RateSettings, Settings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::render::{reference, Readback, Renderer, Signal};

@@ -20,7 +20,7 @@ mod gpu;
 use std::time::Instant;
 use vrrt_backend::{Backend, BackendKind};
 use vrrt_cli::session::Config;
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 use vrrt_core::settings::Settings;
 use vrrt_scene::events::EventKind;
 use vrrt_scene::image::ImageRef;

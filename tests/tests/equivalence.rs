@@ -11,7 +11,7 @@
 
 mod gpu;
 
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 use vrrt_tests::{cases, compare, run_case, Tolerance};
 
 #[test]

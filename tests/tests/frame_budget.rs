@@ -10,10 +10,10 @@
 //! follow must be the same.
 
 use vrrt_core::budget::TRACE_ENTRIES;
+use vrrt_core::executor::{BufferId, Executor, Groups, Pass, PassTiming};
 use vrrt_core::frame::Frame;
 use vrrt_core::kernels::group_planes;
 use vrrt_core::payload::PackedFiltered;
-use vrrt_core::plan::{BufferId, Executor, Groups, Pass, PassTiming};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::{CpuError, CpuExecutor};
 use vrrt_scene::builtin::builtin;

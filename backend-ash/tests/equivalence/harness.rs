@@ -2,7 +2,7 @@
 
 use bytemuck::Pod;
 use vrrt_ash::AshExecutor;
-use vrrt_core::plan::{BufferId, Executor, KernelDesc, Pass};
+use vrrt_core::executor::{BufferId, Executor, KernelDesc, Pass};
 use vrrt_cpu::CpuExecutor;
 use vrrt_tests::{compare_words, Tolerance, Word};
 

@@ -1,8 +1,8 @@
 //! The wgpu-vs-CPU harness of the GPU tests (executors, [`Both`], inputs), apart from the tests.
 
+use vrrt_core::executor::{BufferId, Executor, Pass};
 use vrrt_core::kernels::{accumulate, classify};
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
-use vrrt_core::plan::{BufferId, Executor, Pass};
 use vrrt_core::surface::{Surface, NO_INSTANCE};
 use vrrt_cpu::CpuExecutor;
 use vrrt_tests::{compare_words, Tolerance, Word};

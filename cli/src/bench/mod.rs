@@ -9,7 +9,7 @@ use crate::progress;
 use crate::run::{check_common, clamp_frames, load_settings};
 use crate::session::{
     self, fmt, load_scene, open_backend, parse_backend, parse_rpp, parse_size, Config, LoadedScene,
-    References, SequenceOptions, SignalKind,
+    References, SequenceOptions, SignalArg,
 };
 use anyhow::{bail, Result};
 use std::fmt::Write as _;
@@ -61,7 +61,7 @@ pub struct BenchArgs {
     pub spp: u32,
     /// Signals, comma separated (default ao,reflections).
     #[arg(long, alias = "signal", value_enum, value_delimiter = ',')]
-    pub signals: Vec<SignalKind>,
+    pub signals: Vec<SignalArg>,
     /// Ambient occlusion maximum distance.
     #[arg(long, default_value_t = 1.0)]
     pub ao_radius: f32,
@@ -116,7 +116,7 @@ pub struct Cell {
     /// Scene key.
     pub scene: String,
     /// Signal.
-    pub signal: SignalKind,
+    pub signal: SignalArg,
     /// Configuration.
     pub config: Config,
     /// Budget, rays per pixel.
@@ -188,7 +188,7 @@ struct Matrix {
     configs: &'static [Config],
     budgets: &'static [f32],
     backends: &'static [BackendKind],
-    signals: &'static [SignalKind],
+    signals: &'static [SignalArg],
     size: (u32, u32),
     frames: u32,
     repeats: u32,
@@ -201,7 +201,7 @@ impl Matrix {
             configs: &Config::ALL,
             budgets: &[0.25, 0.5, 1.0, 2.0, 4.0],
             backends: &[BackendKind::Cpu, BackendKind::Wgpu, BackendKind::Ash],
-            signals: &[SignalKind::Ao, SignalKind::Reflections],
+            signals: &[SignalArg::Ao, SignalArg::Reflections],
             size: (256, 144),
             frames: 96,
             repeats: 3,
@@ -221,7 +221,7 @@ impl Matrix {
                 configs: &[Config::Svgf, Config::SvgfClamp, Config::Vrrt],
                 budgets: &[1.0],
                 backends: &[BackendKind::Cpu],
-                signals: &[SignalKind::Ao, SignalKind::Shadows, SignalKind::Reflections],
+                signals: &[SignalArg::Ao, SignalArg::Shadows, SignalArg::Reflections],
                 size: (640, 360),
                 repeats: 1,
                 ..full
@@ -256,7 +256,7 @@ fn print_oidn() {
 struct CellRun<'a> {
     scene: &'a LoadedScene,
     backend: &'a str,
-    kind: SignalKind,
+    kind: SignalArg,
     repeats: u32,
 }
 
@@ -417,7 +417,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Err(e) => return Err(e),
         };
         let backend = {
-            use vrrt_core::plan::Executor;
+            use vrrt_core::executor::Executor;
             exec.name().to_string()
         };
         println!("backend {backend}: {}", exec.device());
@@ -426,7 +426,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         for scene in &loaded {
             let frames = clamp_frames(frames, scene.scene.frames_available());
             for &kind in &signals {
-                let configs = if q && args.configs.is_empty() && kind != SignalKind::Ao {
+                let configs = if q && args.configs.is_empty() && kind != SignalArg::Ao {
                     &QUICK_OTHER_CONFIGS[..]
                 } else {
                     &configs
@@ -658,7 +658,7 @@ pub fn oracle_md(cells: &[Cell]) -> String {
 /// Per scene, signal and backend: relMSE against ms per frame and against rays per pixel, one curve per
 /// configuration (its points are the budgets).
 fn plots(out: &OutDir, cells: &[Cell]) -> Result<()> {
-    let mut groups: Vec<(String, SignalKind, String)> = Vec::new();
+    let mut groups: Vec<(String, SignalArg, String)> = Vec::new();
     for c in cells {
         let g = (c.scene.clone(), c.signal, c.backend.clone());
         if !groups.contains(&g) {

@@ -114,7 +114,7 @@ impl Page {
         opts: &SequenceOptions,
     ) -> Shots<'_> {
         let backend = {
-            use vrrt_core::plan::Executor;
+            use vrrt_core::executor::Executor;
             exec.name().to_string()
         };
         if !self.enabled || self.backend.get_or_insert(backend.clone()) != &backend {

@@ -1,5 +1,5 @@
 //! `vrrt bench --passes`: each pass of one configuration against its bandwidth floor. The
-//! floor of a pass is the bytes it must move ([`vrrt_core::plan::Pass::bytes_moved`], recorded
+//! floor of a pass is the bytes it must move ([`vrrt_core::executor::Pass::bytes_moved`], recorded
 //! by [`Recorder`]) over the memory bandwidth measured in the same run on the same backend
 //! ([`bandwidth`]); `floor_ratio = ms / floor` says how far from memory-bound it runs.
 
@@ -10,11 +10,11 @@ pub use recorder::{bandwidth, Bandwidth, Dispatched, Recorder, COPY_REPEATS, SPI
 use crate::bench::BenchArgs;
 use crate::progress::Progress;
 use crate::run::{check_common, clamp_frames, load_settings};
-use crate::session::{load_scene, open_backend, Config, SignalKind, WARMUP_FRAMES};
+use crate::session::{load_scene, open_backend, Config, SignalArg, WARMUP_FRAMES};
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use vrrt_backend::BackendKind;
-use vrrt_core::plan::{Executor, KernelDesc, PassBytes};
+use vrrt_core::executor::{Executor, KernelDesc, PassBytes};
 use vrrt_scene::render::Renderer;
 
 /// Size when `--size` is not given: the size of the CPU target.
@@ -160,7 +160,7 @@ pub struct Subject {
     /// Scene key.
     pub scene: String,
     /// Signal.
-    pub signal: SignalKind,
+    pub signal: SignalArg,
     /// Configuration.
     pub config: Config,
     /// Budget, rays per pixel.
@@ -337,7 +337,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     )?;
     let config = args.configs.first().copied().unwrap_or(Config::Vrrt);
     let rpp = args.budgets.first().copied().unwrap_or(1.0);
-    let kind = args.signals.first().copied().unwrap_or(SignalKind::Ao);
+    let kind = args.signals.first().copied().unwrap_or(SignalArg::Ao);
     let backends = if args.backends.is_empty() {
         vec![BackendKind::Auto]
     } else {

@@ -3,11 +3,11 @@
 
 use anyhow::{bail, Result};
 use std::collections::HashMap;
-use vrrt_core::kernels::copy::{CopyParams, WORDS_PER_INVOCATION};
-use vrrt_core::kernels::CopyBindings;
-use vrrt_core::plan::{
+use vrrt_core::executor::{
     BindingLimit, BufferId, Executor, KernelDesc, Pass, PassBytes, PassTiming, SharedBytes,
 };
+use vrrt_core::kernels::copy::{CopyParams, WORDS_PER_INVOCATION};
+use vrrt_core::kernels::CopyBindings;
 
 /// One dispatched pass: its kernel and the bytes it moves ([`Pass::bytes_moved`]).
 #[derive(Copy, Clone, Debug)]

@@ -27,4 +27,4 @@ pub use references::{FrameReference, ReferenceRequest, References, REFERENCE_VER
 pub use report::{fmt, mean, mean_finite, pass_columns, pass_header};
 pub use sequence::{run_sequence, SequenceOptions};
 pub use setup::{load_scene, open_backend, LoadedScene};
-pub use signal::{parts, plane_names, Part, SignalKind};
+pub use signal::{parts, plane_names, Part, SignalArg};

@@ -8,7 +8,7 @@
 
 use std::collections::HashMap;
 use vrrt_backend::{Backend, BackendError};
-use vrrt_core::plan::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
+use vrrt_core::executor::{BindingLimit, BufferId, Executor, Pass, PassTiming, SharedBytes};
 
 /// Buffers by size: released ones, free for the taking, and those taken since the last release.
 #[derive(Default)]

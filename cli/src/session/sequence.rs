@@ -11,8 +11,8 @@ use anyhow::{anyhow, Context, Result};
 use std::collections::HashMap;
 use std::time::Instant;
 use vrrt_backend::Backend;
+use vrrt_core::executor::Executor;
 use vrrt_core::kernels::gradient::GradientSample;
-use vrrt_core::plan::Executor;
 use vrrt_core::settings::Settings;
 use vrrt_scene::image::{Image, ImageRef};
 use vrrt_scene::metrics::{self, SequenceMetrics};
@@ -205,7 +205,7 @@ fn frame_references(
 /// Each pass's time in this frame's `timings` (dispatches of one entry summed), in the order
 /// they first ran; entries not seen before join `pass_names`.
 fn pass_times(
-    timings: &[vrrt_core::plan::PassTiming],
+    timings: &[vrrt_core::executor::PassTiming],
     pass_names: &mut Vec<&'static str>,
 ) -> Vec<(&'static str, f64)> {
     let mut per_pass: HashMap<&'static str, f64> = HashMap::new();

@@ -3,9 +3,10 @@
 
 use vrrt_scene::render::Signal;
 
-/// The signal kinds on the command line.
+/// The `--signal` argument: a name the command line parses, mapped onto core's [`Signal`] with
+/// its parameters ([`Self::signal`]).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum SignalKind {
+pub enum SignalArg {
     /// Ambient occlusion (one plane), up to `--ao-radius`.
     Ao,
     /// Area-light shadows (one plane per light).
@@ -16,26 +17,26 @@ pub enum SignalKind {
     All,
 }
 
-impl SignalKind {
+impl SignalArg {
     /// The command-line name.
     pub fn name(self) -> &'static str {
         match self {
-            SignalKind::Ao => "ao",
-            SignalKind::Shadows => "shadows",
-            SignalKind::Reflections => "reflections",
-            SignalKind::All => "all",
+            SignalArg::Ao => "ao",
+            SignalArg::Shadows => "shadows",
+            SignalArg::Reflections => "reflections",
+            SignalArg::All => "all",
         }
     }
 
     /// The renderer's signal, with the AO distance `ao_radius`.
     pub fn signal(self, ao_radius: f32) -> Signal {
         match self {
-            SignalKind::Ao => Signal::Ao {
+            SignalArg::Ao => Signal::Ao {
                 max_distance: ao_radius,
             },
-            SignalKind::Shadows => Signal::Shadows,
-            SignalKind::Reflections => Signal::Reflections,
-            SignalKind::All => Signal::All {
+            SignalArg::Shadows => Signal::Shadows,
+            SignalArg::Reflections => Signal::Reflections,
+            SignalArg::All => Signal::All {
                 max_distance: ao_radius,
             },
         }
@@ -110,12 +111,12 @@ mod tests {
 
     #[test]
     fn planes_are_named_by_what_they_hold() {
-        let all = SignalKind::All.signal(1.0);
+        let all = SignalArg::All.signal(1.0);
         assert_eq!(
             plane_names(all, 2),
             ["ao", "shadow0", "shadow1", "reflections"]
         );
-        assert_eq!(plane_names(SignalKind::Ao.signal(1.0), 2), ["ao"]);
+        assert_eq!(plane_names(SignalArg::Ao.signal(1.0), 2), ["ao"]);
         assert_eq!(plane_names(Signal::Shadows, 0), ["shadow0"]);
     }
 }

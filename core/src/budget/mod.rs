@@ -17,8 +17,8 @@
 //! frame and falls at once: a frame over the target is what the user asked to avoid, one under
 //! it only costs some rays. Host-side and allocation-free, like the rest of core.
 
+use crate::executor::PassTiming;
 use crate::kernels;
-use crate::plan::PassTiming;
 use crate::settings::RateSettings;
 
 /// Frames whose median each estimate follows (odd: one outlier is outvoted).

@@ -36,13 +36,13 @@ pub use crate::layout::Layout;
 use crate::blue_noise;
 use crate::buffers::{self, TooLarge};
 use crate::camera::View;
+use crate::executor::{BufferId, Executor, Groups};
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
     reproject, requests, trim, variance, work_list,
 };
 use crate::payload::COUNTERS_LEN;
-use crate::plan::{BufferId, Executor, Groups};
 use crate::settings::{RateSettings, Settings, SettingsError};
 use core::fmt;
 
@@ -148,7 +148,7 @@ pub enum GradientRays {
 /// ```
 /// use vrrt_core::denoiser::{Denoiser, FrameInfo};
 /// use vrrt_core::payload::{PackedFiltered, PackedSample};
-/// use vrrt_core::plan::Executor;
+/// use vrrt_core::executor::Executor;
 ///
 /// /// One frame of the application's G-buffer, in the formats of `vrrt_core::packing`.
 /// struct GBuffer {

@@ -31,12 +31,12 @@ pub use target::{GBuffer, RaygenTarget};
 use crate::budget::{self, MsBudget, TraceCost};
 use crate::camera::{Camera, View};
 use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
+use crate::executor::{BufferId, Executor};
 use crate::kernels::balance::{Balance, MAX_GROUPS};
 use crate::kernels::gbuffer::InstanceData;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::group_planes;
 use crate::kernels::raygen::AreaLight;
-use crate::plan::{BufferId, Executor};
 use crate::reflections::{ReflectionScene, Reflections};
 use crate::settings::{Settings, SettingsError};
 

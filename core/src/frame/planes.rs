@@ -2,8 +2,8 @@
 
 use super::target::RaygenTarget;
 use super::{FrameScene, PlaneLayout, Signal};
+use crate::executor::Executor;
 use crate::kernels::{self, raygen};
-use crate::plan::Executor;
 use crate::reflections::Reflections;
 
 /// Records the raygen of every plane of `signal` (laid out as `layout`) over `target`'s work

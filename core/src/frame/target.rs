@@ -3,8 +3,8 @@
 //! ([`super::trace_planes`]) and the reflections' ([`crate::reflections`]), which share them.
 
 use crate::denoiser::{Denoiser, Inputs};
+use crate::executor::{BufferId, Executor, Groups};
 use crate::kernels::{self, work_list};
-use crate::plan::{BufferId, Executor, Groups};
 
 /// What the renderer's ray generation reads of the G-buffer: the denoiser's inputs, the
 /// renderer's own `geometry` (geometric normal, instance) and the cameras.

@@ -1,6 +1,6 @@
 //! One module per pass. Each exposes plain functions over one invocation id plus its bindings and
 //! the push-constant struct; `kernels/table.rs` declares every kernel once, and from it come the
-//! [`KernelDesc`](crate::plan::KernelDesc)s (`ATROUS`, `REPROJECT`, …), the named bindings structs
+//! [`KernelDesc`](crate::executor::KernelDesc)s (`ATROUS`, `REPROJECT`, …), the named bindings structs
 //! (`AtrousBindings`, …), [`ALL`] and the SPIR-V entry points.
 
 pub mod accumulate;
@@ -126,7 +126,7 @@ pub mod names {
     pub type GradientKey = u32;
 
     /// The storage format of a binding's element type, as written in `kernels::table`
-    /// ([`crate::plan::Binding::ty`]); `None` for a type not listed here.
+    /// ([`crate::executor::Binding::ty`]); `None` for a type not listed here.
     pub fn format_of(ty: &str) -> Option<&'static str> {
         Some(match ty {
             "Depth" => "R32F view depth",

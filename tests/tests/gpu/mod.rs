@@ -1,7 +1,7 @@
 //! The GPU backends of the cross-backend tests, opened and checked one way.
 
 use vrrt_backend::{Backend, BackendKind};
-use vrrt_core::plan::Executor;
+use vrrt_core::executor::Executor;
 
 /// The Vulkan backends that open (wgpu, ash), with validation on. One that does not open prints
 /// "skipped: no Vulkan adapter", unless `VRRT_REQUIRE_VULKAN=1` makes that a failure.

@@ -1,4 +1,4 @@
-//! Unit tests of the plan types (traffic accounting of a pass), kept apart so plan.rs stays short.
+//! Unit tests of the executor types (traffic accounting of a pass, runs of workgroups).
 
 use super::*;
 
