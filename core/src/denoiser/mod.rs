@@ -40,7 +40,7 @@ use crate::executor::{BufferId, Executor, Groups};
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
-    reproject, requests, trim, variance, work_list,
+    reproject, trim, variance, work_list,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::settings::{RateSettings, Settings, SettingsError};
@@ -500,7 +500,7 @@ impl Denoiser {
         Ok((0..pixels * groups)
             .map(|i| {
                 let (g, pix) = (i / pixels, i % pixels);
-                let bucket = requests::bucket_of(requests[i as usize]);
+                let bucket = kernels::requests::bucket_of(requests[i as usize]);
                 let d = &decision[g as usize];
                 apply::resolve_rays(pix % w, pix / w, g, bucket, &p, d, &noise)
             })

@@ -40,7 +40,8 @@ impl fmt::Display for SettingsError {
                 range,
             } => {
                 // Integer fields print exactly; a float prints as the `f32` it was.
-                if value.fract() == 0.0 && value.abs() < (1u64 << 53) as f64 {
+                // (`fract` is std's: a round trip through an integer, exact below 2^53.)
+                if value.abs() < (1u64 << 53) as f64 && (*value as i64) as f64 == *value {
                     write!(f, "setting `{field}` = {value} is out of range ({range})")
                 } else {
                     let value = *value as f32;
