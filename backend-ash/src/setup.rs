@@ -277,12 +277,8 @@ fn enable_validation(
     Ok((Some(Arc::new(DebugState::default())), sync))
 }
 
-/// Creates an instance (with validation if asked) and a device on the best adapter.
-pub(crate) fn create(
-    validation: bool,
-    sync_validation: bool,
-    module: &ModuleInfo,
-) -> Result<Headless, AshError> {
+/// The system's Vulkan loader, if it offers Vulkan 1.1 or later.
+fn load_entry() -> Result<ash::Entry, AshError> {
     // SAFETY: loading the system Vulkan loader; failure is reported, not fatal.
     let entry = unsafe { ash::Entry::load() }
         .map_err(|e| no_adapter(format!("cannot load the Vulkan loader ({e})")))?;
@@ -293,6 +289,16 @@ pub(crate) fn create(
     if version < vk::API_VERSION_1_1 {
         return Err(no_adapter("the Vulkan loader only supports Vulkan 1.0"));
     }
+    Ok(entry)
+}
+
+/// Creates an instance (with validation if asked) and a device on the best adapter.
+pub(crate) fn create(
+    validation: bool,
+    sync_validation: bool,
+    module: &ModuleInfo,
+) -> Result<Headless, AshError> {
+    let entry = load_entry()?;
     // SAFETY: valid entry.
     let instance_exts =
         unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();

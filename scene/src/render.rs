@@ -644,50 +644,50 @@ impl SizedBuffers {
     }
 }
 
-/// Traces `spp` rays per pixel of frame `f` with the raygen kernels (the same estimator the
-/// denoiser sees; reflections as `reflections` says) in passes of up to `MAX_RATE` (16) rays,
-/// calling `progress(done, spp)` after each.
+/// What a reference traces: the signal, the reflections' settings (read only when the signal
+/// has reflections) and the rays per pixel.
+#[derive(Copy, Clone, Debug)]
+pub struct ReferenceSpec<'a> {
+    /// The signal traced.
+    pub signal: Signal,
+    /// How reflections are traced and shaded.
+    pub reflections: &'a ReflectionSettings,
+    /// Rays per pixel.
+    pub spp: u32,
+}
+
+/// Traces `spec.spp` rays per pixel of frame `f` at `(width, height)` with the raygen kernels
+/// (the same estimator the denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling
+/// `progress(done, spp)` after each.
 /// Its buffers are new and stay on `exec`: for more than one reference on an executor use
 /// [`reference_with`].
-#[allow(clippy::too_many_arguments)]
 pub fn reference<E: Executor>(
     exec: &mut E,
     f: &FrameGeometry,
-    width: u32,
-    height: u32,
-    signal: Signal,
-    reflections: &ReflectionSettings,
-    spp: u32,
+    size: (u32, u32),
+    spec: ReferenceSpec<'_>,
     progress: impl FnMut(u32, u32),
 ) -> Result<Reference, DenoiserError<E::Error>> {
     let mut buffers = ReferenceBuffers::default();
-    let size = (width, height);
-    reference_with(
-        exec,
-        &mut buffers,
-        f,
-        size,
-        signal,
-        reflections,
-        spp,
-        progress,
-    )
+    reference_with(exec, &mut buffers, f, size, spec, progress)
 }
 
 /// [`reference()`] with the buffers of `buffers`, which must have been used on `exec` only: the
 /// geometry is uploaded again only when the frame's differs, the per-pixel buffers made again
 /// only for another size or signal.
-#[allow(clippy::too_many_arguments)]
 pub fn reference_with<E: Executor>(
     exec: &mut E,
     buffers: &mut ReferenceBuffers,
     f: &FrameGeometry,
     (width, height): (u32, u32),
-    signal: Signal,
-    reflections: &ReflectionSettings,
-    spp: u32,
+    spec: ReferenceSpec<'_>,
     mut progress: impl FnMut(u32, u32),
 ) -> Result<Reference, DenoiserError<E::Error>> {
+    let ReferenceSpec {
+        signal,
+        reflections,
+        spp,
+    } = spec;
     let pixels = (width * height) as usize;
     let planes = signal.planes(f.lights.len());
     let n = pixels * planes as usize;

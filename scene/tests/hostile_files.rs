@@ -281,19 +281,15 @@ fn references_reusing_their_buffers_give_the_same_images() {
         (31, all, (16, 8)),
     ] {
         let f = scene.frame(frame);
-        let reused = render::reference_with(
-            &mut exec,
-            &mut buffers,
-            &f,
-            (w, h),
+        let spec = render::ReferenceSpec {
             signal,
-            &r,
-            4,
-            |_, _| {},
-        )
-        .unwrap();
+            reflections: &r,
+            spp: 4,
+        };
+        let reused =
+            render::reference_with(&mut exec, &mut buffers, &f, (w, h), spec, |_, _| {}).unwrap();
         let fresh =
-            render::reference(&mut CpuExecutor::new(), &f, w, h, signal, &r, 4, |_, _| {}).unwrap();
+            render::reference(&mut CpuExecutor::new(), &f, (w, h), spec, |_, _| {}).unwrap();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&reused.mean), bits(&fresh.mean), "frame {frame}");
         assert_eq!(bits(&reused.stderr), bits(&fresh.stderr), "frame {frame}");
@@ -389,17 +385,13 @@ fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     let mut renderer = Renderer::new(&mut cpu, w, h, signal, 1, Settings::default()).unwrap();
     let shared = renderer.render(&mut cpu, &f, Readback::default()).unwrap();
     let mut buffers = ReferenceBuffers::default();
-    let reference = render::reference_with(
-        &mut cpu,
-        &mut buffers,
-        &f,
-        (w, h),
+    let spec = render::ReferenceSpec {
         signal,
-        &reflections,
-        4,
-        |_, _| {},
-    )
-    .unwrap();
+        reflections: &reflections,
+        spp: 4,
+    };
+    let reference =
+        render::reference_with(&mut cpu, &mut buffers, &f, (w, h), spec, |_, _| {}).unwrap();
     // Only the denoiser's and the references' per-pixel buffers are the executor's own.
     assert!(
         cpu.owned_bytes() < geometry_bytes as u64 / 8,
@@ -416,8 +408,7 @@ fn the_cpu_executor_keeps_no_copy_of_the_geometry() {
     let copied = renderer
         .render(&mut copying, &f, Readback::default())
         .unwrap();
-    let reference_copied =
-        render::reference(&mut copying, &f, w, h, signal, &reflections, 4, |_, _| {}).unwrap();
+    let reference_copied = render::reference(&mut copying, &f, (w, h), spec, |_, _| {}).unwrap();
     assert!(copying.0.owned_bytes() > 2 * geometry_bytes as u64);
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&shared.denoised), bits(&copied.denoised));

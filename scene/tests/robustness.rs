@@ -158,17 +158,12 @@ fn user_room_obj_does_not_reuse_the_builtin_room_references() {
 /// Traces `frame`'s AO reference on the CPU backend.
 fn trace(frame: &FrameGeometry, spp: u32) -> Image {
     let mut exec = CpuExecutor::new();
-    let r = render::reference(
-        &mut exec,
-        frame,
-        SIZE.0,
-        SIZE.1,
-        AO,
-        &Default::default(),
+    let spec = render::ReferenceSpec {
+        signal: AO,
+        reflections: &Default::default(),
         spp,
-        |_, _| {},
-    )
-    .unwrap();
+    };
+    let r = render::reference(&mut exec, frame, SIZE, spec, |_, _| {}).unwrap();
     Image::new(SIZE.0 as usize, SIZE.1 as usize, 1, r.mean).unwrap()
 }
 

@@ -7,7 +7,7 @@
 use vrrt_core::executor::Executor;
 use vrrt_core::settings::{FilterSettings, PrepassSettings, RateSettings, Settings};
 use vrrt_cpu::CpuExecutor;
-use vrrt_scene::render::{reference, Readback, Renderer, Signal};
+use vrrt_scene::render::{reference, Readback, ReferenceSpec, Renderer, Signal};
 
 const SIZE: (u32, u32) = (128, 72);
 const SIGNAL: Signal = Signal::Ao { max_distance: 1.0 };
@@ -91,11 +91,12 @@ fn references(scene: &str, frames: impl Iterator<Item = u32>) -> Vec<(u32, Vec<f
             let r = reference(
                 &mut exec,
                 &scene.frame(i),
-                SIZE.0,
-                SIZE.1,
-                SIGNAL,
-                &Default::default(),
-                256,
+                (SIZE.0, SIZE.1),
+                ReferenceSpec {
+                    signal: SIGNAL,
+                    reflections: &Default::default(),
+                    spp: 256,
+                },
                 |_, _| {},
             );
             (i, r.unwrap().mean)

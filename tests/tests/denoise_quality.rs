@@ -6,7 +6,7 @@ use vrrt_core::kernels::balance::MODE_KEEP;
 use vrrt_core::kernels::buckets::{bucket_to_rate, ring_count, ring_id, BUCKET_COUNT};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
-use vrrt_scene::render::{reference, Readback, Renderer, Signal};
+use vrrt_scene::render::{reference, Readback, ReferenceSpec, Renderer, Signal};
 
 const SIZE: (u32, u32) = (160, 90);
 const FRAMES: u32 = 48;
@@ -95,11 +95,12 @@ fn svgf_converges_and_vrrt_beats_it_at_the_same_budget() {
                 reference(
                     &mut exec,
                     &scene.frame(i),
-                    SIZE.0,
-                    SIZE.1,
-                    SIGNAL,
-                    &Default::default(),
-                    256,
+                    (SIZE.0, SIZE.1),
+                    ReferenceSpec {
+                        signal: SIGNAL,
+                        reflections: &Default::default(),
+                        spp: 256,
+                    },
                     |_, _| {},
                 )
                 .unwrap()

@@ -2,7 +2,7 @@
 //! and the mean stays within a few standard errors of a much longer run.
 
 use vrrt_cpu::CpuExecutor;
-use vrrt_scene::render::{reference, Signal};
+use vrrt_scene::render::{reference, ReferenceSpec, Signal};
 
 #[test]
 fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
@@ -13,9 +13,31 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
     let refl = vrrt_core::settings::ReflectionSettings::default();
     for signal in [Signal::Ao { max_distance: 1.0 }, Signal::Shadows] {
         let mut previous: Option<f64> = None;
-        let long = reference(&mut exec, &frame, w, h, signal, &refl, 4096, |_, _| {}).unwrap();
+        let long = reference(
+            &mut exec,
+            &frame,
+            (w, h),
+            ReferenceSpec {
+                signal,
+                reflections: &refl,
+                spp: 4096,
+            },
+            |_, _| {},
+        )
+        .unwrap();
         for spp in [16u32, 64, 256, 1024] {
-            let r = reference(&mut exec, &frame, w, h, signal, &refl, spp, |_, _| {}).unwrap();
+            let r = reference(
+                &mut exec,
+                &frame,
+                (w, h),
+                ReferenceSpec {
+                    signal,
+                    reflections: &refl,
+                    spp,
+                },
+                |_, _| {},
+            )
+            .unwrap();
             let mean_se = r.stderr.iter().map(|&s| s as f64).sum::<f64>() / r.stderr.len() as f64;
             // Pixels further from the long run than 5 standard errors of an spp-sample estimate
             // (estimated from the long run, which is well resolved: a 16-spp pixel can show zero

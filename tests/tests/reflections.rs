@@ -11,7 +11,7 @@ use vrrt_core::settings::ReflectionSettings;
 use vrrt_core::settings::{DetectorSettings, SamplePattern, Settings, TemporalSettings};
 use vrrt_cpu::CpuExecutor;
 use vrrt_scene::animation::{CameraKey, CameraPath};
-use vrrt_scene::render::{read, reference, Readback, Renderer, Signal};
+use vrrt_scene::render::{read, reference, Readback, ReferenceSpec, Renderer, Signal};
 use vrrt_scene::Scene;
 
 const SIZE: (u32, u32) = (128, 72);
@@ -41,11 +41,12 @@ fn references(scene: &Scene, frames: &[u32], signal: Signal, spp: u32) -> Vec<Ve
             reference(
                 &mut exec,
                 &scene.frame(i),
-                SIZE.0,
-                SIZE.1,
-                signal,
-                &ReflectionSettings::default(),
-                spp,
+                (SIZE.0, SIZE.1),
+                ReferenceSpec {
+                    signal,
+                    reflections: &ReflectionSettings::default(),
+                    spp,
+                },
                 |_, _| {},
             )
             .unwrap()

@@ -8,7 +8,7 @@ use vrrt_core::settings::{
     DetectorSettings, PrepassSettings, SamplePattern, Settings, TemporalSettings,
 };
 use vrrt_cpu::CpuExecutor;
-use vrrt_scene::render::{reference, Readback, Renderer, Signal};
+use vrrt_scene::render::{reference, Readback, ReferenceSpec, Renderer, Signal};
 
 const SIZE: (u32, u32) = (128, 72);
 const FIRST: u32 = 40;
@@ -62,11 +62,12 @@ fn detection_beats_variance_clamping_on_moving_shadows() {
             reference(
                 &mut exec,
                 &f,
-                SIZE.0,
-                SIZE.1,
-                Signal::Shadows,
-                &Default::default(),
-                256,
+                (SIZE.0, SIZE.1),
+                ReferenceSpec {
+                    signal: Signal::Shadows,
+                    reflections: &Default::default(),
+                    spp: 256,
+                },
                 |_, _| {},
             )
             .unwrap()

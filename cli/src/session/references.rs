@@ -123,9 +123,11 @@ impl References {
             &mut buffers,
             f,
             (width, height),
-            signal,
-            reflections,
-            spp,
+            render::ReferenceSpec {
+                signal,
+                reflections,
+                spp,
+            },
             |done, total| {
                 if self.progress {
                     bar.get_or_insert_with(|| {

@@ -111,35 +111,11 @@ pub fn run_sequence(
         if let (Some(o), false) = (&oracle, out.changes.is_empty()) {
             record.detection = Some(Detection::score(&out.changes, o));
         }
-        let mut frames = Vec::new();
-        let mut references_kept = Vec::new();
-        let mut measured: Vec<PartError> = Vec::new();
-        for ((p, reference), prev) in parts.iter_mut().zip(references).zip(&prev_references) {
-            let (first, planes) = p.part.planes;
-            let range = first as usize * pixels..(first + planes) as usize * pixels;
-            let raw = planes_to_image(&out.raw[range.clone()], width, height, planes);
-            let test = if opts.config.reports_raw() {
-                raw.clone()
-            } else {
-                planes_to_image(&out.denoised[range], width, height, planes)
-            };
-            let mut moving = None;
-            // Kept for the oracle's next frame even when this repeat measures nothing.
-            let measured_reference = reference.as_ref().filter(|_| opts.measure);
-            if let Some(r) = measured_reference {
-                let (error, mask) = measure_part(p, &test, &raw, r, prev.as_ref(), &out, &fresh)?;
-                measured.push(error);
-                moving = Some(mask);
-            }
-            frames.push(PartFrame {
-                part: p.part,
-                test,
-                raw,
-                reference: measured_reference.map(|r| r.image.clone()),
-                moving,
-            });
-            references_kept.push(reference);
-        }
+        let FrameParts {
+            frames,
+            references: references_kept,
+            measured,
+        } = frame_parts(&mut parts, references, &prev_references, &out, &fresh, opts)?;
         record.set_errors(&measured);
         on_frame(&FrameView {
             record: &record,
@@ -153,6 +129,64 @@ pub fn run_sequence(
         records,
         parts,
         pass_names,
+    })
+}
+
+/// What [`frame_parts`] gives for one frame.
+struct FrameParts {
+    /// Each part's images.
+    frames: Vec<PartFrame>,
+    /// Each part's reference, for the oracle's next frame.
+    references: Vec<Option<FrameReference>>,
+    /// The errors of the parts measured.
+    measured: Vec<PartError>,
+}
+
+/// Each part of frame `out`: its test and raw images, measured against its reference when
+/// `opts.measure`; the references come back either way, for the oracle's next frame.
+fn frame_parts(
+    parts: &mut [PartMetrics],
+    references: Vec<Option<FrameReference>>,
+    prev_references: &[Option<FrameReference>],
+    out: &FrameOutput,
+    fresh: &[bool],
+    opts: &SequenceOptions,
+) -> Result<FrameParts> {
+    let (width, height) = opts.size;
+    let pixels = (width * height) as usize;
+    let mut frames = Vec::new();
+    let mut references_kept = Vec::new();
+    let mut measured: Vec<PartError> = Vec::new();
+    for ((p, reference), prev) in parts.iter_mut().zip(references).zip(prev_references) {
+        let (first, planes) = p.part.planes;
+        let range = first as usize * pixels..(first + planes) as usize * pixels;
+        let raw = planes_to_image(&out.raw[range.clone()], width, height, planes);
+        let test = if opts.config.reports_raw() {
+            raw.clone()
+        } else {
+            planes_to_image(&out.denoised[range], width, height, planes)
+        };
+        let mut moving = None;
+        // Kept for the oracle's next frame even when this repeat measures nothing.
+        let measured_reference = reference.as_ref().filter(|_| opts.measure);
+        if let Some(r) = measured_reference {
+            let (error, mask) = measure_part(p, &test, &raw, r, prev.as_ref(), out, fresh)?;
+            measured.push(error);
+            moving = Some(mask);
+        }
+        frames.push(PartFrame {
+            part: p.part,
+            test,
+            raw,
+            reference: measured_reference.map(|r| r.image.clone()),
+            moving,
+        });
+        references_kept.push(reference);
+    }
+    Ok(FrameParts {
+        frames,
+        references: references_kept,
+        measured,
     })
 }
 
