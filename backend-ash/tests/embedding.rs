@@ -70,22 +70,7 @@ fn record_into_engine_command_buffer() {
             let rec = ex.record_into(cmd, &[pass, pass]).unwrap();
             assert_eq!(rec.passes(), 2);
             // What the engine inserts after: make the counts visible to its transfer read.
-            let after = vk::BufferMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .buffer(engine_vk_counts)
-                .size(vk::WHOLE_SIZE);
-            d.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[after],
-                &[],
-            );
+            shader_writes_to_transfer(&d, cmd, engine_vk_counts);
             d.end_command_buffer(cmd).unwrap();
             let cmds = [cmd];
             d.queue_submit(
@@ -123,6 +108,36 @@ fn record_into_engine_command_buffer() {
         0,
         "validation reported errors (see stderr)"
     );
+}
+
+/// Records the barrier that makes compute-shader writes to `buffer` visible to a transfer read.
+///
+/// # Safety
+/// `cmd` is recording on `d`, and `buffer` is a buffer of `d`.
+unsafe fn shader_writes_to_transfer(
+    d: &vrrt_ash::ash::Device,
+    cmd: vk::CommandBuffer,
+    buffer: vk::Buffer,
+) {
+    let after = vk::BufferMemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+        .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .buffer(buffer)
+        .size(vk::WHOLE_SIZE);
+    // SAFETY: the caller's contract.
+    unsafe {
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[after],
+            &[],
+        );
+    }
 }
 
 /// The engine's command pool, one command buffer from it and a fence.

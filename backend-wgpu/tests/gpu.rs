@@ -418,6 +418,20 @@ fn validation_errors_are_counted() {
     }
 }
 
+/// A storage buffer of the application's own, holding `bytes`.
+fn app_buffer(device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) -> wgpu::Buffer {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("engine history"),
+        size: bytes.len() as u64,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    queue.write_buffer(&buffer, 0, bytes);
+    buffer
+}
+
 /// Embedding: the application's device and encoder, an imported buffer, results read after the
 /// application submits.
 #[test]
@@ -459,15 +473,7 @@ fn embedded_in_an_engine() {
     let samples = samples(&mut rng, n);
     // The history, accumulated in place, is the application's buffer.
     let history_bytes: &[u8] = bytemuck::cast_slice(&history);
-    let app_history = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("engine history"),
-        size: history_bytes.len() as u64,
-        usage: wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_SRC
-            | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    queue.write_buffer(&app_history, 0, history_bytes);
+    let app_history = app_buffer(&device, &queue, history_bytes);
     let history_g = gpu.import_buffer(app_history.clone()).unwrap();
     assert_eq!(gpu.buffer(history_g).unwrap(), &app_history);
     let history_c = cpu.create_buffer(history_bytes.len() as u64).unwrap();
