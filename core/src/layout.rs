@@ -44,10 +44,6 @@ pub struct Layout {
     /// The AO planes (bit per plane), whose detector counts a change from `detector.ao_sigma`
     /// instead of `detector.sigma` and whose filter takes the AO variants. 0: none.
     pub ao_planes: u32,
-    /// Every plane is a shadow: reset frames spend `rates.reset_refill` of their boost on the
-    /// penumbrae (a reserve of the whole frame's boost, which in a shared frame the other signals
-    /// would pay for).
-    pub shadows_alone: bool,
     /// The one plane is reflections: a reset's boost is paid back over
     /// `reflections.reset_payback` frames instead of `rates.reset_payback`.
     pub reflections_alone: bool,
@@ -70,9 +66,20 @@ impl Layout {
             plane_groups: 0,
             shadow_planes: 0,
             ao_planes: 0,
-            shadows_alone: false,
             reflections_alone: false,
         }
+    }
+
+    /// Every plane is a shadow ([`Self::shadow_planes`] holds them all): reset frames spend
+    /// `rates.reset_refill` of their boost on the penumbrae (a reserve of the whole frame's
+    /// boost, which in a shared frame the other signals would pay for).
+    pub fn shadows_alone(&self) -> bool {
+        let all = if self.planes >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << self.planes) - 1
+        };
+        self.shadow_planes == all
     }
 
     /// Plane groups ([`Self::plane_groups`]): each has its own requests and work list.

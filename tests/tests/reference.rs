@@ -13,31 +13,17 @@ fn reference_standard_error_shrinks_as_one_over_sqrt_spp() {
     let refl = vrrt_core::settings::ReflectionSettings::default();
     for signal in [Signal::Ao { max_distance: 1.0 }, Signal::Shadows] {
         let mut previous: Option<f64> = None;
-        let long = reference(
-            &mut exec,
-            &frame,
-            (w, h),
-            ReferenceSpec {
+        let mut trace = |spp| {
+            let spec = ReferenceSpec {
                 signal,
                 reflections: &refl,
-                spp: 4096,
-            },
-            |_, _| {},
-        )
-        .unwrap();
+                spp,
+            };
+            reference(&mut exec, &frame, (w, h), spec, |_, _| {}).unwrap()
+        };
+        let long = trace(4096);
         for spp in [16u32, 64, 256, 1024] {
-            let r = reference(
-                &mut exec,
-                &frame,
-                (w, h),
-                ReferenceSpec {
-                    signal,
-                    reflections: &refl,
-                    spp,
-                },
-                |_, _| {},
-            )
-            .unwrap();
+            let r = trace(spp);
             let mean_se = r.stderr.iter().map(|&s| s as f64).sum::<f64>() / r.stderr.len() as f64;
             // Pixels further from the long run than 5 standard errors of an spp-sample estimate
             // (estimated from the long run, which is well resolved: a 16-spp pixel can show zero

@@ -637,11 +637,11 @@ impl Denoiser {
         self.frame.reset && self.reset_share() > 0.0
     }
 
-    /// Whether reset frames make refill lists (`rates.reset_refill`, shadow planes, and a host
-    /// that traces refill lists: `detector.refill`).
+    /// Whether reset frames make refill lists (`rates.reset_refill`, a denoiser of shadows alone,
+    /// and a host that traces refill lists: `detector.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
         let s = &self.settings;
-        s.rates.reset_refill > 0.0 && self.layout.shadows_alone && s.detector.refill
+        s.rates.reset_refill > 0.0 && self.layout.shadows_alone() && s.detector.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget

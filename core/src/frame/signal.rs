@@ -99,7 +99,6 @@ impl PlaneLayout {
             },
             shadow_planes: self.shadow_planes(),
             ao_planes: self.ao_planes(),
-            shadows_alone: self.shadows.is_some_and(|(_, n)| n == self.planes),
             reflections_alone: self.reflections.is_some() && self.planes == 1,
         }
     }
