@@ -14,7 +14,7 @@ impl AshExecutor {
     /// Checks a pass against its kernel, the buffers ([`Pass::check`], shared by every backend)
     /// and the device limits, and creates its pipeline if needed. Records nothing.
     pub(crate) fn prepare(&mut self, pass: &Pass<'_>) -> Result<Pipeline, AshError> {
-        pass.check(|id| self.entry(id).ok().map(|e| e.size))?;
+        pass.check(|id| self.entry(id).ok().map(|e| e.size), |_| false)?;
         for &id in pass.buffers {
             let e = self.entry(id)?;
             if e.vk_size > u64::from(self.max_storage_range) {

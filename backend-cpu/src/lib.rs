@@ -17,6 +17,7 @@ use vrrt_core::executor::{
     BufferId, CpuBindings, ExecError, Executor, GroupSpan, Groups, Pass, PassTiming, RawBuffer,
     SharedBytes,
 };
+use vrrt_core::inputs::Texel;
 
 /// Errors of the CPU backend: only those every backend shares (the CPU has no device that could
 /// fail), so this is [`ExecError`] itself.
@@ -86,6 +87,8 @@ pub type CpuError = ExecError;
 #[derive(Default)]
 pub struct CpuExecutor {
     buffers: Vec<Storage>,
+    /// The buffers that hold an engine texture (`Access::Sampled` bindings).
+    textures: std::collections::HashSet<BufferId>,
     timings: Vec<PassTiming>,
 }
 
@@ -156,6 +159,30 @@ impl CpuExecutor {
             .sum()
     }
 
+    /// An engine texture for `Denoiser::ingest`: `width × height` texels, row-major, each what a
+    /// texel fetch of the engine's format returns ([`Texel`]). Rewrite it each frame with
+    /// [`Executor::write_buffer`].
+    pub fn create_texture(
+        &mut self,
+        width: u32,
+        height: u32,
+        texels: &[Texel],
+    ) -> Result<BufferId, CpuError> {
+        let id = BufferId(self.buffers.len() as u32);
+        let len = width as u64 * height as u64;
+        if texels.len() as u64 != len {
+            return Err(ExecError::OutOfRange {
+                buffer: id,
+                bytes: texels.len() as u64 * 16,
+                size: len * 16,
+            });
+        }
+        self.buffers
+            .push(Storage::Owned(bytemuck::cast_slice(texels).to_vec()));
+        self.textures.insert(id);
+        Ok(id)
+    }
+
     /// Size in bytes of buffer `id`, `None` if unknown.
     fn size_of(&self, id: BufferId) -> Option<u64> {
         self.buffer(id).ok().map(|b| b.len() as u64 * 4)
@@ -215,7 +242,7 @@ impl Executor for CpuExecutor {
     }
 
     fn dispatch(&mut self, pass: &Pass<'_>) -> Result<(), CpuError> {
-        pass.check(|id| self.size_of(id))?;
+        pass.check(|id| self.size_of(id), |id| self.textures.contains(&id))?;
         let groups = self.group_counts(pass.groups)?;
         let raw: Vec<RawBuffer> = pass
             .buffers

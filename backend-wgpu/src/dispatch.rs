@@ -36,9 +36,17 @@ impl WgpuExecutor {
 
     /// Checks a pass and creates what it needs (pipeline, bind group).
     fn prepare(&mut self, pass: &Pass<'_>) -> Result<(), WgpuError> {
-        pass.check(|id| self.buffers.get(id.0 as usize).map(wgpu::Buffer::size))?;
+        pass.check(
+            |id| match self.imported(id) {
+                Some(t) => Some(t.bytes),
+                None => self.buffers.get(id.0 as usize).map(wgpu::Buffer::size),
+            },
+            |id| self.imported(id).is_some(),
+        )?;
         for &id in pass.buffers {
-            self.require(id, wgpu::BufferUsages::STORAGE)?;
+            if self.imported(id).is_none() {
+                self.require(id, wgpu::BufferUsages::STORAGE)?;
+            }
         }
         if let Groups::Indirect { buffer, .. } = pass.groups {
             self.require(buffer, wgpu::BufferUsages::INDIRECT)?;
@@ -51,9 +59,12 @@ impl WgpuExecutor {
                 .buffers
                 .iter()
                 .enumerate()
-                .map(|(i, id)| wgpu::BindGroupEntry {
+                .map(|(i, &id)| wgpu::BindGroupEntry {
                     binding: i as u32,
-                    resource: self.buffers[id.0 as usize].as_entire_binding(),
+                    resource: match self.imported(id) {
+                        Some(t) => wgpu::BindingResource::TextureView(&t.view),
+                        None => self.buffers[id.0 as usize].as_entire_binding(),
+                    },
                 })
                 .collect();
             let group = self.scoped(|| {

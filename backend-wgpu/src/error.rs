@@ -26,6 +26,8 @@ pub enum WgpuError {
     /// An error every backend reports alike: a pass that does not match its kernel, an unknown
     /// buffer, an access out of range, an unaligned size, aliased bindings.
     Exec(ExecError),
+    /// An application's texture cannot be imported (`WgpuExecutor::import_texture`).
+    Texture(String),
     /// A buffer (typically an imported one) lacks a usage the operation needs.
     MissingUsage {
         /// The buffer.
@@ -48,6 +50,7 @@ impl fmt::Display for WgpuError {
             WgpuError::Wgpu(e) => write!(f, "wgpu error: {e}"),
             WgpuError::Device(e) => write!(f, "device error: {e}"),
             WgpuError::Exec(e) => write!(f, "{e}"),
+            WgpuError::Texture(why) => write!(f, "cannot import the texture: it {why}"),
             WgpuError::MissingUsage { buffer, missing } => {
                 write!(f, "buffer {buffer:?} lacks usages {missing:?}")
             }

@@ -55,6 +55,8 @@ pub struct WgpuExecutor {
     pub(crate) kernels: HashMap<&'static str, Kernel>,
     pub(crate) bind_groups: HashMap<(&'static str, Vec<BufferId>), wgpu::BindGroup>,
     pub(crate) buffers: Vec<wgpu::Buffer>,
+    /// The application's textures (`import_texture`).
+    pub(crate) textures: Vec<crate::textures::Imported>,
     /// Commands recorded by the executor and not yet submitted.
     pub(crate) encoder: Option<wgpu::CommandEncoder>,
     /// Mappable buffer reused by readbacks.
@@ -223,6 +225,7 @@ impl WgpuExecutor {
             kernels: HashMap::new(),
             bind_groups: HashMap::new(),
             buffers: Vec::new(),
+            textures: Vec::new(),
             encoder: None,
             readback: None,
             timer,

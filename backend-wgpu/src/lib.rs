@@ -15,14 +15,15 @@
 //! - **Embedded in an engine** ([`WgpuExecutor::from_device`] + [`WgpuExecutor::encode`]): the
 //!   executor uses the application's device and queue and records passes into the
 //!   application's own [`wgpu::CommandEncoder`]. Buffers can be shared both ways
-//!   ([`WgpuExecutor::buffer`], [`WgpuExecutor::import_buffer`]).
+//!   ([`WgpuExecutor::buffer`], [`WgpuExecutor::import_buffer`]), and the denoiser reads the
+//!   engine's G-buffer textures where they are ([`WgpuExecutor::import_texture`]).
 //!
 //! wgpu tracks buffer usages itself: the barriers between a pass that writes a buffer and a later
 //! pass, copy or indirect dispatch that reads it are inserted automatically, within one command
 //! encoder and across submissions on the same queue.
 //!
 //! Source layout, one responsibility per module: `executor` (device setup, the embedding API and
-//! the [`Executor`](vrrt_core::executor::Executor) impl), `buffers`, `pipelines`, `dispatch`
+//! the [`Executor`](vrrt_core::executor::Executor) impl), `buffers`, `textures`, `pipelines`, `dispatch`
 //! (recording passes), `submit` (submission and readback), `timings` (GPU timestamps), `error`,
 //! and [`validation`] (counting validation errors).
 
@@ -32,6 +33,7 @@ mod error;
 mod executor;
 mod pipelines;
 mod submit;
+mod textures;
 mod timings;
 pub mod validation;
 

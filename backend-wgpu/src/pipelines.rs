@@ -1,11 +1,12 @@
 //! Compute pipelines: the embedded SPIR-V module (loaded once, on first use) and one pipeline
 //! with its bind group layout per kernel entry point, created on first use and cached. Layouts
-//! follow the kernel's bindings (read-only storage unless the kernel may write the buffer).
+//! follow the kernel's bindings (read-only storage unless the kernel may write the buffer; a
+//! sampled texture where it reads the engine's).
 
 use std::borrow::Cow;
 
 use crate::{WgpuError, WgpuExecutor, SPIRV};
-use vrrt_core::executor::KernelDesc;
+use vrrt_core::executor::{Access, KernelDesc};
 
 /// A cached pipeline with its bind group layout.
 pub(crate) struct Kernel {
@@ -49,12 +50,19 @@ impl WgpuExecutor {
             .map(|(i, binding)| wgpu::BindGroupLayoutEntry {
                 binding: i as u32,
                 visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage {
-                        read_only: !binding.access.writes(),
+                ty: match binding.access {
+                    Access::Sampled => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
                     },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
+                    _ => wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage {
+                            read_only: !binding.access.writes(),
+                        },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
                 },
                 count: None,
             })

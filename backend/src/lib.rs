@@ -4,6 +4,9 @@
 //! ash finds, and otherwise the CPU backend: a software Vulkan device (lavapipe) is slower than the
 //! native CPU backend, so it is only used when asked for by name.
 
+mod textures;
+pub use textures::TextureFormat;
+
 use std::fmt;
 use std::sync::Arc;
 use vrrt_ash::{AdapterType, AshExecutor, AshOptions};

@@ -41,7 +41,7 @@ macro_rules! kernel_table {
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
-            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
@@ -54,7 +54,7 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [lanes $lanes [$($wide)?] ($($kfn)::+)]
                 ($x, $y, $z) [$params]]
-            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
@@ -66,45 +66,61 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
                 [$params]]
-            [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
     };
-    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: read $bt:ty, $($more:tt)*]
+    (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
+        [$bn:ident: read $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Read read [] $bt)] [$($ns)*]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Read read [] buffer $bt)]
+            [$($f)* ($bn [] $bt)] $t [$($ns)*]
             [$($more)*] $($rest)*);
     };
-    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: write $bt:ty, $($more:tt)*]
+    (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
+        [$bn:ident: write $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [mut] $bt)]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Write write [mut] buffer $bt)]
+            [$($f)* ($bn [mut] $bt)] $t
             [$($ns)*] [$($more)*] $($rest)*);
     };
-    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: update $bt:ty, $($more:tt)*]
+    (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
+        [$bn:ident: update $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Update write [mut] $bt)]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Update write [mut] buffer $bt)]
+            [$($f)* ($bn [mut] $bt)] $t
             [$($ns)*] [$($more)*] $($rest)*);
     };
-    (@bind $done:tt $head:tt [$($z:tt)*] [$n:tt $($ns:tt)*] [$bn:ident: atomic $bt:ty, $($more:tt)*]
+    (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
+        [$bn:ident: atomic $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
-        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [mut] $bt)]
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Atomic write [mut] buffer $bt)]
+            [$($f)* ($bn [mut] $bt)] $t
             [$($ns)*] [$($more)*] $($rest)*);
     };
-    (@bind [$($done:tt)*] [$($head:tt)*] [$($z:tt)*] $ns:tt [] $($rest:tt)*) => {
-        $crate::kernel_table!(@kernels [$($done)* {$($head)* [$($z)*]}] $($rest)*);
+    (@bind $done:tt $head:tt [$($z:tt)*] $f:tt [$($t:tt)*] [$n:tt $($ns:tt)*]
+        [$bn:ident: sampled $bt:ty, $($more:tt)*]
+        $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Sampled read [] texture $bt)] $f
+            [$($t)* $bn]
+            [$($ns)*] [$($more)*] $($rest)*);
+    };
+    (@bind [$($done:tt)*] [$($head:tt)*] $z:tt $f:tt $t:tt $ns:tt [] $($rest:tt)*) => {
+        $crate::kernel_table!(@kernels [$($done)* {$($head)* $z $f $t}] $($rest)*);
     };
 
     // ---- everything derived from the normalised entries ----
     (@emit $({
         [$($doc:tt)*] $entry:ident $desc:ident $binds:ident $io:ident [$($kind:tt)*]
         ($x:tt, $y:tt, $z:tt) [$params:ty]
-        [$(($n:tt $bn:ident $acc:ident $method:ident [$($m:tt)?] $bt:ty))*]
+        [$(($n:tt $bn:ident $acc:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
+        [$(($fname:ident [$($fm:tt)?] $ft:ty))*] [$($tname:ident)*]
     })*) => {
         $(
             #[doc = concat!("The storage buffers of `", stringify!($entry),
                 "` as the kernel function sees them.")]
             pub struct $io<'a> {
                 $(
-                    #[doc = concat!("Binding `", stringify!($bn), "` (", stringify!($acc), ").")]
-                    pub $bn: &'a $($m)? [$bt],
+                    #[doc = concat!("Binding `", stringify!($fname), "`.")]
+                    pub $fname: &'a $($fm)? [$ft],
                 )*
             }
 
@@ -121,7 +137,7 @@ macro_rules! kernel_table {
                 }),*],
                 params_size: core::mem::size_of::<$params>() as u32,
                 cpu: $crate::kernel_table!(@cpu [$($kind)*] ($x, $y, $z) $io [$params]
-                    [$(($n $bn $method [$($m)?] $bt))*]),
+                    [$(($n $bn $method [$($m)?] $bk $bt))*] [$(($fname [$($fm)?]))*] [$($tname)*]),
             };
 
             #[doc = concat!("The buffers of one `", stringify!($entry), "` pass, by binding name.")]
@@ -193,7 +209,7 @@ macro_rules! kernel_table {
                 use $crate::kernels::names::*;
                 $(
                     $crate::kernel_table!(@entry [$($kind)*] $entry $io ($x, $y, $z) [$params]
-                        [$(($n $bn [$($m)?] $bt))*]);
+                        [$(($n $bn [$($m)?] $bk $bt))*] [$($fname)*] [$($tname)*]);
                 )*
             };
         }
@@ -201,21 +217,24 @@ macro_rules! kernel_table {
 
     // ---- the native runner of a run of workgroups ----
     (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
-        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
+        [$(($fname:ident [$($fm:tt)?]))*] [$($tname:ident)*]) => {{
         unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             for group in span.groups() {
                 b.for_each_invocation(group, |id| {
-                    $kfn(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                    $kfn(id, &params, $io { $($fname: &$($fm)? *$fname),* }
+                        $(, $crate::inputs::Texture::new($tname))*);
                 });
             }
         }
         run
     }};
     (@cpu [lanes $lanes:tt [$($wide:tt)?] ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident
-        [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+        [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
+        [$(($fname:ident [$($fm:tt)?]))*] []) => {{
         #[inline(always)]
         unsafe fn lanes<const L: usize>(
             span: $crate::executor::GroupSpan,
@@ -292,7 +311,8 @@ macro_rules! kernel_table {
         }
     };
     (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
-        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bt:ty))*]) => {{
+        [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
+        [$(($fname:ident [$($fm:tt)?]))*] []) => {{
         unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
@@ -324,18 +344,35 @@ macro_rules! kernel_table {
 
     // ---- the SPIR-V entry point ----
     (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
-        [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt $t:tt) => {
+        $crate::kernel_table!(@fn_params [$kfn, $entry, $io, ($x, $y, $z), $params, $f, $t] []
+            $(($n $bn [$($m)?] $bk $bt))*);
+    };
+    // The parameters of a `fn` kernel's entry, one binding at a time: a storage buffer, or a
+    // sampled image for a `sampled` binding (`crate::inputs::Texture`).
+    (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] buffer $bt:ty) $($rest:tt)*) => {
+        $crate::kernel_table!(@fn_params $head [$($done)*
+            #[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],]
+            $($rest)*);
+    };
+    (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] texture $bt:ty) $($rest:tt)*) => {
+        $crate::kernel_table!(@fn_params $head [$($done)*
+            #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::inputs::SampledImage,]
+            $($rest)*);
+    };
+    (@fn_params [$kfn:path, $entry:ident, $io:ident, ($x:tt, $y:tt, $z:tt), $params:ty,
+        [$($fname:ident)*], [$($tname:ident)*]] [$($done:tt)*]) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
             #[spirv(push_constant)] params: &$params,
-            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
+            $($done)*
         ) {
-            $kfn(id, params, $crate::kernels::$io { $($bn),* });
+            $kfn(id, params, $crate::kernels::$io { $($fname),* } $(, $tname)*);
         }
     };
     (@entry [lanes $lanes:tt $wide:tt ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
-        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt []) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
@@ -346,7 +383,7 @@ macro_rules! kernel_table {
         }
     };
     (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
-        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bt:ty))*]) => {
+        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt []) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,

@@ -40,6 +40,7 @@ pub mod denoiser;
 pub mod executor;
 #[cfg(not(target_arch = "spirv"))]
 pub mod frame;
+pub mod inputs;
 pub mod kernels;
 pub mod lanes;
 #[cfg(not(target_arch = "spirv"))]

@@ -65,6 +65,7 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         Tolerance::DEFAULT,
     ),
     ("fill", fill_case, Tolerance::DEFAULT),
+    ("ingest", crate::ingest_cases::ingest_case, DECIDED),
     ("copy", copy_case, Tolerance::DEFAULT),
     ("gbuffer", crate::trace_cases::gbuffer_case, DECIDED),
     (

@@ -16,12 +16,15 @@ mod balance_cases;
 pub mod cases;
 mod filter_cases;
 pub mod gradient_cases;
+pub mod ingest_cases;
 pub mod inputs;
 pub mod reflect_cases;
 pub mod spirv;
 pub mod trace_cases;
 
-use vrrt_core::executor::{Executor, Groups, KernelDesc, Pass};
+use vrrt_backend::{Backend, TextureFormat};
+use vrrt_core::executor::{BufferId, Executor, Groups, KernelDesc, Pass};
+use vrrt_core::inputs::Texel;
 
 /// How to compare one 4-byte word of a buffer.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -110,6 +113,9 @@ pub struct BufferSpec {
     /// history drops, the GGX acceptance): an input one ULP away may flip one, so up to
     /// [`Tolerance::decided`] of them may differ.
     pub decided: bool,
+    /// An engine texture (`width`, `height`, format) of [`Texel`]s instead of a storage buffer,
+    /// for `Access::Sampled` bindings: inputs only, never read back.
+    pub texture: Option<(u32, u32, TextureFormat)>,
 }
 
 impl BufferSpec {
@@ -120,6 +126,15 @@ impl BufferSpec {
             layout,
             unordered: false,
             decided: false,
+            texture: None,
+        }
+    }
+
+    /// An engine texture of `format` holding `texels`, row-major.
+    pub fn texture(width: u32, height: u32, format: TextureFormat, texels: &[Texel]) -> Self {
+        BufferSpec {
+            texture: Some((width, height, format)),
+            ..Self::from_pod(texels, layouts::FLOATS)
         }
     }
 
@@ -151,12 +166,56 @@ pub struct Case {
     pub groups: [u32; 3],
 }
 
-/// Runs `case` on `exec` and returns every buffer's final contents.
-pub fn run_case<E: Executor>(exec: &mut E, case: &Case) -> Result<Vec<Vec<u32>>, E::Error> {
+/// An executor that can also hold an engine texture made from host texels.
+pub trait Host: Executor {
+    /// A `width × height` texture of `format` holding `texels` (see
+    /// [`Backend::create_texture`]).
+    fn texture(
+        &mut self,
+        width: u32,
+        height: u32,
+        format: TextureFormat,
+        texels: &[Texel],
+    ) -> Result<BufferId, Self::Error>;
+}
+
+impl Host for vrrt_cpu::CpuExecutor {
+    fn texture(
+        &mut self,
+        width: u32,
+        height: u32,
+        format: TextureFormat,
+        texels: &[Texel],
+    ) -> Result<BufferId, Self::Error> {
+        let fetched: Vec<Texel> = texels.iter().map(|&t| format.fetched(t)).collect();
+        self.create_texture(width, height, &fetched)
+    }
+}
+
+impl Host for Backend {
+    fn texture(
+        &mut self,
+        width: u32,
+        height: u32,
+        format: TextureFormat,
+        texels: &[Texel],
+    ) -> Result<BufferId, Self::Error> {
+        self.create_texture(width, height, format, texels)
+    }
+}
+
+/// Runs `case` on `exec` and returns every buffer's final contents (a texture's: its texels).
+pub fn run_case<E: Host>(exec: &mut E, case: &Case) -> Result<Vec<Vec<u32>>, E::Error> {
     let mut ids = Vec::with_capacity(case.buffers.len());
     for spec in &case.buffers {
-        let id = exec.create_buffer(spec.data.len().max(1) as u64 * 4)?;
-        exec.write_buffer(id, bytemuck::cast_slice(&spec.data))?;
+        let id = match spec.texture {
+            Some((w, h, format)) => exec.texture(w, h, format, bytemuck::cast_slice(&spec.data))?,
+            None => {
+                let id = exec.create_buffer(spec.data.len().max(1) as u64 * 4)?;
+                exec.write_buffer(id, bytemuck::cast_slice(&spec.data))?;
+                id
+            }
+        };
         ids.push(id);
     }
     exec.dispatch(&Pass {
@@ -167,6 +226,10 @@ pub fn run_case<E: Executor>(exec: &mut E, case: &Case) -> Result<Vec<Vec<u32>>,
     })?;
     let mut out = Vec::with_capacity(ids.len());
     for (id, spec) in ids.iter().zip(&case.buffers) {
+        if spec.texture.is_some() {
+            out.push(spec.data.clone());
+            continue;
+        }
         let mut words = vec![0u32; spec.data.len()];
         exec.read_buffer(*id, bytemuck::cast_slice_mut(&mut words))?;
         out.push(words);
@@ -426,6 +489,7 @@ pub fn compare_words(
         layout,
         unordered: false,
         decided: false,
+        texture: None,
     };
     let mut r = Report::default();
     let n = layout.len();

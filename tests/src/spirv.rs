@@ -1,6 +1,7 @@
 //! Just enough SPIR-V reflection to check that the shipped module matches the kernel
 //! descriptions in `vrrt-core`: every entry point exists, with the same workgroup size, the same
-//! storage-buffer bindings, and push constants exactly when the kernel declares parameters.
+//! storage-buffer and texture bindings, and push constants exactly when the kernel declares
+//! parameters.
 
 use std::collections::{BTreeSet, HashMap};
 
@@ -13,6 +14,8 @@ pub struct EntryPoint {
     pub local_size: [u32; 3],
     /// Storage-buffer bindings in descriptor set 0 used by the entry point.
     pub bindings: BTreeSet<u32>,
+    /// Image (texture) bindings in descriptor set 0 used by the entry point.
+    pub textures: BTreeSet<u32>,
     /// Whether the entry point uses a push-constant block.
     pub push_constants: bool,
 }
@@ -24,6 +27,7 @@ const OP_DECORATE: u16 = 71;
 const MODE_LOCAL_SIZE: u32 = 17;
 const DECORATION_BINDING: u32 = 33;
 const DECORATION_DESCRIPTOR_SET: u32 = 34;
+const STORAGE_UNIFORM_CONSTANT: u32 = 0;
 const STORAGE_PUSH_CONSTANT: u32 = 9;
 const STORAGE_STORAGE_BUFFER: u32 = 12;
 
@@ -98,6 +102,11 @@ pub fn entry_points(module: &[u8]) -> Result<Vec<EntryPoint>, String> {
                     Some(&STORAGE_STORAGE_BUFFER) if set.get(&var) == Some(&0) => {
                         if let Some(&b) = binding.get(&var) {
                             e.bindings.insert(b);
+                        }
+                    }
+                    Some(&STORAGE_UNIFORM_CONSTANT) if set.get(&var) == Some(&0) => {
+                        if let Some(&b) = binding.get(&var) {
+                            e.textures.insert(b);
                         }
                     }
                     Some(&STORAGE_PUSH_CONSTANT) => e.push_constants = true,

@@ -2,6 +2,7 @@
 
 use vrrt_tests::spirv::entry_points;
 
+use vrrt_core::executor::Access;
 use vrrt_spirv::SPIRV as MODULE;
 
 #[test]
@@ -22,11 +23,21 @@ fn every_kernel_desc_matches_its_entry_point() {
             "workgroup size of `{}`",
             kernel.entry
         );
-        let want: Vec<u32> = (0..kernel.bindings.len() as u32).collect();
+        let of_kind = |texture: bool| -> Vec<u32> {
+            (0..kernel.bindings.len() as u32)
+                .filter(|&i| (kernel.bindings[i as usize].access == Access::Sampled) == texture)
+                .collect()
+        };
         assert_eq!(
             e.bindings.iter().copied().collect::<Vec<_>>(),
-            want,
-            "bindings of `{}`",
+            of_kind(false),
+            "storage-buffer bindings of `{}`",
+            kernel.entry
+        );
+        assert_eq!(
+            e.textures.iter().copied().collect::<Vec<_>>(),
+            of_kind(true),
+            "texture bindings of `{}`",
             kernel.entry
         );
         assert_eq!(

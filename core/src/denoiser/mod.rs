@@ -37,6 +37,7 @@ use crate::blue_noise;
 use crate::buffers::{self, TooLarge};
 use crate::camera::View;
 use crate::executor::{BufferId, Executor, Groups};
+use crate::inputs::{ConventionError, InputConventions};
 use crate::kernels::gradient;
 use crate::kernels::{
     self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
@@ -107,6 +108,41 @@ pub struct Inputs {
     /// 2.5D motion to last frame as RGBA16F (`dx, dy` in pixels, view-depth change, 0), two
     /// `u32` per pixel.
     pub motion: BufferId,
+}
+
+/// The engine's own G-buffer textures, which [`Denoiser::ingest`] reads in the engine's
+/// conventions (`Access::Sampled` bindings: textures the backend imported, e.g.
+/// `WgpuExecutor::import_texture`, or `CpuExecutor::create_texture`). Built by
+/// [`EngineTextures::new`], which refuses conventions that cannot be decoded.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct EngineTextures {
+    depth: BufferId,
+    normal_roughness: BufferId,
+    motion: BufferId,
+    conventions: InputConventions,
+}
+
+impl EngineTextures {
+    /// Depth (red channel), normal + roughness and motion textures in `conventions`.
+    pub fn new(
+        depth: BufferId,
+        normal_roughness: BufferId,
+        motion: BufferId,
+        conventions: InputConventions,
+    ) -> Result<Self, ConventionError> {
+        conventions.validate()?;
+        Ok(EngineTextures {
+            depth,
+            normal_roughness,
+            motion,
+            conventions,
+        })
+    }
+
+    /// The conventions the textures are read in.
+    pub fn conventions(&self) -> &InputConventions {
+        &self.conventions
+    }
 }
 
 /// What the temporal-gradient prepass re-traces against: this frame's scene on the executor.
@@ -679,5 +715,27 @@ impl Denoiser {
         self.gradient_ran = false;
         self.detected = false;
         exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))
+    }
+
+    /// Decodes the engine's own G-buffer textures into this frame's [`Self::inputs`] (the `ingest`
+    /// pass), instead of the caller writing them: call it after [`Self::begin_frame`] (it reads
+    /// the cameras) and before [`Self::plan_rays`].
+    pub fn ingest<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        textures: &EngineTextures,
+    ) -> Result<(), E::Error> {
+        let params = textures.conventions.params(self.width, self.height);
+        let inputs = self.inputs();
+        let ingest = kernels::IngestBindings {
+            engine_depth: textures.depth,
+            engine_normal: textures.normal_roughness,
+            engine_motion: textures.motion,
+            view: self.view,
+            depth: inputs.depth,
+            normal_roughness: inputs.normal_roughness,
+            motion: inputs.motion,
+        };
+        exec.dispatch(&ingest.over_grid(&params, self.width, self.height, 1))
     }
 }

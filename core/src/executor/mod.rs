@@ -23,12 +23,16 @@ pub enum Access {
     /// Invocations contend through integer atomics (`crate::atomic`): counters, histograms,
     /// packed-key min/max.
     Atomic,
+    /// An engine texture, read by texel fetches ([`crate::inputs::Texture`]): a sampled 2D image
+    /// (float texels) on the GPU backends, a row-major slice of [`crate::inputs::Texel`]s on the
+    /// CPU.
+    Sampled,
 }
 
 impl Access {
     /// Whether the kernel may modify the buffer.
     pub fn writes(self) -> bool {
-        self != Access::Read
+        !matches!(self, Access::Read | Access::Sampled)
     }
 }
 
@@ -221,12 +225,21 @@ impl<'a> Pass<'a> {
     pub fn check(
         &self,
         mut buffer_size: impl FnMut(BufferId) -> Option<u64>,
+        is_texture: impl Fn(BufferId) -> bool,
     ) -> Result<(), ExecError> {
         self.validate().map_err(ExecError::Plan)?;
-        for (i, &id) in self.buffers.iter().enumerate() {
+        for (i, (&id, binding)) in self.buffers.iter().zip(self.kernel.bindings).enumerate() {
             buffer_size(id).ok_or(ExecError::UnknownBuffer(id))?;
             if self.buffers[..i].contains(&id) {
                 return Err(ExecError::AliasedBinding(id));
+            }
+            let texture = binding.access == Access::Sampled;
+            if is_texture(id) != texture {
+                return Err(ExecError::WrongKind {
+                    binding: binding.name,
+                    id,
+                    texture,
+                });
             }
         }
         if let Groups::Indirect { buffer, offset } = self.groups {
@@ -386,6 +399,16 @@ pub enum ExecError {
     /// The indirect-count buffer of a pass is also bound to a binding the pass writes (the counts
     /// would be read while the pass may change them).
     IndirectWritten(BufferId),
+    /// A storage buffer bound where the kernel reads a texture (`Access::Sampled`), or a
+    /// texture where it binds a buffer.
+    WrongKind {
+        /// The binding's name.
+        binding: &'static str,
+        /// What was bound.
+        id: BufferId,
+        /// Whether the binding takes a texture.
+        texture: bool,
+    },
 }
 
 impl ExecError {
@@ -438,6 +461,18 @@ impl fmt::Display for ExecError {
             ExecError::IndirectWritten(b) => write!(
                 f,
                 "buffer {b:?} holds the pass's indirect counts and is also written by the pass"
+            ),
+            ExecError::WrongKind {
+                binding,
+                id,
+                texture: true,
+            } => write!(
+                f,
+                "binding `{binding}` reads a texture, but {id:?} is a buffer"
+            ),
+            ExecError::WrongKind { binding, id, .. } => write!(
+                f,
+                "binding `{binding}` is a storage buffer, but {id:?} is a texture"
             ),
         }
     }

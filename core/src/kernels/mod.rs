@@ -14,6 +14,7 @@ pub mod detect;
 pub mod fill;
 pub mod gbuffer;
 pub mod gradient;
+pub mod ingest;
 pub mod penumbra;
 pub mod raygen;
 pub mod refill;
@@ -100,6 +101,7 @@ pub mod names {
     pub use super::reflect::RayHit;
     pub use super::*;
     pub use crate::camera::View;
+    pub use crate::inputs::{self, Texel};
     pub use crate::payload::{PackedFiltered, PackedPayload, PackedSample};
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 
@@ -145,6 +147,7 @@ pub mod names {
             "PackedFiltered" => "RG16F: value, variance",
             "GradientSample" => "RG32F: |change|, max",
             "View" => "two cameras (104 bytes)",
+            "Texel" => "engine texture: texel fetch (RGBA32F slice on the CPU)",
             "Balance" | "InstanceData" | "AreaLight" | "RayHit" | "BvhNode" | "Triangle"
             | "TriangleNormals" => "struct",
             _ => return None,

@@ -5,7 +5,8 @@
 //! { name: read|write|update|atomic ElementType, .. }`. Bindings are numbered in order; `write`
 //! means each invocation writes only elements it owns (without reading them), `update` that it
 //! reads and rewrites only elements it owns (in place), `atomic` that invocations contend through
-//! `crate::atomic`. Types are written `module::Type`, or bare when [`super::names`] lists them.
+//! `crate::atomic`, and `sampled` an engine texture read by texel fetches (`crate::inputs::Texture`;
+//! element type `Texel`, `fn` kernels only). Types are written `module::Type`, or bare when [`super::names`] lists them.
 
 use super::names::*;
 
@@ -76,6 +77,19 @@ crate::kernel_table! {
         normal_roughness: write NormalRoughness,
         motion: write Motion,
         geometry: write Geometry,
+    }
+
+    /// [`ingest::ingest`]: the engine's G-buffer textures (`crate::inputs::Texture`), in its
+    /// conventions, decoded into this frame's depth, normal + roughness and motion.
+    ingest => INGEST, IngestBindings, IngestIo: fn ingest::ingest,
+    threads(8, 8, 1), params inputs::IngestParams {
+        engine_depth: sampled Texel,
+        engine_normal: sampled Texel,
+        engine_motion: sampled Texel,
+        view: read View,
+        depth: write Depth,
+        normal_roughness: write NormalRoughness,
+        motion: write Motion,
     }
 
     /// [`raygen::raygen_ao`]: AO rays of the compacted work list; dispatch indirectly from `args`

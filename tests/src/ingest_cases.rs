@@ -1,0 +1,127 @@
+//! The `ingest` pass's case: the engine's textures in formats and conventions engines use, each
+//! size in a different set, with the sky, the far plane and the near plane among the depths.
+
+use crate::layouts::{FLOATS, INTS};
+use crate::{cases, inputs, BufferSpec, Case, Word};
+use rand::Rng;
+use rand_pcg::Pcg32;
+use vrrt_backend::TextureFormat;
+use vrrt_core::camera::Camera;
+use vrrt_core::glam::{Vec2, Vec3};
+use vrrt_core::inputs::{
+    DepthEncoding, InputConventions, MotionDepth, MotionSign, MotionUnits, NormalEncoding,
+    NormalSpace, Texel,
+};
+use vrrt_core::packing;
+
+/// A reversed-Z engine with view-space RGBA16F normals and UV velocities; a standard-Z engine
+/// with NRD's RGB10A2 normals and RG motion in NDC (no depth change); our own conventions.
+fn conventions(k: u32) -> (InputConventions, TextureFormat, TextureFormat) {
+    let ours = InputConventions::default();
+    match k {
+        0 => (
+            InputConventions {
+                depth: DepthEncoding::ReversedZ,
+                near: 0.05,
+                far: f32::INFINITY,
+                normal_space: NormalSpace::View,
+                motion_units: MotionUnits::Uv,
+                motion_sign: MotionSign::ToCurrent,
+                ..ours
+            },
+            TextureFormat::Rgba16Float,
+            TextureFormat::Rgba16Float,
+        ),
+        1 => (
+            InputConventions {
+                depth: DepthEncoding::StandardZ,
+                near: 0.5,
+                far: 500.0,
+                normal_encoding: NormalEncoding::Octahedral,
+                motion_units: MotionUnits::Ndc,
+                motion_depth: MotionDepth::Static,
+                ..ours
+            },
+            TextureFormat::Rgb10a2Unorm,
+            TextureFormat::Rg16Float,
+        ),
+        _ => (ours, TextureFormat::Rgba32Float, TextureFormat::Rgba16Float),
+    }
+}
+
+/// A random unit vector.
+fn direction(rng: &mut Pcg32) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
+            return v.normalize();
+        }
+    }
+}
+
+/// A normal texel of `encoding`.
+fn normal_texel(rng: &mut Pcg32, encoding: NormalEncoding) -> Texel {
+    let (n, r) = (direction(rng), rng.random_range(0.0..1.0f32));
+    match encoding {
+        NormalEncoding::Octahedral => {
+            let e = packing::oct_encode(n) * 0.5 + Vec2::splat(0.5);
+            [e.x, e.y, r, 1.0]
+        }
+        NormalEncoding::Unsigned => [n.x * 0.5 + 0.5, n.y * 0.5 + 0.5, n.z * 0.5 + 0.5, r],
+        NormalEncoding::Signed => [n.x, n.y, n.z, r],
+    }
+}
+
+/// A device or linear depth texel: mostly surfaces, with the sky and the planes' ends.
+fn depth_texel(rng: &mut Pcg32, c: &InputConventions) -> Texel {
+    let z = match (c.depth, rng.random_range(0..10)) {
+        (DepthEncoding::Linear, 0) => 0.0,
+        (DepthEncoding::Linear, _) => rng.random_range(0.1..80.0f32),
+        (DepthEncoding::ReversedZ, 0) => 0.0,
+        (DepthEncoding::StandardZ, 0) => 1.0,
+        (_, 1) => 1.0 - rng.random_range(0.0..1.0f32),
+        _ => rng.random_range(0.0..1.0f32),
+    };
+    [z, 0.0, 0.0, 1.0]
+}
+
+/// The `ingest` case at `w × h`; the conventions follow the size ([`crate::cases::SIZES`]: one
+/// pixel in our own, the odd size reversed-Z, the large one standard-Z).
+pub fn ingest_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let (c, normal_format, motion_format) = conventions(match w * h {
+        1 => 2,
+        n if n < 1000 => 0,
+        _ => 1,
+    });
+    let mut view = inputs::test_view();
+    view.prev_camera = Camera::look_at(Vec3::new(0.5, 0.2, 6.5), Vec3::ZERO, Vec3::Y, 0.9);
+    let n = (w * h) as usize;
+    let depth: Vec<Texel> = (0..n).map(|_| depth_texel(rng, &c)).collect();
+    let normals: Vec<Texel> = (0..n)
+        .map(|_| normal_texel(rng, c.normal_encoding))
+        .collect();
+    let motion: Vec<Texel> = (0..n)
+        .map(|_| [0.0; 4].map(|_: f32| rng.random_range(-0.05..0.05)))
+        .collect();
+    let params = c.params(w, h);
+    Case {
+        name: format!("ingest {w}x{h} ({:?} depth)", c.depth),
+        kernel: &vrrt_core::kernels::INGEST,
+        buffers: vec![
+            BufferSpec::texture(w, h, TextureFormat::R32Float, &depth),
+            BufferSpec::texture(w, h, normal_format, &normals),
+            BufferSpec::texture(w, h, motion_format, &motion),
+            inputs::view(&view),
+            BufferSpec::from_pod(&vec![0.0f32; n], FLOATS),
+            // A packed normal's codes round floats: one code apart is a decided difference.
+            BufferSpec::from_pod(&vec![0u32; n], INTS).decided(),
+            BufferSpec::from_pod(&vec![[0u32; 2]; n], &[Word::Half2, Word::HalfU16]),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: cases::groups(&vrrt_core::kernels::INGEST, w, h, 1),
+    }
+}

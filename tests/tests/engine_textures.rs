@@ -1,0 +1,182 @@
+//! The engine's own textures through `Denoiser::ingest`, on the CPU and on wgpu: a reversed-Z
+//! engine with view-space normals and UV velocities lands on the same inputs as the G-buffer
+//! written in our own formats, and a buffer bound where a texture belongs is refused.
+
+mod gpu;
+
+use vrrt_backend::{Backend, TextureFormat};
+use vrrt_core::camera::{Camera, View};
+use vrrt_core::denoiser::{Denoiser, EngineTextures, FrameInfo};
+use vrrt_core::executor::{ExecError, Executor};
+use vrrt_core::glam::Vec3;
+use vrrt_core::inputs::{
+    DepthEncoding, InputConventions, MotionSign, MotionUnits, NormalSpace, Texel,
+};
+use vrrt_core::packing::{pack_normal_roughness, unpack_motion, unpack_normal_roughness};
+use vrrt_core::settings::Settings;
+use vrrt_tests::Host;
+
+const W: u32 = 24;
+const H: u32 = 16;
+const NEAR: f32 = 0.1;
+
+fn view() -> View {
+    let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y, 0.8);
+    View {
+        camera,
+        prev_camera: camera,
+    }
+}
+
+/// Per pixel: view depth, world normal, linear roughness, motion in pixels to last frame.
+fn scene() -> Vec<(f32, Vec3, f32, [f32; 3])> {
+    (0..W * H)
+        .map(|i| {
+            let (x, y) = ((i % W) as f32, (i / W) as f32);
+            let n = Vec3::new(x - 12.0, 8.0, y - 8.0).normalize();
+            let depth = if i % 7 == 0 {
+                0.0
+            } else {
+                2.0 + 0.25 * x + 0.5 * y
+            };
+            (depth, n, 0.5, [0.25 * x - 3.0, 1.0 - 0.125 * y, 0.5])
+        })
+        .collect()
+}
+
+/// The same scene as a reversed-Z engine writes it: device depth, view-space normals, UV
+/// velocities (this frame minus last), the depth change with the velocity's sign.
+fn engine_textures(exec: &mut impl Host, view: &View) -> [vrrt_core::executor::BufferId; 3] {
+    let cam = &view.camera;
+    let (mut depth, mut normal, mut motion) = (Vec::<Texel>::new(), Vec::new(), Vec::new());
+    for (d, n, r, m) in scene() {
+        depth.push([if d > 0.0 { NEAR / d } else { 0.0 }, 0.0, 0.0, 1.0]);
+        let v = [n.dot(cam.right()), n.dot(cam.up()), -n.dot(cam.forward())];
+        normal.push([v[0], v[1], v[2], r]);
+        motion.push([-m[0] / W as f32, -m[1] / H as f32, -m[2], 0.0]);
+    }
+    let mut texture = |format, texels: &[Texel]| exec.texture(W, H, format, texels).unwrap();
+    [
+        texture(TextureFormat::R32Float, &depth),
+        texture(TextureFormat::Rgba32Float, &normal),
+        texture(TextureFormat::Rgba32Float, &motion),
+    ]
+}
+
+fn conventions() -> InputConventions {
+    InputConventions {
+        depth: DepthEncoding::ReversedZ,
+        near: NEAR,
+        normal_space: NormalSpace::View,
+        motion_units: MotionUnits::Uv,
+        motion_sign: MotionSign::ToCurrent,
+        ..InputConventions::default()
+    }
+}
+
+/// The inputs `ingest` wrote: depth, normal + roughness and motion words.
+fn ingested<E: Host>(exec: &mut E) -> (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)
+where
+    E::Error: std::fmt::Debug,
+{
+    let mut denoiser = Denoiser::new(exec, W, H, Settings::default()).unwrap();
+    let frame = FrameInfo {
+        reset: true,
+        view: view(),
+        ..FrameInfo::default()
+    };
+    denoiser.begin_frame(exec, frame).unwrap();
+    let [d, n, m] = engine_textures(exec, &frame.view);
+    let textures = EngineTextures::new(d, n, m, conventions()).unwrap();
+    denoiser.ingest(exec, &textures).unwrap();
+    let inputs = denoiser.inputs();
+    let n = (W * H) as usize;
+    let (mut depth, mut normal, mut motion) = (vec![0f32; n], vec![0u32; n], vec![[0u32; 2]; n]);
+    exec.read_buffer(inputs.depth, bytemuck::cast_slice_mut(&mut depth))
+        .unwrap();
+    exec.read_buffer(
+        inputs.normal_roughness,
+        bytemuck::cast_slice_mut(&mut normal),
+    )
+    .unwrap();
+    exec.read_buffer(inputs.motion, bytemuck::cast_slice_mut(&mut motion))
+        .unwrap();
+    (depth, normal, motion)
+}
+
+/// Within what the formats hold: depth to 1e-5, normals to a tenth of their 11-bit code spacing,
+/// motion to binary16's precision.
+fn check(name: &str, (depth, normal, motion): (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)) {
+    for (i, (d, n, r, m)) in scene().into_iter().enumerate() {
+        assert!(
+            (depth[i] - d).abs() <= 1e-5 * d,
+            "{name}: depth {i}: {} vs {d}",
+            depth[i]
+        );
+        let (got_n, got_alpha) = unpack_normal_roughness(normal[i]);
+        let (want_n, want_alpha) = unpack_normal_roughness(pack_normal_roughness(n, r * r));
+        assert!(
+            got_n.dot(want_n) > 0.99999,
+            "{name}: normal {i}: {got_n} vs {want_n}"
+        );
+        assert!(
+            (got_alpha - want_alpha).abs() < 1e-6,
+            "{name}: roughness {i}"
+        );
+        let (got_m, want_m) = (unpack_motion(motion[i]), Vec3::from_array(m));
+        let err = (got_m - want_m).abs().max_element();
+        assert!(
+            err <= 2e-3 * want_m.abs().max_element(),
+            "{name}: motion {i}: {got_m} vs {want_m}"
+        );
+    }
+}
+
+#[test]
+fn a_reversed_z_engine_lands_on_our_own_inputs() {
+    check("cpu", ingested(&mut vrrt_cpu::CpuExecutor::new()));
+    let mut backends = gpu::backends();
+    for b in backends.iter_mut() {
+        if matches!(b, Backend::Ash(_)) {
+            println!("ash: skipped: no texture bindings on ash yet");
+            continue;
+        }
+        let name = b.name();
+        check(name, ingested(b));
+    }
+    let failures = gpu::validation_failures(&backends);
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+#[test]
+fn a_buffer_where_a_texture_belongs_is_refused() {
+    let mut cpu = vrrt_cpu::CpuExecutor::new();
+    let mut denoiser = Denoiser::new(&mut cpu, W, H, Settings::default()).unwrap();
+    let buffer = cpu.create_buffer((W * H * 16) as u64).unwrap();
+    let [_, n, m] = engine_textures(&mut cpu, &view());
+    let textures = EngineTextures::new(buffer, n, m, conventions()).unwrap();
+    let e = denoiser.ingest(&mut cpu, &textures).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ExecError::WrongKind {
+                binding: "engine_depth",
+                texture: true,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("reads a texture"), "{e}");
+}
+
+#[test]
+fn conventions_that_cannot_be_decoded_are_refused_before_any_work() {
+    let id = vrrt_core::executor::BufferId(0);
+    let bad = InputConventions {
+        far: NEAR,
+        ..conventions()
+    };
+    let e = EngineTextures::new(id, id, id, bad).unwrap_err();
+    assert!(e.to_string().contains("`far` must be > near"), "{e}");
+}
