@@ -36,7 +36,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 28;
+pub const DENOISER_BUFFERS: usize = 29;
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
 pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
@@ -91,6 +91,12 @@ pub fn denoiser_buffers(
         size("normal_roughness", 2, bytes(pixels, 4), "NormalRoughness"),
         size("motion", 1, bytes(pixels, 8), "Motion"),
         size("view", 1, size_of::<View>() as u64, "View"),
+        size(
+            "conventions",
+            1,
+            size_of::<crate::inputs::IngestParams>() as u64,
+            "IngestParams",
+        ),
         size(
             "history",
             2,

@@ -41,7 +41,7 @@ macro_rules! kernel_table {
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [fn ($($kfn)::+)] ($x, $y, $z) [$params]]
-            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
@@ -54,7 +54,7 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [lanes $lanes [$($wide)?] ($($kfn)::+)]
                 ($x, $y, $z) [$params]]
-            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
@@ -66,7 +66,7 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@bind [$($done)*]
             [[$(#[$doc])*] $entry $desc $binds $io [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
                 [$params]]
-            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15] [$($bn: $ba $bt,)*] $($rest)*);
+            [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
         [$bn:ident: read $bt:ty, $($more:tt)*]
@@ -234,7 +234,7 @@ macro_rules! kernel_table {
     }};
     (@cpu [lanes $lanes:tt [$($wide:tt)?] ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident
         [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
-        [$(($fname:ident [$($fm:tt)?]))*] []) => {{
+        [$(($fname:ident [$($fm:tt)?]))*] [$($tname:ident)*]) => {{
         #[inline(always)]
         unsafe fn lanes<const L: usize>(
             span: $crate::executor::GroupSpan,
@@ -260,7 +260,8 @@ macro_rules! kernel_table {
                     let mut x = x_start;
                     while x < x_end {
                         let id = $crate::glam::UVec3::new(x, span.y * $y + y, span.z * $z + z);
-                        $($kfn)::+::<L>(id, &params, $io { $($bn: &$($m)? *$bn),* });
+                        $($kfn)::+::<L>(id, &params, $io { $($fname: &$($fm)? *$fname),* }
+                            $(, $crate::inputs::Texture::new($tname))*);
                         x += L as u32;
                     }
                 }
@@ -345,11 +346,12 @@ macro_rules! kernel_table {
     // ---- the SPIR-V entry point ----
     (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
         [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt $t:tt) => {
-        $crate::kernel_table!(@fn_params [$kfn, $entry, $io, ($x, $y, $z), $params, $f, $t] []
+        $crate::kernel_table!(@fn_params [($kfn), $entry, $io, ($x, $y, $z), $params, $f, $t] []
             $(($n $bn [$($m)?] $bk $bt))*);
     };
-    // The parameters of a `fn` kernel's entry, one binding at a time: a storage buffer, or a
-    // sampled image for a `sampled` binding (`crate::inputs::Texture`).
+    // The parameters of a `fn` or `lanes` kernel's entry (`lanes` calls `f::<1>`), one binding
+    // at a time: a storage buffer, or a sampled image for a `sampled` binding
+    // (`crate::inputs::Fetch`).
     (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] buffer $bt:ty) $($rest:tt)*) => {
         $crate::kernel_table!(@fn_params $head [$($done)*
             #[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],]
@@ -360,27 +362,23 @@ macro_rules! kernel_table {
             #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::inputs::SampledImage,]
             $($rest)*);
     };
-    (@fn_params [$kfn:path, $entry:ident, $io:ident, ($x:tt, $y:tt, $z:tt), $params:ty,
+    (@fn_params [$callee:tt, $entry:ident, $io:ident, ($x:tt, $y:tt, $z:tt), $params:ty,
         [$($fname:ident)*], [$($tname:ident)*]] [$($done:tt)*]) => {
+        // One parameter per descriptor binding: the entry point's interface, not a design choice.
+        #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
             #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
             #[spirv(push_constant)] params: &$params,
             $($done)*
         ) {
-            $kfn(id, params, $crate::kernels::$io { $($fname),* } $(, $tname)*);
+            $callee(id, params, $crate::kernels::$io { $($fname),* } $(, $tname)*);
         }
     };
     (@entry [lanes $lanes:tt $wide:tt ($($kfn:ident)::+)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
-        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt []) => {
-        #[spirv(compute(threads($x, $y, $z)))]
-        pub fn $entry(
-            #[spirv(global_invocation_id)] id: $crate::glam::UVec3,
-            #[spirv(push_constant)] params: &$params,
-            $(#[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],)*
-        ) {
-            $($kfn)::+::<1>(id, params, $crate::kernels::$io { $($bn),* });
-        }
+        [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt $t:tt) => {
+        $crate::kernel_table!(@fn_params [($($kfn)::+::<1>), $entry, $io, ($x, $y, $z), $params, $f, $t]
+            [] $(($n $bn [$($m)?] $bk $bt))*);
     };
     (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
         [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt []) => {

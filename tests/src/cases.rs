@@ -35,6 +35,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
     ),
     ("count_buckets", buckets_case, Tolerance::DEFAULT),
     ("reproject", reproject_case, Tolerance::DEFAULT),
+    (
+        "reproject_engine",
+        crate::ingest_cases::reproject_engine_case,
+        DECIDED,
+    ),
     ("variance", crate::filter_cases::variance_case, DECIDED),
     (
         "balance",
@@ -402,7 +407,7 @@ pub(crate) fn surfaces(rng: &mut Pcg32, w: u32, h: u32) -> Vec<Surface> {
         .collect()
 }
 
-fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+pub(crate) fn reproject_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let mut current = surfaces(rng, w, h);
     for s in &mut current {
         // Motion of up to 1.5 pixels, sometimes far off screen.

@@ -125,3 +125,72 @@ pub fn ingest_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         groups: cases::groups(&vrrt_core::kernels::INGEST, w, h, 1),
     }
 }
+
+/// `reproject`'s case with this frame's inputs as the engine's textures in our own conventions
+/// (f32 texels, so they decode to the same words), plus the decoded inputs it writes.
+pub fn reproject_engine_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let base = cases::reproject_case(rng, w, h);
+    let depth: &[f32] = bytemuck::cast_slice(&base.buffers[0].data);
+    let normals: &[u32] = &base.buffers[1].data;
+    let motion: &[[u32; 2]] = bytemuck::cast_slice(&base.buffers[2].data);
+    let depth: Vec<Texel> = depth.iter().map(|&d| [d, 0.0, 0.0, 1.0]).collect();
+    let normals: Vec<Texel> = normals
+        .iter()
+        .map(|&w| {
+            let (n, alpha) = packing::unpack_normal_roughness(w);
+            [n.x, n.y, n.z, alpha.sqrt()]
+        })
+        .collect();
+    let motion: Vec<Texel> = motion
+        .iter()
+        .map(|&m| packing::unpack_motion(m).extend(0.0).to_array())
+        .collect();
+    let n = (w * h) as usize;
+    let conventions = InputConventions::default().params(w, h);
+    let mut buffers = vec![
+        BufferSpec::texture(w, h, TextureFormat::R32Float, &depth),
+        BufferSpec::texture(w, h, TextureFormat::Rgba32Float, &normals),
+        BufferSpec::texture(w, h, TextureFormat::Rgba32Float, &motion),
+        BufferSpec::from_pod(std::slice::from_ref(&conventions), INTS),
+        BufferSpec::from_pod(&vec![0.0f32; n], FLOATS),
+        BufferSpec::from_pod(&vec![0u32; n], INTS).decided(),
+        BufferSpec::from_pod(&vec![[0u32; 2]; n], &[Word::Half2, Word::HalfU16]),
+    ];
+    buffers.extend(base.buffers[3..].iter().cloned());
+    Case {
+        name: base.name.replace("reproject", "reproject_engine"),
+        kernel: &vrrt_core::kernels::REPROJECT_ENGINE,
+        buffers,
+        ..base
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cases::rng;
+
+    /// Reading the inputs from textures in our own conventions changes nothing: the reprojected
+    /// history and the requests are those of `reproject` over the same inputs, word for word,
+    /// and the decoded inputs are the words `reproject` read (normals as directions: the two
+    /// octahedral corners of −z are one normal).
+    #[test]
+    fn reprojection_from_textures_is_reprojection() {
+        for (i, &(w, h)) in cases::SIZES.iter().enumerate() {
+            let plain = cases::reproject_case(&mut rng(50 + i as u64), w, h);
+            let engine = reproject_engine_case(&mut rng(50 + i as u64), w, h);
+            let mut cpu = vrrt_cpu::CpuExecutor::new();
+            let a = crate::run_case(&mut cpu, &plain).unwrap();
+            let b = crate::run_case(&mut cpu, &engine).unwrap();
+            let (out, requests) = (a.len() - 2, a.len() - 1);
+            assert_eq!(a[out], b[b.len() - 2], "{w}x{h}: history");
+            assert_eq!(a[requests], b[b.len() - 1], "{w}x{h}: requests");
+            assert_eq!(plain.buffers[0].data, b[4], "{w}x{h}: depth");
+            assert_eq!(plain.buffers[2].data, b[6], "{w}x{h}: motion");
+            for (&p, &e) in plain.buffers[1].data.iter().zip(&b[5]) {
+                let (p, e) = (packing::unpack_normal(p), packing::unpack_normal(e));
+                assert!(p.dot(e) > 0.99999, "{w}x{h}: normal {p} vs {e}");
+            }
+        }
+    }
+}

@@ -1,6 +1,7 @@
 //! The engine's own textures through `Denoiser::ingest`, on the CPU and on wgpu: a reversed-Z
 //! engine with view-space normals and UV velocities lands on the same inputs as the G-buffer
-//! written in our own formats, and a buffer bound where a texture belongs is refused.
+//! written in our own formats, decoded by reprojection or (before an earlier reader) by the
+//! `ingest` pass, and a buffer bound where a texture belongs is refused.
 
 mod gpu;
 
@@ -74,12 +75,16 @@ fn conventions() -> InputConventions {
     }
 }
 
-/// The inputs `ingest` wrote: depth, normal + roughness and motion words.
-fn ingested<E: Host>(exec: &mut E) -> (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)
+/// The inputs decoded from the engine's textures once the rays are planned: depth, normal +
+/// roughness and motion words. With the gradient prepass on (`prepass_stratum` > 0) the inputs
+/// are read before reprojection, so the `ingest` pass decodes them; otherwise reprojection does.
+fn ingested<E: Host>(exec: &mut E, prepass_stratum: u32) -> (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)
 where
     E::Error: std::fmt::Debug,
 {
-    let mut denoiser = Denoiser::new(exec, W, H, Settings::default()).unwrap();
+    let mut settings = Settings::default();
+    settings.prepass.stratum = prepass_stratum;
+    let mut denoiser = Denoiser::new(exec, W, H, settings).unwrap();
     let frame = FrameInfo {
         reset: true,
         view: view(),
@@ -89,6 +94,7 @@ where
     let [d, n, m] = engine_textures(exec, &frame.view);
     let textures = EngineTextures::new(d, n, m, conventions()).unwrap();
     denoiser.ingest(exec, &textures).unwrap();
+    denoiser.plan_rays(exec).unwrap();
     let inputs = denoiser.inputs();
     let n = (W * H) as usize;
     let (mut depth, mut normal, mut motion) = (vec![0f32; n], vec![0u32; n], vec![[0u32; 2]; n]);
@@ -134,7 +140,9 @@ fn check(name: &str, (depth, normal, motion): (Vec<f32>, Vec<u32>, Vec<[u32; 2]>
 
 #[test]
 fn a_reversed_z_engine_lands_on_our_own_inputs() {
-    check("cpu", ingested(&mut vrrt_cpu::CpuExecutor::new()));
+    for stratum in [0, 2] {
+        check("cpu", ingested(&mut vrrt_cpu::CpuExecutor::new(), stratum));
+    }
     let mut backends = gpu::backends();
     for b in backends.iter_mut() {
         if matches!(b, Backend::Ash(_)) {
@@ -142,7 +150,9 @@ fn a_reversed_z_engine_lands_on_our_own_inputs() {
             continue;
         }
         let name = b.name();
-        check(name, ingested(b));
+        for stratum in [0, 2] {
+            check(name, ingested(b, stratum));
+        }
     }
     let failures = gpu::validation_failures(&backends);
     assert!(failures.is_empty(), "{failures:?}");
@@ -155,7 +165,8 @@ fn a_buffer_where_a_texture_belongs_is_refused() {
     let buffer = cpu.create_buffer((W * H * 16) as u64).unwrap();
     let [_, n, m] = engine_textures(&mut cpu, &view());
     let textures = EngineTextures::new(buffer, n, m, conventions()).unwrap();
-    let e = denoiser.ingest(&mut cpu, &textures).unwrap_err();
+    denoiser.ingest(&mut cpu, &textures).unwrap();
+    let e = denoiser.plan_rays(&mut cpu).unwrap_err();
     assert!(
         matches!(
             e,

@@ -239,6 +239,10 @@ pub struct Denoiser {
     normal_roughness: [BufferId; 2],
     motion: BufferId,
     view: BufferId,
+    /// The engine textures' conventions (`IngestParams`), for `reproject_engine`.
+    conventions: BufferId,
+    /// The engine's textures this frame, read by reprojection ([`Self::ingest`]).
+    engine: Option<EngineTextures>,
     history: [BufferId; 2],
     samples: BufferId,
     filtered: [BufferId; 2],
@@ -338,6 +342,8 @@ impl Denoiser {
             normal_roughness: id("normal_roughness"),
             motion: id("motion")[0],
             view: id("view")[0],
+            conventions: id("conventions")[0],
+            engine: None,
             history: id("history"),
             samples: id("samples")[0],
             filtered: id("filtered"),
@@ -714,18 +720,29 @@ impl Denoiser {
         self.frame = frame;
         self.gradient_ran = false;
         self.detected = false;
+        self.engine = None;
         exec.write_buffer(self.view, bytemuck::bytes_of(&frame.view))
     }
 
-    /// Decodes the engine's own G-buffer textures into this frame's [`Self::inputs`] (the `ingest`
-    /// pass), instead of the caller writing them: call it after [`Self::begin_frame`] (it reads
-    /// the cameras) and before [`Self::plan_rays`].
+    /// Takes this frame's inputs from the engine's own G-buffer textures, in its conventions,
+    /// instead of the caller writing [`Self::inputs`]: call it after [`Self::begin_frame`] (the
+    /// decode reads the cameras) and before anything that reads the inputs. Reprojection, their
+    /// first reader, decodes them and writes the denoiser's own inputs on the way (no pass of its
+    /// own); where the reflections' passes or the gradient prepass read the inputs before it,
+    /// the `ingest` pass decodes them now.
     pub fn ingest<E: Executor>(
         &mut self,
         exec: &mut E,
         textures: &EngineTextures,
     ) -> Result<(), E::Error> {
         let params = textures.conventions.params(self.width, self.height);
+        let read_before_reprojection =
+            self.layout.parallax_plane.is_some() || self.settings.prepass.stratum > 0;
+        if !read_before_reprojection {
+            exec.write_buffer(self.conventions, bytemuck::bytes_of(&params))?;
+            self.engine = Some(*textures);
+            return Ok(());
+        }
         let inputs = self.inputs();
         let ingest = kernels::IngestBindings {
             engine_depth: textures.depth,

@@ -113,23 +113,45 @@ impl Denoiser {
             plane_groups: l.plane_groups,
             ..Default::default()
         };
+        let (cur, prev) = (self.cur, 1 - self.cur);
+        if let Some(t) = self.engine {
+            let reproject = kernels::ReprojectEngineBindings {
+                engine_depth: t.depth,
+                engine_normal: t.normal_roughness,
+                engine_motion: t.motion,
+                conventions: self.conventions,
+                depth: self.depth[cur],
+                normal_roughness: self.normal_roughness[cur],
+                motion: self.motion,
+                prev_depth: self.depth[prev],
+                prev_normal_roughness: self.normal_roughness[prev],
+                view: self.view,
+                history: self.history[prev],
+                mask: self.mask,
+                gradient: self.gradient(),
+                importance: self.importance,
+                parallax: self.parallax,
+                out: self.history[cur],
+                requests: self.requests,
+            };
+            return exec.dispatch(&reproject.over_grid(&params, w, h, 1));
+        }
         let reproject = kernels::ReprojectBindings {
-            depth: self.depth[self.cur],
-            normal_roughness: self.normal_roughness[self.cur],
+            depth: self.depth[cur],
+            normal_roughness: self.normal_roughness[cur],
             motion: self.motion,
-            prev_depth: self.depth[1 - self.cur],
-            prev_normal_roughness: self.normal_roughness[1 - self.cur],
+            prev_depth: self.depth[prev],
+            prev_normal_roughness: self.normal_roughness[prev],
             view: self.view,
-            history: self.history[1 - self.cur],
+            history: self.history[prev],
             mask: self.mask,
             gradient: self.gradient(),
             importance: self.importance,
             parallax: self.parallax,
-            out: self.history[self.cur],
+            out: self.history[cur],
             requests: self.requests,
         };
-        exec.dispatch(&reproject.over_grid(&params, w, h, 1))?;
-        Ok(())
+        exec.dispatch(&reproject.over_grid(&params, w, h, 1))
     }
 
     /// The bucket histogram of each plane group's requests.

@@ -237,7 +237,8 @@ impl InputConventions {
     }
 }
 
-/// Push constants of the `ingest` pass: [`InputConventions`] reduced to what the decode needs.
+/// [`InputConventions`] reduced to what the decode needs: the `ingest` pass's push constants, and
+/// the one element of `reproject_engine`'s `conventions` binding.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct IngestParams {

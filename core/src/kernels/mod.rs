@@ -101,7 +101,7 @@ pub mod names {
     pub use super::reflect::RayHit;
     pub use super::*;
     pub use crate::camera::View;
-    pub use crate::inputs::{self, Texel};
+    pub use crate::inputs::{self, IngestParams, Texel};
     pub use crate::payload::{PackedFiltered, PackedPayload, PackedSample};
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 
@@ -148,6 +148,7 @@ pub mod names {
             "GradientSample" => "RG32F: |change|, max",
             "View" => "two cameras (104 bytes)",
             "Texel" => "engine texture: texel fetch (RGBA32F slice on the CPU)",
+            "IngestParams" => "struct",
             "Balance" | "InstanceData" | "AreaLight" | "RayHit" | "BvhNode" | "Triangle"
             | "TriangleNormals" => "struct",
             _ => return None,

@@ -30,9 +30,10 @@
 use super::buckets::rate_to_bucket;
 use super::gradient::GradientSample;
 use super::requests::{request_word, FLAG_DISOCCLUDED, FLAG_SKY};
-use super::ReprojectIo;
 use super::{pixel_index, plane_index};
-use crate::camera::{Camera, PixelRays};
+use super::{ReprojectEngineIo, ReprojectIo};
+use crate::camera::{Camera, PixelRays, View};
+use crate::inputs::{self, Fetch};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
@@ -448,6 +449,21 @@ fn reprojected_plane<const N: usize>(
     (reprojected, dropped)
 }
 
+/// What reprojection reads and writes besides this frame's inputs: shared by [`reproject`] (the
+/// inputs in the denoiser's buffers) and [`reproject_engine`] (decoded from the engine's textures).
+struct Rest<'a> {
+    prev_depth: &'a [f32],
+    prev_normal_roughness: &'a [u32],
+    view: &'a [View],
+    history: &'a [PackedPayload],
+    mask: &'a [u32],
+    gradient: &'a [GradientSample],
+    importance: &'a [f32],
+    parallax: &'a [[f32; 2]],
+    out: &'a mut [PackedPayload],
+    requests: &'a mut [u32],
+}
+
 /// One call per `N` consecutive pixels of a row ([`crate::lanes`]; the GPU runs `N = 1`); loops
 /// over the signal planes so the geometric tests run once. Writes the reprojected history of
 /// every plane to `out`, and per plane group the pixel's flags and ray request (a bucket) to
@@ -473,14 +489,120 @@ pub fn reproject<const N: usize>(id: UVec3, p: &ReprojectParams, io: ReprojectIo
     if id.x >= w || id.y >= h {
         return;
     }
+    let (row, x0) = (id.y * w, id.x as i32);
+    let d = Lanes::<f32, N>::load_row(depth, row, x0, w);
+    let nr = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
+    let mv = Lanes::<[u32; 2], N>::load_row(motion, row, x0, w);
+    let rest = Rest {
+        prev_depth,
+        prev_normal_roughness,
+        view,
+        history,
+        mask,
+        gradient,
+        importance,
+        parallax,
+        out,
+        requests,
+    };
+    reproject_pixels(id, p, rest, d, nr, mv);
+}
+
+/// [`reproject`] with this frame's inputs read from the engine's own textures in its conventions
+/// (`conventions`, [`crate::inputs`]) and written, decoded, to the denoiser's input buffers for
+/// the passes after it and for next frame: the decode fused into reprojection, its first reader.
+#[inline(always)]
+pub fn reproject_engine<const N: usize>(
+    id: UVec3,
+    p: &ReprojectParams,
+    io: ReprojectEngineIo<'_>,
+    engine_depth: impl Fetch,
+    engine_normal: impl Fetch,
+    engine_motion: impl Fetch,
+) {
+    let ReprojectEngineIo {
+        conventions,
+        depth,
+        normal_roughness,
+        motion,
+        prev_depth,
+        prev_normal_roughness,
+        view,
+        history,
+        mask,
+        gradient,
+        importance,
+        parallax,
+        out,
+        requests,
+    } = io;
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
+        return;
+    }
+    let (c, v) = (&conventions[0], &view[0]);
+    let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(id.x as i32 + l as i32, w));
+    let d = xs.map(|x| inputs::decode_depth(engine_depth.load(x, id.y, w).x, c));
+    let nr = xs.map(|x| {
+        let (n, r) = inputs::decode_normal(engine_normal.load(x, id.y, w), c, &v.camera);
+        packing::pack_normal_roughness(n, r * r)
+    });
+    let mv = Lanes::<[u32; 2], N>::from_index(|l| {
+        let x = xs.0[l as usize];
+        let cams = [&v.camera, &v.prev_camera];
+        let t = engine_motion.load(x, id.y, w);
+        let m = inputs::decode_motion(t, c, x, id.y, d.0[l as usize], cams);
+        packing::pack_motion(m.x, m.y, m.z)
+    });
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let start = pixel_index(id.x, id.y, w);
+    d.store(depth, start, live);
+    nr.store(normal_roughness, start, live);
+    mv.store(motion, start, live);
+    let rest = Rest {
+        prev_depth,
+        prev_normal_roughness,
+        view,
+        history,
+        mask,
+        gradient,
+        importance,
+        parallax,
+        out,
+        requests,
+    };
+    reproject_pixels(id, p, rest, d, nr, mv);
+}
+
+/// Reprojection of `N` pixels of a row (`id` the first, inside the image) whose inputs are
+/// `d`, `nr` and `mv`.
+#[inline(always)]
+fn reproject_pixels<const N: usize>(
+    id: UVec3,
+    p: &ReprojectParams,
+    io: Rest<'_>,
+    d: Lanes<f32, N>,
+    nr: Lanes<u32, N>,
+    mv: Lanes<[u32; 2], N>,
+) {
+    let Rest {
+        prev_depth,
+        prev_normal_roughness,
+        view,
+        history,
+        mask,
+        gradient,
+        importance,
+        parallax,
+        out,
+        requests,
+    } = io;
+    let (w, h) = (p.width, p.height);
     let x0 = id.x as i32;
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(x0 + l as i32, w));
     let row = id.y * w;
     let v = view[0];
-    let d = Lanes::<f32, N>::load_row(depth, row, x0, w);
-    let nr = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
-    let mv = Lanes::<[u32; 2], N>::load_row(motion, row, x0, w);
     let c = Moved::new(&v, xs, id.y, (w, h), d, nr, mv);
     let valid = c.valid;
     let geometry_ok = valid.map(|v| v && p.reset == 0);

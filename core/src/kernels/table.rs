@@ -6,7 +6,8 @@
 //! means each invocation writes only elements it owns (without reading them), `update` that it
 //! reads and rewrites only elements it owns (in place), `atomic` that invocations contend through
 //! `crate::atomic`, and `sampled` an engine texture read by texel fetches (`crate::inputs::Texture`;
-//! element type `Texel`, `fn` kernels only). Types are written `module::Type`, or bare when [`super::names`] lists them.
+//! element type `Texel`; `fn` and `lanes` kernels, which take each as an `impl Fetch` argument
+//! after their buffers). Types are written `module::Type`, or bare when [`super::names`] lists them.
 
 use super::names::*;
 
@@ -132,6 +133,30 @@ crate::kernel_table! {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
         motion: read Motion,
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
+        view: read View,
+        history: read PackedPayload,
+        mask: read VrsMask,
+        gradient: read GradientSample,
+        importance: read f32,
+        parallax: read [f32; 2],
+        out: write PackedPayload,
+        requests: write Request,
+    }
+
+    /// [`reproject::reproject_engine`]: [`reproject::reproject`] reading this frame's inputs from
+    /// the engine's textures in its conventions (`conventions`: one element) and writing them,
+    /// decoded, to the denoiser's input buffers.
+    reproject_engine => REPROJECT_ENGINE, ReprojectEngineBindings, ReprojectEngineIo: lanes(16, avx512 16) reproject::reproject_engine,
+    threads(8, 8, 1), params reproject::ReprojectParams {
+        engine_depth: sampled Texel,
+        engine_normal: sampled Texel,
+        engine_motion: sampled Texel,
+        conventions: read IngestParams,
+        depth: write Depth,
+        normal_roughness: write NormalRoughness,
+        motion: write Motion,
         prev_depth: read Depth,
         prev_normal_roughness: read NormalRoughness,
         view: read View,
