@@ -81,10 +81,17 @@ impl Arena {
 
     fn create_pool(&mut self, device: &ash::Device, bindings: u32) -> Result<(), AshError> {
         let descriptors = SETS_PER_POOL * bindings.max(DESCRIPTORS_PER_SET);
-        let sizes = [vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::STORAGE_BUFFER,
-            descriptor_count: descriptors,
-        }];
+        // Either kind may fill a set: a pool holds enough of both.
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: descriptors,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: descriptors,
+            },
+        ];
         let info = vk::DescriptorPoolCreateInfo::default()
             .max_sets(SETS_PER_POOL)
             .pool_sizes(&sizes);

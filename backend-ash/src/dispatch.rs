@@ -14,8 +14,18 @@ impl AshExecutor {
     /// Checks a pass against its kernel, the buffers ([`Pass::check`], shared by every backend)
     /// and the device limits, and creates its pipeline if needed. Records nothing.
     pub(crate) fn prepare(&mut self, pass: &Pass<'_>) -> Result<Pipeline, AshError> {
-        pass.check(|id| self.entry(id).ok().map(|e| e.size), |_| false)?;
-        for &id in pass.buffers {
+        pass.check(
+            |id| match self.texture(id) {
+                Some(t) => Some(t.bytes),
+                None => self.entry(id).ok().map(|e| e.size),
+            },
+            |id| self.texture(id).is_some(),
+        )?;
+        for &id in pass
+            .buffers
+            .iter()
+            .filter(|&&id| self.texture(id).is_none())
+        {
             let e = self.entry(id)?;
             if e.vk_size > u64::from(self.max_storage_range) {
                 return Err(AshError::BindingTooLarge {
@@ -71,6 +81,16 @@ impl AshExecutor {
         }
         let mut infos = Vec::with_capacity(pass.buffers.len());
         for (&id, binding) in pass.buffers.iter().zip(kernel.bindings) {
+            if let Some(t) = self.texture(id) {
+                // The engine keeps its images' layouts and makes its writes visible (see
+                // `import_image`); the executor's own images were left ready for shader reads.
+                infos.push(Descriptor::Image(vk::DescriptorImageInfo {
+                    sampler: vk::Sampler::null(),
+                    image_view: t.view,
+                    image_layout: t.layout,
+                }));
+                continue;
+            }
             let e = self.entry_mut(id)?;
             let flags = if binding.access.writes() {
                 vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE
@@ -83,11 +103,11 @@ impl AshExecutor {
                 vk::PipelineStageFlags::COMPUTE_SHADER,
                 flags,
             );
-            infos.push(vk::DescriptorBufferInfo {
+            infos.push(Descriptor::Buffer(vk::DescriptorBufferInfo {
                 buffer: e.buffer,
                 offset: 0,
                 range: e.vk_size,
-            });
+            }));
             arena.buffers.push(id);
         }
 
@@ -95,18 +115,7 @@ impl AshExecutor {
         // SAFETY: `cmd` is recording (caller); every handle is alive; the set is not in use.
         unsafe {
             if let Some(set) = set {
-                let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
-                    .iter()
-                    .enumerate()
-                    .map(|(i, info)| {
-                        vk::WriteDescriptorSet::default()
-                            .dst_set(set)
-                            .dst_binding(i as u32)
-                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                            .buffer_info(std::slice::from_ref(info))
-                    })
-                    .collect();
-                d.update_descriptor_sets(&writes, &[]);
+                write_set(d, set, &infos);
             }
             batch.emit(d, cmd);
             if let Some((pool, q)) = queries {
@@ -140,4 +149,36 @@ impl AshExecutor {
         }
         Ok(())
     }
+}
+
+/// Writes `infos` to `set`, binding `i` from `infos[i]`.
+///
+/// # Safety
+/// `set` and every handle in `infos` are alive, and `set` is not in use.
+unsafe fn write_set(d: &ash::Device, set: vk::DescriptorSet, infos: &[Descriptor]) {
+    let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
+        .iter()
+        .enumerate()
+        .map(|(i, info)| {
+            let write = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(i as u32);
+            match info {
+                Descriptor::Buffer(b) => write
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(std::slice::from_ref(b)),
+                Descriptor::Image(image) => write
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(std::slice::from_ref(image)),
+            }
+        })
+        .collect();
+    // SAFETY: caller's contract.
+    unsafe { d.update_descriptor_sets(&writes, &[]) };
+}
+
+/// One binding's descriptor.
+enum Descriptor {
+    Buffer(vk::DescriptorBufferInfo),
+    Image(vk::DescriptorImageInfo),
 }

@@ -27,6 +27,8 @@ pub enum AshError {
     /// (or destroyed) buffer, an access out of range, an unaligned size, a buffer bound twice in
     /// one pass or an indirect-count buffer that the pass also writes.
     Exec(ExecError),
+    /// An engine image that cannot be bound, or image data that does not fit its size.
+    Texture(String),
     /// A buffer is larger than the device's `maxStorageBufferRange`.
     BindingTooLarge {
         /// The buffer.
@@ -80,6 +82,7 @@ impl fmt::Display for AshError {
             }
             AshError::Vulkan { call, result } => write!(f, "{call} failed: {result}"),
             AshError::Exec(e) => write!(f, "{e}"),
+            AshError::Texture(why) => write!(f, "texture: {why}"),
             AshError::BindingTooLarge { buffer, size, max } => write!(
                 f,
                 "buffer {buffer:?} of {size} bytes exceeds maxStorageBufferRange ({max} bytes)"

@@ -34,6 +34,8 @@ pub struct AshExecutor {
     pub(crate) module: vk::ShaderModule,
     pub(crate) pipelines: HashMap<&'static str, Pipeline>,
     pub(crate) buffers: Vec<Option<BufferEntry>>,
+    /// Engine images (imported) and images created for hosts without an engine.
+    pub(crate) textures: Vec<crate::textures::Texture>,
     pub(crate) stream: Stream,
     pub(crate) staging: Staging,
     pub(crate) readback: Option<HostBuffer>,
@@ -190,6 +192,7 @@ impl AshExecutor {
                 arena: Arena::default(),
             },
             staging: Staging::default(),
+            textures: Vec::new(),
             readback: None,
             external: HashMap::new(),
             spare_arenas: Vec::new(),
@@ -356,6 +359,7 @@ impl Drop for AshExecutor {
                     .destroy(d);
                 }
             }
+            crate::textures::destroy(std::mem::take(&mut self.textures), d);
             self.staging.destroy(d);
             if let Some(r) = self.readback.take() {
                 r.destroy(d);

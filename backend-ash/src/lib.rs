@@ -11,7 +11,8 @@
 //!   Uploads go through a host-visible staging ring, readbacks through a host-visible (preferably
 //!   host-cached) buffer; both use host-coherent memory.
 //! - **Pipelines**: one compute pipeline per [`KernelDesc::entry`], created on first use and
-//!   cached; descriptor set 0 holds one storage buffer per binding, in order; one push-constant
+//!   cached; descriptor set 0 holds one storage buffer per binding, in order (a sampled image
+//!   where the kernel reads an engine texture: [`AshExecutor::import_image`]); one push-constant
 //!   range of `params_size` bytes (none if 0).
 //! - **Recording**: everything (fills, uploads, dispatches, readback copies) is recorded, in call
 //!   order, into one command buffer that is submitted by [`Executor::finish`] /
@@ -48,6 +49,7 @@ mod pipelines;
 mod setup;
 mod spirv;
 mod stream;
+mod textures;
 mod track;
 mod transfer;
 

@@ -1,11 +1,11 @@
 //! Compute pipelines: one per kernel entry point of the embedded module, created on first use
-//! and cached until the executor is dropped. Descriptor set 0 holds one storage buffer per
-//! binding, in order; one push-constant range of `params_size` bytes (rounded up to 4; none if 0).
+//! and cached until the executor is dropped. Descriptor set 0 holds one storage buffer (or, where
+//! the kernel reads an engine texture, one sampled image) per binding, in order; one push-constant range of `params_size` bytes (rounded up to 4; none if 0).
 
 use crate::{AshError, AshExecutor};
 use ash::vk;
 use std::ffi::CString;
-use vrrt_core::executor::KernelDesc;
+use vrrt_core::executor::{Access, KernelDesc};
 
 #[derive(Copy, Clone)]
 /// A kernel's compute pipeline and layouts.
@@ -39,7 +39,7 @@ impl AshExecutor {
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(descriptor_type(kernel.bindings[i as usize].access))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -110,5 +110,14 @@ impl AshExecutor {
         }
         self.pipelines.insert(kernel.entry, p);
         Ok(p)
+    }
+}
+
+/// The descriptor type of a binding: a sampled image where the kernel reads an engine texture,
+/// else a storage buffer.
+pub(crate) fn descriptor_type(access: Access) -> vk::DescriptorType {
+    match access {
+        Access::Sampled => vk::DescriptorType::SAMPLED_IMAGE,
+        _ => vk::DescriptorType::STORAGE_BUFFER,
     }
 }

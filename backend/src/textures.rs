@@ -36,6 +36,18 @@ impl TextureFormat {
         }
     }
 
+    /// The Vulkan format and its bytes per texel.
+    pub fn vulkan(self) -> (vrrt_ash::ash::vk::Format, u32) {
+        use vrrt_ash::ash::vk::Format;
+        match self {
+            TextureFormat::R32Float => (Format::R32_SFLOAT, 4),
+            TextureFormat::Rg16Float => (Format::R16G16_SFLOAT, 4),
+            TextureFormat::Rgba16Float => (Format::R16G16B16A16_SFLOAT, 8),
+            TextureFormat::Rgba32Float => (Format::R32G32B32A32_SFLOAT, 16),
+            TextureFormat::Rgb10a2Unorm => (Format::A2B10G10R10_UNORM_PACK32, 4),
+        }
+    }
+
     /// `t` stored in this format, as bytes.
     fn encode(self, t: Texel, out: &mut Vec<u8>) {
         let half = |v: f32| f32_to_f16(v) as u16;
@@ -89,7 +101,7 @@ impl TextureFormat {
 impl Backend {
     /// A `width × height` engine texture of `format` holding `texels` (row-major), bound where a
     /// kernel reads the engine's textures (`Denoiser::ingest`). On the CPU backend it holds what a
-    /// fetch of `format` returns; the ash backend does not bind textures yet.
+    /// fetch of `format` returns.
     pub fn create_texture(
         &mut self,
         width: u32,
@@ -138,9 +150,13 @@ impl Backend {
                 );
                 e.import_texture(&texture).map_err(err)
             }
-            Backend::Ash(_) => Err(err(
-                "the ash backend does not bind engine textures yet (use wgpu or the CPU)",
-            )),
+            Backend::Ash(e) => {
+                let mut bytes = Vec::new();
+                texels.iter().for_each(|&t| format.encode(t, &mut bytes));
+                let (vk_format, texel) = format.vulkan();
+                e.create_image(width, height, vk_format, texel, &bytes)
+                    .map_err(err)
+            }
         }
     }
 }

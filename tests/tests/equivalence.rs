@@ -33,14 +33,6 @@ fn every_kernel_matches_the_cpu_backend() {
                 failures.push(format!("{}: cpu not deterministic: {r:?}", case.name));
             }
             for b in backends.iter_mut() {
-                if case.buffers.iter().any(|s| s.texture.is_some()) && b.name() == "ash" {
-                    println!(
-                        "{:<44} {:<6} skipped: no texture bindings on ash yet",
-                        case.name,
-                        b.name()
-                    );
-                    continue;
-                }
                 let got = run_case(b, &case)
                     .unwrap_or_else(|e| panic!("{} on {}: {e}", case.name, b.name()));
                 let r = compare(&case, tolerance, &reference, &got);
