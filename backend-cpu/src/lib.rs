@@ -17,7 +17,7 @@ use vrrt_core::executor::{
     BufferId, CpuBindings, ExecError, Executor, GroupSpan, Groups, Pass, PassTiming, RawBuffer,
     SharedBytes,
 };
-use vrrt_core::inputs::Texel;
+use vrrt_core::textures::Texel;
 
 /// Errors of the CPU backend: only those every backend shares (the CPU has no device that could
 /// fail), so this is [`ExecError`] itself.

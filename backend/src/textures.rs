@@ -6,7 +6,7 @@
 use crate::{err, Backend, BackendError};
 use vrrt_core::binary16::{f16_to_f32, f32_to_f16};
 use vrrt_core::executor::BufferId;
-use vrrt_core::inputs::Texel;
+use vrrt_core::textures::Texel;
 
 /// The formats [`Backend::create_texture`] stores texels in: what engines write their G-buffers
 /// in.

@@ -226,7 +226,7 @@ macro_rules! kernel_table {
             for group in span.groups() {
                 b.for_each_invocation(group, |id| {
                     $kfn(id, &params, $io { $($fname: &$($fm)? *$fname),* }
-                        $(, $crate::inputs::Texture::new($tname))*);
+                        $(, $crate::textures::Texture::new($tname))*);
                 });
             }
         }
@@ -261,7 +261,7 @@ macro_rules! kernel_table {
                     while x < x_end {
                         let id = $crate::glam::UVec3::new(x, span.y * $y + y, span.z * $z + z);
                         $($kfn)::+::<L>(id, &params, $io { $($fname: &$($fm)? *$fname),* }
-                            $(, $crate::inputs::Texture::new($tname))*);
+                            $(, $crate::textures::Texture::new($tname))*);
                         x += L as u32;
                     }
                 }
@@ -351,7 +351,7 @@ macro_rules! kernel_table {
     };
     // The parameters of a `fn` or `lanes` kernel's entry (`lanes` calls `f::<1>`), one binding
     // at a time: a storage buffer, or a sampled image for a `sampled` binding
-    // (`crate::inputs::Fetch`).
+    // (`crate::textures::Fetch`).
     (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] buffer $bt:ty) $($rest:tt)*) => {
         $crate::kernel_table!(@fn_params $head [$($done)*
             #[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],]
@@ -359,7 +359,7 @@ macro_rules! kernel_table {
     };
     (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] texture $bt:ty) $($rest:tt)*) => {
         $crate::kernel_table!(@fn_params $head [$($done)*
-            #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::inputs::SampledImage,]
+            #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::textures::SampledImage,]
             $($rest)*);
     };
     (@fn_params [$callee:tt, $entry:ident, $io:ident, ($x:tt, $y:tt, $z:tt), $params:ty,

@@ -56,6 +56,7 @@ pub mod sequence;
 #[cfg(not(target_arch = "spirv"))]
 pub mod settings;
 pub mod surface;
+pub mod textures;
 pub mod trace;
 
 pub use glam;

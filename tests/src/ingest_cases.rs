@@ -10,9 +10,10 @@ use vrrt_core::camera::Camera;
 use vrrt_core::glam::{Vec2, Vec3};
 use vrrt_core::inputs::{
     DepthEncoding, InputConventions, MotionDepth, MotionSign, MotionUnits, NormalEncoding,
-    NormalSpace, Texel,
+    NormalSpace,
 };
 use vrrt_core::packing;
+use vrrt_core::textures::Texel;
 
 /// A reversed-Z engine with view-space RGBA16F normals and UV velocities; a standard-Z engine
 /// with NRD's RGB10A2 normals and RG motion in NDC (no depth change); our own conventions.

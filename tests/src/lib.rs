@@ -24,7 +24,7 @@ pub mod trace_cases;
 
 use vrrt_backend::{Backend, TextureFormat};
 use vrrt_core::executor::{BufferId, Executor, Groups, KernelDesc, Pass};
-use vrrt_core::inputs::Texel;
+use vrrt_core::textures::Texel;
 
 /// How to compare one 4-byte word of a buffer.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]

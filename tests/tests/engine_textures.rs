@@ -10,11 +10,10 @@ use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, EngineTextures, FrameInfo};
 use vrrt_core::executor::{ExecError, Executor};
 use vrrt_core::glam::Vec3;
-use vrrt_core::inputs::{
-    DepthEncoding, InputConventions, MotionSign, MotionUnits, NormalSpace, Texel,
-};
+use vrrt_core::inputs::{DepthEncoding, InputConventions, MotionSign, MotionUnits, NormalSpace};
 use vrrt_core::packing::{pack_normal_roughness, unpack_motion, unpack_normal_roughness};
 use vrrt_core::settings::Settings;
+use vrrt_core::textures::Texel;
 use vrrt_tests::Host;
 
 const W: u32 = 24;

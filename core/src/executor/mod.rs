@@ -23,8 +23,8 @@ pub enum Access {
     /// Invocations contend through integer atomics (`crate::atomic`): counters, histograms,
     /// packed-key min/max.
     Atomic,
-    /// An engine texture, read by texel fetches ([`crate::inputs::Texture`]): a sampled 2D image
-    /// (float texels) on the GPU backends, a row-major slice of [`crate::inputs::Texel`]s on the
+    /// An engine texture, read by texel fetches ([`crate::textures::Texture`]): a sampled 2D image
+    /// (float texels) on the GPU backends, a row-major slice of [`crate::textures::Texel`]s on the
     /// CPU.
     Sampled,
 }

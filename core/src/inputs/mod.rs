@@ -3,8 +3,9 @@
 //! An engine that rasterizes writes depth, normals and motion in its own formats and conventions:
 //! reversed-Z or standard depth, view-space or world-space normals in RGB10A2 or RGBA16F, motion
 //! in UV or pixel units, to last frame or from it. [`InputConventions`] names them; the denoiser's
-//! `ingest` pass ([`crate::kernels::ingest`]) reads the engine's textures through [`Texture`]
-//! (sampled images on the GPU backends, texel slices on the CPU backend), decodes them here once,
+//! `ingest` pass ([`crate::kernels::ingest`]) reads the engine's textures through
+//! [`Fetch`](crate::textures::Fetch) (sampled images on the GPU backends, texel slices on the CPU
+//! backend), decodes them here once,
 //! and writes the denoiser's own formats ([`crate::packing`]), which it keeps as last frame's depth
 //! and normals anyway. Every later pass reads those.
 //!
@@ -327,63 +328,6 @@ pub fn decode_motion(
         t.z * p.motion_z
     };
     Vec3::new(t.x * p.motion_x, t.y * p.motion_y, dz)
-}
-
-/// One G-buffer texture of the engine as a kernel reads it: what a texel fetch returns. A kernel
-/// takes each texture binding as an `impl Fetch` argument after its buffers: a sampled 2D image
-/// on the GPU ([`SampledImage`], which Vulkan does not let a struct hold) and a [`Texture`] over
-/// texels on the CPU.
-pub trait Fetch {
-    /// Texel `(x, y)` of a texture `width` texels wide.
-    fn load(&self, x: u32, y: u32, width: u32) -> Vec4;
-}
-
-/// A texel as the CPU backend holds an engine texture: what a fetch returns (RGBA, unorm formats
-/// in `[0, 1]`, missing channels 0 and alpha 1).
-pub type Texel = [f32; 4];
-
-/// An engine texture on the CPU: row-major [`Texel`]s.
-#[derive(Copy, Clone, Debug)]
-pub struct Texture<'a> {
-    texels: &'a [Texel],
-}
-
-impl<'a> Texture<'a> {
-    /// A texture of `texels`, row-major.
-    #[inline]
-    pub fn new(texels: &'a [Texel]) -> Self {
-        Texture { texels }
-    }
-}
-
-impl Fetch for Texture<'_> {
-    #[inline]
-    fn load(&self, x: u32, y: u32, width: u32) -> Vec4 {
-        Vec4::from_array(self.texels[(y * width + x) as usize])
-    }
-}
-
-/// The SPIR-V type of an engine texture binding.
-#[cfg(target_arch = "spirv")]
-pub type SampledImage = spirv_std::Image!(2D, type = f32, sampled = true);
-
-/// Natively, where the shader crate's entry points are only type-checked, a CPU texture.
-#[cfg(not(target_arch = "spirv"))]
-pub type SampledImage = Texture<'static>;
-
-impl Fetch for &Texture<'_> {
-    #[inline]
-    fn load(&self, x: u32, y: u32, width: u32) -> Vec4 {
-        (**self).load(x, y, width)
-    }
-}
-
-#[cfg(target_arch = "spirv")]
-impl Fetch for &SampledImage {
-    #[inline]
-    fn load(&self, x: u32, y: u32, _width: u32) -> Vec4 {
-        self.fetch(glam::UVec2::new(x, y))
-    }
 }
 
 #[cfg(all(test, feature = "std"))]

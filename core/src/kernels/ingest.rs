@@ -3,8 +3,9 @@
 //! the denoiser keeps as last frame's next frame, and the motion; every later pass reads those.
 
 use super::IngestIo;
-use crate::inputs::{decode_depth, decode_motion, decode_normal, Fetch, IngestParams};
+use crate::inputs::{decode_depth, decode_motion, decode_normal, IngestParams};
 use crate::packing;
+use crate::textures::Fetch;
 use glam::UVec3;
 
 /// One pixel: depth, normal + roughness and motion from the engine's textures.

@@ -101,8 +101,9 @@ pub mod names {
     pub use super::reflect::RayHit;
     pub use super::*;
     pub use crate::camera::View;
-    pub use crate::inputs::{self, IngestParams, Texel};
+    pub use crate::inputs::{self, IngestParams};
     pub use crate::payload::{PackedFiltered, PackedPayload, PackedSample};
+    pub use crate::textures::Texel;
     pub use crate::trace::{BvhNode, Triangle, TriangleNormals};
 
     // Storage formats carried by plain words: a binding declares one of these instead of the

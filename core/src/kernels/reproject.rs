@@ -33,12 +33,13 @@ use super::requests::{request_word, FLAG_DISOCCLUDED, FLAG_SKY};
 use super::{pixel_index, plane_index};
 use super::{ReprojectEngineIo, ReprojectIo};
 use crate::camera::{Camera, PixelRays, View};
-use crate::inputs::{self, Fetch};
+use crate::inputs;
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
 use crate::payload::{PackedPayload, Payload, PayloadLanes};
 use crate::surface::{self, Moved};
+use crate::textures::Fetch;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
 

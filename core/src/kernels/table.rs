@@ -5,7 +5,7 @@
 //! { name: read|write|update|atomic ElementType, .. }`. Bindings are numbered in order; `write`
 //! means each invocation writes only elements it owns (without reading them), `update` that it
 //! reads and rewrites only elements it owns (in place), `atomic` that invocations contend through
-//! `crate::atomic`, and `sampled` an engine texture read by texel fetches (`crate::inputs::Texture`;
+//! `crate::atomic`, and `sampled` an engine texture read by texel fetches (`crate::textures::Texture`;
 //! element type `Texel`; `fn` and `lanes` kernels, which take each as an `impl Fetch` argument
 //! after their buffers). Types are written `module::Type`, or bare when [`super::names`] lists them.
 
@@ -80,7 +80,7 @@ crate::kernel_table! {
         geometry: write Geometry,
     }
 
-    /// [`ingest::ingest`]: the engine's G-buffer textures (`crate::inputs::Texture`), in its
+    /// [`ingest::ingest`]: the engine's G-buffer textures (`crate::textures::Texture`), in its
     /// conventions, decoded into this frame's depth, normal + roughness and motion.
     ingest => INGEST, IngestBindings, IngestIo: fn ingest::ingest,
     threads(8, 8, 1), params inputs::IngestParams {
