@@ -81,7 +81,7 @@ impl Arena {
 
     fn create_pool(&mut self, device: &ash::Device, bindings: u32) -> Result<(), AshError> {
         let descriptors = SETS_PER_POOL * bindings.max(DESCRIPTORS_PER_SET);
-        // Either kind may fill a set: a pool holds enough of both.
+        // Any kind may fill a set: a pool holds enough of each.
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
@@ -89,6 +89,10 @@ impl Arena {
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: descriptors,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_IMAGE,
                 descriptor_count: descriptors,
             },
         ];

@@ -4,11 +4,11 @@
 //! timestamps. Used for the executor's own stream and for engines' command buffers alike.
 
 use crate::arena::Arena;
-use crate::pipelines::Pipeline;
+use crate::pipelines::{descriptor_type, Pipeline};
 use crate::track::BarrierBatch;
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::executor::{Groups, Pass};
+use vrrt_core::executor::{Access, Groups, Pass};
 
 impl AshExecutor {
     /// Checks a pass against its kernel, the buffers ([`Pass::check`], shared by every backend)
@@ -21,11 +21,16 @@ impl AshExecutor {
             },
             |id| self.texture(id).is_some(),
         )?;
-        for &id in pass
-            .buffers
-            .iter()
-            .filter(|&&id| self.texture(id).is_none())
-        {
+        for (&id, binding) in pass.buffers.iter().zip(pass.kernel.bindings) {
+            if let Some(t) = self.texture(id) {
+                if binding.access == Access::Storage && t.layout != vk::ImageLayout::GENERAL {
+                    return Err(AshError::Texture(format!(
+                        "{id:?} is written by `{}` but is in layout {:?}, not GENERAL",
+                        binding.name, t.layout
+                    )));
+                }
+                continue;
+            }
             let e = self.entry(id)?;
             if e.vk_size > u64::from(self.max_storage_range) {
                 return Err(AshError::BindingTooLarge {
@@ -82,13 +87,14 @@ impl AshExecutor {
         let mut infos = Vec::with_capacity(pass.buffers.len());
         for (&id, binding) in pass.buffers.iter().zip(kernel.bindings) {
             if let Some(t) = self.texture(id) {
-                // The engine keeps its images' layouts and makes its writes visible (see
-                // `import_image`); the executor's own images were left ready for shader reads.
-                infos.push(Descriptor::Image(vk::DescriptorImageInfo {
+                // The engine keeps its images' layouts and synchronises its own accesses (see
+                // `import_image`); the executor's own images were left ready for shader access.
+                let info = vk::DescriptorImageInfo {
                     sampler: vk::Sampler::null(),
                     image_view: t.view,
                     image_layout: t.layout,
-                }));
+                };
+                infos.push(Descriptor::Image(descriptor_type(binding.access), info));
                 continue;
             }
             let e = self.entry_mut(id)?;
@@ -167,8 +173,8 @@ unsafe fn write_set(d: &ash::Device, set: vk::DescriptorSet, infos: &[Descriptor
                 Descriptor::Buffer(b) => write
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .buffer_info(std::slice::from_ref(b)),
-                Descriptor::Image(image) => write
-                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                Descriptor::Image(ty, image) => write
+                    .descriptor_type(*ty)
                     .image_info(std::slice::from_ref(image)),
             }
         })
@@ -180,5 +186,5 @@ unsafe fn write_set(d: &ash::Device, set: vk::DescriptorSet, infos: &[Descriptor
 /// One binding's descriptor.
 enum Descriptor {
     Buffer(vk::DescriptorBufferInfo),
-    Image(vk::DescriptorImageInfo),
+    Image(vk::DescriptorType, vk::DescriptorImageInfo),
 }

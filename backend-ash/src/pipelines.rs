@@ -113,11 +113,12 @@ impl AshExecutor {
     }
 }
 
-/// The descriptor type of a binding: a sampled image where the kernel reads an engine texture,
-/// else a storage buffer.
+/// The descriptor type of a binding: a sampled image where the kernel reads an engine texture, a
+/// storage image where it writes one, else a storage buffer.
 pub(crate) fn descriptor_type(access: Access) -> vk::DescriptorType {
     match access {
         Access::Sampled => vk::DescriptorType::SAMPLED_IMAGE,
+        Access::Storage => vk::DescriptorType::STORAGE_IMAGE,
         _ => vk::DescriptorType::STORAGE_BUFFER,
     }
 }

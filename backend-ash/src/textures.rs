@@ -7,7 +7,7 @@
 use crate::alloc::memory_type;
 use crate::{AshError, AshExecutor};
 use ash::vk;
-use vrrt_core::executor::BufferId;
+use vrrt_core::executor::{BufferId, Executor};
 
 /// The bit that marks a texture id.
 const TEXTURE_BIT: u32 = 1 << 31;
@@ -20,6 +20,8 @@ pub(crate) struct Texture {
     pub(crate) bytes: u64,
     /// The image and memory the executor created, destroyed with it (none when imported).
     pub(crate) owned: Option<(vk::Image, vk::DeviceMemory)>,
+    /// Width and height in texels.
+    pub(crate) extent: (u32, u32),
 }
 
 impl AshExecutor {
@@ -54,6 +56,7 @@ impl AshExecutor {
             layout,
             bytes: width as u64 * height as u64 * texel_bytes as u64,
             owned: None,
+            extent: (width, height),
         }))
     }
 
@@ -75,16 +78,103 @@ impl AshExecutor {
                 data.len()
             )));
         }
-        let (image, memory, view) = self.new_image(width, height, format)?;
+        let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        let (image, memory, view) = self.new_image(width, height, format, usage)?;
         let texture = Texture {
             view,
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             bytes,
             owned: Some((image, memory)),
+            extent: (width, height),
         };
         let id = self.add_texture(texture);
         self.upload_image(image, width, height, data)?;
         Ok(id)
+    }
+
+    /// A device-local R32F image for the denoiser to write (`Denoiser::resolve_into`), for a
+    /// host without an engine of its own: in `GENERAL` layout, read with [`Self::read_image`].
+    pub fn create_output_image(&mut self, width: u32, height: u32) -> Result<BufferId, AshError> {
+        if width == 0 || height == 0 {
+            return Err(AshError::Texture(format!("a {width}x{height} image")));
+        }
+        let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        let format = vk::Format::R32_SFLOAT;
+        let (image, memory, view) = self.new_image(width, height, format, usage)?;
+        let id = self.add_texture(Texture {
+            view,
+            layout: vk::ImageLayout::GENERAL,
+            bytes: width as u64 * height as u64 * 4,
+            owned: Some((image, memory)),
+            extent: (width, height),
+        });
+        let cmd = self.recording()?;
+        let to_general = image_barrier(image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL)
+            .dst_access_mask(vk::AccessFlags::SHADER_WRITE);
+        let (top, compute) = (
+            vk::PipelineStageFlags::TOP_OF_PIPE,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+        );
+        let none = vk::DependencyFlags::empty();
+        // SAFETY: `cmd` is recording; the image lives until the executor drops.
+        unsafe {
+            self.device
+                .cmd_pipeline_barrier(cmd, top, compute, none, &[], &[], &[to_general]);
+        }
+        Ok(id)
+    }
+
+    /// Copies the texels of an image made by [`Self::create_output_image`] into `out` (rows
+    /// packed tightly, 4 bytes a texel), after the passes recorded before: waits for them.
+    pub fn read_image(&mut self, id: BufferId, out: &mut [u8]) -> Result<(), AshError> {
+        let Some(Texture {
+            owned: Some((image, _)),
+            layout: vk::ImageLayout::GENERAL,
+            bytes,
+            extent: (width, height),
+            ..
+        }) = self.texture(id)
+        else {
+            return Err(AshError::Texture(format!(
+                "{id:?} is not an output image of the executor"
+            )));
+        };
+        let (image, bytes, width, height) = (*image, *bytes, *width, *height);
+        if out.len() as u64 != bytes {
+            return Err(AshError::Texture(format!(
+                "{} bytes asked of {bytes}",
+                out.len()
+            )));
+        }
+        let cmd = self.recording()?;
+        let dst = self.readback_buffer(bytes)?;
+        let written = image_barrier(image, vk::ImageLayout::GENERAL, vk::ImageLayout::GENERAL)
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+        let to_host = vk::BufferMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::HOST_READ)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .buffer(dst)
+            .offset(0)
+            .size(vk::WHOLE_SIZE);
+        let region = copy_region(0, width, height);
+        let (compute, transfer, host) = (
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST,
+        );
+        let (d, none) = (&self.device, vk::DependencyFlags::empty());
+        // SAFETY: `cmd` is recording; the image and buffer live until the submission completes.
+        unsafe {
+            d.cmd_pipeline_barrier(cmd, compute, transfer, none, &[], &[], &[written]);
+            d.cmd_copy_image_to_buffer(cmd, image, vk::ImageLayout::GENERAL, dst, &[region]);
+            d.cmd_pipeline_barrier(cmd, transfer, host, none, &[], &[to_host], &[]);
+        }
+        self.finish()?;
+        self.readback.as_ref().expect("created above").read(out);
+        Ok(())
     }
 
     fn add_texture(&mut self, texture: Texture) -> BufferId {
@@ -106,6 +196,7 @@ impl AshExecutor {
         width: u32,
         height: u32,
         format: vk::Format,
+        usage: vk::ImageUsageFlags,
     ) -> Result<(vk::Image, vk::DeviceMemory, vk::ImageView), AshError> {
         let d = &self.device;
         let info = vk::ImageCreateInfo::default()
@@ -120,7 +211,7 @@ impl AshExecutor {
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
+            .usage(usage)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         // SAFETY: valid create infos; on every error path what was created is destroyed once.
         unsafe {
@@ -175,42 +266,20 @@ impl AshExecutor {
     ) -> Result<(), AshError> {
         let cmd = self.recording()?;
         let (src, offset) = self.staging.push(&self.device, &self.mem_props, data)?;
-        let barrier = |old, new, src_access, dst_access| {
-            vk::ImageMemoryBarrier::default()
-                .old_layout(old)
-                .new_layout(new)
-                .src_access_mask(src_access)
-                .dst_access_mask(dst_access)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image)
-                .subresource_range(color_range())
-        };
-        let to_transfer = barrier(
+        let to_transfer = image_barrier(
+            image,
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            vk::AccessFlags::empty(),
-            vk::AccessFlags::TRANSFER_WRITE,
-        );
-        let to_shader = barrier(
+        )
+        .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE);
+        let to_shader = image_barrier(
+            image,
             vk::ImageLayout::TRANSFER_DST_OPTIMAL,
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            vk::AccessFlags::TRANSFER_WRITE,
-            vk::AccessFlags::SHADER_READ,
-        );
-        let region = vk::BufferImageCopy::default()
-            .buffer_offset(offset)
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width,
-                height,
-                depth: 1,
-            });
+        )
+        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::SHADER_READ);
+        let region = copy_region(offset, width, height);
         let d = &self.device;
         let none = vk::DependencyFlags::empty();
         // SAFETY: `cmd` is recording; the image and staging buffer live until it completes.
@@ -244,6 +313,38 @@ pub(crate) unsafe fn destroy(textures: Vec<Texture>, device: &ash::Device) {
             }
         }
     }
+}
+
+/// A layout transition of `image`'s one level and layer, no accesses yet.
+fn image_barrier(
+    image: vk::Image,
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .old_layout(old)
+        .new_layout(new)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(color_range())
+}
+
+/// A copy of a whole `width × height` image from or to a buffer at `offset`, rows packed.
+fn copy_region(offset: u64, width: u32, height: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .buffer_offset(offset)
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width,
+            height,
+            depth: 1,
+        })
 }
 
 /// The one mip level and layer of a colour image.

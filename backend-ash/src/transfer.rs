@@ -53,19 +53,7 @@ impl AshExecutor {
         }
         let cmd = self.recording()?;
         let len = out.len() as u64;
-        if self.readback.as_ref().is_none_or(|r| r.size < len) {
-            if let Some(old) = self.readback.take() {
-                // SAFETY: only used inside read_buffer, whose submission has completed.
-                unsafe { old.destroy(&self.device) };
-            }
-            self.readback = Some(HostBuffer::new(
-                &self.device,
-                &self.mem_props,
-                len.next_power_of_two(),
-                true,
-            )?);
-        }
-        let dst = self.readback.as_ref().expect("just created").alloc.buffer;
+        let dst = self.readback_buffer(len)?;
         let e = self.buffers[buffer.0 as usize]
             .as_mut()
             .expect("checked above");
@@ -102,5 +90,23 @@ impl AshExecutor {
         self.finish()?;
         self.readback.as_ref().expect("created above").read(out);
         Ok(())
+    }
+
+    /// The host-visible readback buffer, of at least `len` bytes (the last one unless too
+    /// small; only used inside reads, whose submissions have completed).
+    pub(crate) fn readback_buffer(&mut self, len: u64) -> Result<vk::Buffer, AshError> {
+        if self.readback.as_ref().is_none_or(|r| r.size < len) {
+            if let Some(old) = self.readback.take() {
+                // SAFETY: only used inside reads, whose submissions have completed.
+                unsafe { old.destroy(&self.device) };
+            }
+            self.readback = Some(HostBuffer::new(
+                &self.device,
+                &self.mem_props,
+                len.next_power_of_two(),
+                true,
+            )?);
+        }
+        Ok(self.readback.as_ref().expect("just created").alloc.buffer)
     }
 }

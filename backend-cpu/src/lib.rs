@@ -87,7 +87,7 @@ pub type CpuError = ExecError;
 #[derive(Default)]
 pub struct CpuExecutor {
     buffers: Vec<Storage>,
-    /// The buffers that hold an engine texture (`Access::Sampled` bindings).
+    /// The buffers that hold an engine texture (`Access::Sampled` and `Access::Storage` bindings).
     textures: std::collections::HashSet<BufferId>,
     timings: Vec<PassTiming>,
 }

@@ -43,10 +43,11 @@ impl WgpuExecutor {
             },
             |id| self.imported(id).is_some(),
         )?;
-        for &id in pass.buffers {
+        for (&id, binding) in pass.buffers.iter().zip(pass.kernel.bindings) {
             if self.imported(id).is_none() {
                 self.require(id, wgpu::BufferUsages::STORAGE)?;
             }
+            self.check_texture(id, binding.access)?;
         }
         if let Groups::Indirect { buffer, .. } = pass.groups {
             self.require(buffer, wgpu::BufferUsages::INDIRECT)?;

@@ -56,6 +56,12 @@ impl WgpuExecutor {
                         view_dimension: wgpu::TextureViewDimension::D2,
                         multisampled: false,
                     },
+                    Access::Storage => wgpu::BindingType::StorageTexture {
+                        // rust-gpu declares storage images readable.
+                        access: wgpu::StorageTextureAccess::ReadWrite,
+                        format: crate::textures::OUTPUT_FORMAT,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
                     _ => wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Storage {
                             read_only: !binding.access.writes(),

@@ -1,35 +1,40 @@
 //! The engine's own textures: imported once, bound where a kernel reads a texture
-//! (`Access::Sampled`, the `ingest` pass), never copied. Their ids share the buffers' id space
+//! (`Access::Sampled`: the engine's G-buffer) or writes one (`Access::Storage`: the denoised
+//! output), never copied. Their ids share the buffers' id space
 //! with the top bit set, so a texture id can never name a buffer.
 
 use crate::{WgpuError, WgpuExecutor};
-use vrrt_core::executor::BufferId;
+use vrrt_core::executor::{Access, BufferId};
 
 /// The bit that marks a texture id.
 const TEXTURE_BIT: u32 = 1 << 31;
+
+/// The format of a texture the denoiser writes (`Denoiser::resolve_into`).
+pub(crate) const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// An imported texture: the view passes bind and the bytes of its first mip level (what a pass
 /// reading it moves).
 pub(crate) struct Imported {
     pub(crate) view: wgpu::TextureView,
     pub(crate) bytes: u64,
+    pub(crate) texture: wgpu::Texture,
 }
 
 impl WgpuExecutor {
-    /// Wraps an application's texture so the `ingest` pass (`Denoiser::ingest`) can read it with
-    /// texel fetches, as it is, every frame it is bound. It must belong to this executor's device
-    /// and be a 2D, single-sampled texture with [`wgpu::TextureUsages::TEXTURE_BINDING`] and a
-    /// float-sampled format (R32F, RG16F, RGBA16F, RGB10A2, RGBA8 and the like; depth formats are
-    /// not accepted yet). Its first mip level is read.
+    /// Wraps an application's texture so the denoiser can read it with texel fetches (the
+    /// engine's G-buffer: `Denoiser::ingest`) or write into it (`Denoiser::resolve_into`), as it
+    /// is, every frame it is bound. It must belong to this executor's device and be 2D and
+    /// single-sampled. Read: [`wgpu::TextureUsages::TEXTURE_BINDING`] and a float-sampled format
+    /// (R32F, RG16F, RGBA16F, RGB10A2, RGBA8 and the like; depth formats are not accepted yet).
+    /// Written: [`wgpu::TextureUsages::STORAGE_BINDING`] and R32F. Its first mip level is
+    /// used; what it is bound as is checked when a pass binds it.
     pub fn import_texture(&mut self, texture: &wgpu::Texture) -> Result<BufferId, WgpuError> {
         let refuse = |why: String| Err(WgpuError::Texture(why));
         let format = texture.format();
-        if !texture
-            .usage()
-            .contains(wgpu::TextureUsages::TEXTURE_BINDING)
-        {
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING;
+        if !texture.usage().intersects(usage) {
             return refuse(format!(
-                "lacks TEXTURE_BINDING usage ({:?})",
+                "has neither TEXTURE_BINDING nor STORAGE_BINDING usage ({:?})",
                 texture.usage()
             ));
         }
@@ -40,12 +45,6 @@ impl WgpuExecutor {
                 texture.sample_count()
             ));
         }
-        if !matches!(
-            format.sample_type(None, None),
-            Some(wgpu::TextureSampleType::Float { .. })
-        ) {
-            return refuse(format!("format {format:?} is not read as floats"));
-        }
         let view = texture.create_view(&wgpu::TextureViewDescriptor {
             label: Some("vrrt engine texture"),
             base_mip_level: 0,
@@ -55,8 +54,47 @@ impl WgpuExecutor {
         let texel = format.block_copy_size(None).unwrap_or(4) as u64;
         let bytes = texture.width() as u64 * texture.height() as u64 * texel;
         let id = BufferId(TEXTURE_BIT | self.textures.len() as u32);
-        self.textures.push(Imported { view, bytes });
+        self.textures.push(Imported {
+            view,
+            bytes,
+            texture: texture.clone(),
+        });
         Ok(id)
+    }
+
+    /// Refuses a texture bound where it cannot be used: read (`Access::Sampled`) without
+    /// TEXTURE_BINDING or a float-sampled format, written (`Access::Storage`) without
+    /// STORAGE_BINDING or in another format than R32F.
+    pub(crate) fn check_texture(&self, id: BufferId, access: Access) -> Result<(), WgpuError> {
+        let Some(t) = self.imported(id) else {
+            return Ok(());
+        };
+        let (usage, format) = (t.texture.usage(), t.texture.format());
+        let float = matches!(
+            format.sample_type(None, None),
+            Some(wgpu::TextureSampleType::Float { .. })
+        );
+        let why = match access {
+            Access::Sampled if !usage.contains(wgpu::TextureUsages::TEXTURE_BINDING) => {
+                "is read but lacks TEXTURE_BINDING usage".to_string()
+            }
+            Access::Sampled if !float => {
+                format!("is read but its format {format:?} is not read as floats")
+            }
+            Access::Storage if !usage.contains(wgpu::TextureUsages::STORAGE_BINDING) => {
+                "is written but lacks STORAGE_BINDING usage".to_string()
+            }
+            Access::Storage if format != OUTPUT_FORMAT => {
+                format!("is written but is {format:?}, not {OUTPUT_FORMAT:?}")
+            }
+            _ => return Ok(()),
+        };
+        Err(WgpuError::Texture(format!("{id:?} {why}")))
+    }
+
+    /// The application's texture behind `id`, if `id` is an imported texture.
+    pub fn texture(&self, id: BufferId) -> Option<&wgpu::Texture> {
+        self.imported(id).map(|t| &t.texture)
     }
 
     /// The imported texture `id`, if it is one.

@@ -5,7 +5,7 @@
 
 use crate::{err, Backend, BackendError};
 use vrrt_core::binary16::{f16_to_f32, f32_to_f16};
-use vrrt_core::executor::BufferId;
+use vrrt_core::executor::{BufferId, Executor};
 use vrrt_core::textures::Texel;
 
 /// The formats [`Backend::create_texture`] stores texels in: what engines write their G-buffers
@@ -159,4 +159,124 @@ impl Backend {
             }
         }
     }
+}
+
+impl Backend {
+    /// A `width × height` R32F texture for the denoiser to write (`Denoiser::resolve_into`),
+    /// zero-filled, readable with [`Self::read_texture`]: for hosts without an engine.
+    pub fn create_output_texture(
+        &mut self,
+        width: u32,
+        height: u32,
+    ) -> Result<BufferId, BackendError> {
+        if width == 0 || height == 0 {
+            return Err(err(format!("a {width}x{height} texture")));
+        }
+        match self {
+            Backend::Cpu(e) => {
+                let zeros = vec![[0.0; 4]; width as usize * height as usize];
+                e.create_texture(width, height, &zeros).map_err(err)
+            }
+            Backend::Wgpu(e) => {
+                let texture = e.device().create_texture(&wgpu::TextureDescriptor {
+                    label: Some("vrrt output"),
+                    size: extent(width, height),
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                });
+                e.import_texture(&texture).map_err(err)
+            }
+            Backend::Ash(e) => e.create_output_image(width, height).map_err(err),
+        }
+    }
+
+    /// The texels of a texture made by [`Self::create_output_texture`], after the work recorded
+    /// so far, as a fetch of R32F returns them.
+    pub fn read_texture(
+        &mut self,
+        id: BufferId,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<Texel>, BackendError> {
+        let texels = width as usize * height as usize;
+        let values: Vec<f32> = match self {
+            Backend::Cpu(e) => {
+                let mut out = vec![[0.0f32; 4]; texels];
+                e.read_buffer(id, bytemuck::cast_slice_mut(&mut out))
+                    .map_err(err)?;
+                out.iter().map(|t| t[0]).collect()
+            }
+            Backend::Wgpu(e) => read_wgpu(e, id, width, height)?,
+            Backend::Ash(e) => {
+                let mut out = vec![0.0f32; texels];
+                e.read_image(id, bytemuck::cast_slice_mut(&mut out))
+                    .map_err(err)?;
+                out
+            }
+        };
+        Ok(values.into_iter().map(|v| [v, 0.0, 0.0, 1.0]).collect())
+    }
+}
+
+fn extent(width: u32, height: u32) -> wgpu::Extent3d {
+    wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    }
+}
+
+/// The texels of an R32F texture imported into `e`, copied out after its pending work.
+fn read_wgpu(
+    e: &mut vrrt_wgpu::WgpuExecutor,
+    id: BufferId,
+    width: u32,
+    height: u32,
+) -> Result<Vec<f32>, BackendError> {
+    e.finish().map_err(err)?;
+    let texture = e
+        .texture(id)
+        .ok_or_else(|| err(format!("{id:?} is not a texture")))?
+        .clone();
+    let row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer = e.device().create_buffer(&wgpu::BufferDescriptor {
+        label: Some("vrrt texture readback"),
+        size: row as u64 * height as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = e.device().create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(height),
+            },
+        },
+        extent(width, height),
+    );
+    e.queue().submit([encoder.finish()]);
+    let slice = buffer.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    e.device()
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|x| err(format!("{x:?}")))?;
+    let mapped = slice
+        .get_mapped_range()
+        .map_err(|x| err(format!("mapping the readback: {x:?}")))?;
+    let mut values = Vec::with_capacity(width as usize * height as usize);
+    for r in 0..height as usize {
+        let start = r * row as usize;
+        values.extend_from_slice(bytemuck::cast_slice(
+            &mapped[start..start + width as usize * 4],
+        ));
+    }
+    Ok(values)
 }

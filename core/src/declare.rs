@@ -100,8 +100,13 @@ macro_rules! kernel_table {
         [$bn:ident: sampled $bt:ty, $($more:tt)*]
         $($rest:tt)*) => {
         $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Sampled read [] texture $bt)] $f
-            [$($t)* $bn]
+            [$($t)* ($bn [])]
             [$($ns)*] [$($more)*] $($rest)*);
+    };
+    (@bind $done:tt $head:tt [$($z:tt)*] $f:tt [$($t:tt)*] [$n:tt $($ns:tt)*]
+        [$bn:ident: storage $bt:ty, $($more:tt)*] $($rest:tt)*) => {
+        $crate::kernel_table!(@bind $done $head [$($z)* ($n $bn Storage write [mut] texture $bt)] $f
+            [$($t)* ($bn [mut])] [$($ns)*] [$($more)*] $($rest)*);
     };
     (@bind [$($done:tt)*] [$($head:tt)*] $z:tt $f:tt $t:tt $ns:tt [] $($rest:tt)*) => {
         $crate::kernel_table!(@kernels [$($done)* {$($head)* $z $f $t}] $($rest)*);
@@ -112,7 +117,7 @@ macro_rules! kernel_table {
         [$($doc:tt)*] $entry:ident $desc:ident $binds:ident $io:ident [$($kind:tt)*]
         ($x:tt, $y:tt, $z:tt) [$params:ty]
         [$(($n:tt $bn:ident $acc:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
-        [$(($fname:ident [$($fm:tt)?] $ft:ty))*] [$($tname:ident)*]
+        [$(($fname:ident [$($fm:tt)?] $ft:ty))*] [$(($tname:ident [$($tm:tt)?]))*]
     })*) => {
         $(
             #[doc = concat!("The storage buffers of `", stringify!($entry),
@@ -137,7 +142,8 @@ macro_rules! kernel_table {
                 }),*],
                 params_size: core::mem::size_of::<$params>() as u32,
                 cpu: $crate::kernel_table!(@cpu [$($kind)*] ($x, $y, $z) $io [$params]
-                    [$(($n $bn $method [$($m)?] $bk $bt))*] [$(($fname [$($fm)?]))*] [$($tname)*]),
+                    [$(($n $bn $method [$($m)?] $bk $bt))*] [$(($fname [$($fm)?]))*]
+                    [$(($tname [$($tm)?]))*]),
             };
 
             #[doc = concat!("The buffers of one `", stringify!($entry), "` pass, by binding name.")]
@@ -209,7 +215,7 @@ macro_rules! kernel_table {
                 use $crate::kernels::names::*;
                 $(
                     $crate::kernel_table!(@entry [$($kind)*] $entry $io ($x, $y, $z) [$params]
-                        [$(($n $bn [$($m)?] $bk $bt))*] [$($fname)*] [$($tname)*]);
+                        [$(($n $bn [$($m)?] $bk $bt))*] [$($fname)*] [$(($tname [$($tm)?]))*]);
                 )*
             };
         }
@@ -218,7 +224,7 @@ macro_rules! kernel_table {
     // ---- the native runner of a run of workgroups ----
     (@cpu [fn ($kfn:path)] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
-        [$(($fname:ident [$($fm:tt)?]))*] [$($tname:ident)*]) => {{
+        [$(($fname:ident [$($fm:tt)?]))*] [$(($tname:ident [$($tm:tt)?]))*]) => {{
         unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
@@ -226,7 +232,7 @@ macro_rules! kernel_table {
             for group in span.groups() {
                 b.for_each_invocation(group, |id| {
                     $kfn(id, &params, $io { $($fname: &$($fm)? *$fname),* }
-                        $(, $crate::textures::Texture::new($tname))*);
+                        $(, $crate::textures::IntoTexture::into_texture(&$($tm)? *$tname))*);
                 });
             }
         }
@@ -234,7 +240,7 @@ macro_rules! kernel_table {
     }};
     (@cpu [lanes $lanes:tt [$($wide:tt)?] ($($kfn:ident)::+)] ($x:tt, $y:tt, $z:tt) $io:ident
         [$params:ty] [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
-        [$(($fname:ident [$($fm:tt)?]))*] [$($tname:ident)*]) => {{
+        [$(($fname:ident [$($fm:tt)?]))*] [$(($tname:ident [$($tm:tt)?]))*]) => {{
         #[inline(always)]
         unsafe fn lanes<const L: usize>(
             span: $crate::executor::GroupSpan,
@@ -261,7 +267,7 @@ macro_rules! kernel_table {
                     while x < x_end {
                         let id = $crate::glam::UVec3::new(x, span.y * $y + y, span.z * $z + z);
                         $($kfn)::+::<L>(id, &params, $io { $($fname: &$($fm)? *$fname),* }
-                            $(, $crate::textures::Texture::new($tname))*);
+                            $(, $crate::textures::IntoTexture::into_texture(&$($tm)? *$tname))*);
                         x += L as u32;
                     }
                 }
@@ -357,13 +363,18 @@ macro_rules! kernel_table {
             #[spirv(storage_buffer, descriptor_set = 0, binding = $n)] $bn: &$($m)? [$bt],]
             $($rest)*);
     };
-    (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [$($m:tt)?] texture $bt:ty) $($rest:tt)*) => {
+    (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [] texture $bt:ty) $($rest:tt)*) => {
         $crate::kernel_table!(@fn_params $head [$($done)*
             #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::textures::SampledImage,]
             $($rest)*);
     };
+    (@fn_params $head:tt [$($done:tt)*] ($n:tt $bn:ident [mut] texture $bt:ty) $($rest:tt)*) => {
+        $crate::kernel_table!(@fn_params $head [$($done)*
+            #[spirv(descriptor_set = 0, binding = $n)] $bn: &$crate::textures::StorageImage,]
+            $($rest)*);
+    };
     (@fn_params [$callee:tt, $entry:ident, $io:ident, ($x:tt, $y:tt, $z:tt), $params:ty,
-        [$($fname:ident)*], [$($tname:ident)*]] [$($done:tt)*]) => {
+        [$($fname:ident)*], [$(($tname:ident [$($tm:tt)?]))*]] [$($done:tt)*]) => {
         // One parameter per descriptor binding: the entry point's interface, not a design choice.
         #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads($x, $y, $z)))]

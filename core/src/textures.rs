@@ -3,6 +3,7 @@
 //! [`TextureOut`] on the CPU). Kernels take each texture binding as an `impl Fetch` or
 //! `impl Store` argument after their buffers, since Vulkan does not let a struct hold an image.
 
+use core::cell::Cell;
 use glam::Vec4;
 
 /// An engine texture a kernel reads: what a texel fetch returns.
@@ -59,56 +60,61 @@ impl Fetch for &SampledImage {
     }
 }
 
-/// An engine texture a kernel writes (the denoised output).
+/// An engine texture a kernel writes (the denoised output). Through a shared reference, as a
+/// storage image is written on the GPU: each invocation writes only its own pixels' texels.
 pub trait Store {
     /// Writes texel `(x, y)` of a texture `width` texels wide.
-    fn store(&mut self, x: u32, y: u32, width: u32, value: Vec4);
+    fn store(&self, x: u32, y: u32, width: u32, value: Vec4);
 }
 
 /// An engine texture the CPU writes: row-major [`Texel`]s.
 #[derive(Debug)]
 pub struct TextureOut<'a> {
-    texels: &'a mut [Texel],
+    texels: &'a [Cell<Texel>],
 }
 
 impl<'a> TextureOut<'a> {
     /// A texture over `texels`, row-major.
     #[inline]
     pub fn new(texels: &'a mut [Texel]) -> Self {
-        TextureOut { texels }
+        TextureOut {
+            texels: Cell::from_mut(texels).as_slice_of_cells(),
+        }
     }
 }
 
 impl Store for TextureOut<'_> {
     #[inline]
-    fn store(&mut self, x: u32, y: u32, width: u32, value: Vec4) {
-        self.texels[(y * width + x) as usize] = value.to_array();
+    fn store(&self, x: u32, y: u32, width: u32, value: Vec4) {
+        self.texels[(y * width + x) as usize].set(value.to_array());
     }
 }
 
-/// The SPIR-V type of an output texture binding: RGBA16F, written without reading.
+impl Store for &TextureOut<'_> {
+    #[inline]
+    fn store(&self, x: u32, y: u32, width: u32, value: Vec4) {
+        (**self).store(x, y, width, value)
+    }
+}
+
+/// The SPIR-V type of an output texture binding: R32F (rust-gpu declares storage images
+/// readable, which wgpu allows without a device feature for the 32-bit single-channel formats
+/// only).
 #[cfg(target_arch = "spirv")]
-pub type StorageImage = spirv_std::Image!(2D, format = rgba16f, sampled = false);
+pub type StorageImage = spirv_std::Image!(2D, format = r32f, sampled = false);
 
 #[cfg(target_arch = "spirv")]
 impl Store for &StorageImage {
     #[inline]
-    fn store(&mut self, x: u32, y: u32, _width: u32, value: Vec4) {
+    fn store(&self, x: u32, y: u32, _width: u32, value: Vec4) {
         // SAFETY: each invocation writes only the texels of its own pixels.
-        unsafe { self.write(glam::UVec2::new(x, y), value) }
+        unsafe { self.write(glam::UVec2::new(x, y), value.x) }
     }
 }
 
 /// Natively, where the shader crate's entry points are only type-checked, a CPU texture.
 #[cfg(not(target_arch = "spirv"))]
 pub type StorageImage = TextureOut<'static>;
-
-impl Store for &mut TextureOut<'_> {
-    #[inline]
-    fn store(&mut self, x: u32, y: u32, width: u32, value: Vec4) {
-        (**self).store(x, y, width, value)
-    }
-}
 
 /// How the CPU runner hands a texture binding's texels to a kernel: a read binding as a
 /// [`Texture`], a written one as a [`TextureOut`].

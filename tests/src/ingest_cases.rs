@@ -166,6 +166,20 @@ pub fn reproject_engine_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
+/// `atrous`'s case writing into an engine texture instead of `out`: plane `z` at rows
+/// `z · height ..`, the value in red.
+pub fn atrous_engine_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let mut base = crate::filter_cases::atrous_case(rng, w, h);
+    base.buffers.pop();
+    base.buffers
+        .push(BufferSpec::output_texture(w, h * cases::PLANES));
+    Case {
+        name: base.name.replace("atrous", "atrous_engine"),
+        kernel: &vrrt_core::kernels::ATROUS_ENGINE,
+        ..base
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,6 +205,27 @@ mod tests {
             for (&p, &e) in plain.buffers[1].data.iter().zip(&b[5]) {
                 let (p, e) = (packing::unpack_normal(p), packing::unpack_normal(e));
                 assert!(p.dot(e) > 0.99999, "{w}x{h}: normal {p} vs {e}");
+            }
+        }
+    }
+
+    /// The texture the last iteration writes holds what `atrous` writes to its buffer: each
+    /// plane's value, at rows `z · height ..`.
+    #[test]
+    fn the_engine_texture_holds_the_filtered_planes() {
+        for (i, &(w, h)) in cases::SIZES.iter().enumerate() {
+            let plain = crate::filter_cases::atrous_case(&mut rng(70 + i as u64), w, h);
+            let engine = atrous_engine_case(&mut rng(70 + i as u64), w, h);
+            let mut cpu = vrrt_cpu::CpuExecutor::new();
+            let a = crate::run_case(&mut cpu, &plain).unwrap();
+            let b = crate::run_case(&mut cpu, &engine).unwrap();
+            let filtered: &[vrrt_core::payload::PackedFiltered] =
+                bytemuck::cast_slice(&a[a.len() - 1]);
+            let texels: &[Texel] = bytemuck::cast_slice(&b[b.len() - 1]);
+            assert_eq!(filtered.len(), texels.len());
+            for (f, t) in filtered.iter().zip(texels) {
+                let f = f.unpack();
+                assert_eq!([f.value, 0.0, 0.0, 1.0], *t, "{w}x{h}");
             }
         }
     }

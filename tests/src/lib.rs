@@ -23,7 +23,7 @@ pub mod spirv;
 pub mod trace_cases;
 
 use vrrt_backend::{Backend, TextureFormat};
-use vrrt_core::executor::{BufferId, Executor, Groups, KernelDesc, Pass};
+use vrrt_core::executor::{Access, BufferId, Executor, Groups, KernelDesc, Pass};
 use vrrt_core::textures::Texel;
 
 /// How to compare one 4-byte word of a buffer.
@@ -113,8 +113,9 @@ pub struct BufferSpec {
     /// history drops, the GGX acceptance): an input one ULP away may flip one, so up to
     /// [`Tolerance::decided`] of them may differ.
     pub decided: bool,
-    /// An engine texture (`width`, `height`, format) of [`Texel`]s instead of a storage buffer,
-    /// for `Access::Sampled` bindings: inputs only, never read back.
+    /// An engine texture (`width`, `height`, format) of [`Texel`]s instead of a storage buffer:
+    /// read by `Access::Sampled` bindings, written (R32F, read back as fetched) by
+    /// `Access::Storage` ones.
     pub texture: Option<(u32, u32, TextureFormat)>,
 }
 
@@ -128,6 +129,12 @@ impl BufferSpec {
             decided: false,
             texture: None,
         }
+    }
+
+    /// An R32F texture the kernel writes, `width × height` texels, initially zero.
+    pub fn output_texture(width: u32, height: u32) -> Self {
+        let zeros = vec![[0.0f32; 4]; width as usize * height as usize];
+        Self::texture(width, height, TextureFormat::R32Float, &zeros)
     }
 
     /// An engine texture of `format` holding `texels`, row-major.
@@ -177,6 +184,18 @@ pub trait Host: Executor {
         format: TextureFormat,
         texels: &[Texel],
     ) -> Result<BufferId, Self::Error>;
+
+    /// A `width × height` R32F texture a kernel writes (see
+    /// [`Backend::create_output_texture`]).
+    fn output_texture(&mut self, width: u32, height: u32) -> Result<BufferId, Self::Error>;
+
+    /// The texels of an output texture, as a fetch of R32F returns them.
+    fn read_texture(
+        &mut self,
+        id: BufferId,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<Texel>, Self::Error>;
 }
 
 impl Host for vrrt_cpu::CpuExecutor {
@@ -190,6 +209,28 @@ impl Host for vrrt_cpu::CpuExecutor {
         let fetched: Vec<Texel> = texels.iter().map(|&t| format.fetched(t)).collect();
         self.create_texture(width, height, &fetched)
     }
+
+    fn output_texture(&mut self, width: u32, height: u32) -> Result<BufferId, Self::Error> {
+        self.create_texture(
+            width,
+            height,
+            &vec![[0.0; 4]; width as usize * height as usize],
+        )
+    }
+
+    fn read_texture(
+        &mut self,
+        id: BufferId,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<Texel>, Self::Error> {
+        let mut out = vec![[0.0f32; 4]; width as usize * height as usize];
+        self.read_buffer(id, bytemuck::cast_slice_mut(&mut out))?;
+        Ok(out
+            .into_iter()
+            .map(|t| TextureFormat::Rgba16Float.fetched(t))
+            .collect())
+    }
 }
 
 impl Host for Backend {
@@ -202,13 +243,27 @@ impl Host for Backend {
     ) -> Result<BufferId, Self::Error> {
         self.create_texture(width, height, format, texels)
     }
+
+    fn output_texture(&mut self, width: u32, height: u32) -> Result<BufferId, Self::Error> {
+        self.create_output_texture(width, height)
+    }
+
+    fn read_texture(
+        &mut self,
+        id: BufferId,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<Texel>, Self::Error> {
+        Backend::read_texture(self, id, width, height)
+    }
 }
 
 /// Runs `case` on `exec` and returns every buffer's final contents (a texture's: its texels).
 pub fn run_case<E: Host>(exec: &mut E, case: &Case) -> Result<Vec<Vec<u32>>, E::Error> {
     let mut ids = Vec::with_capacity(case.buffers.len());
-    for spec in &case.buffers {
+    for (spec, binding) in case.buffers.iter().zip(case.kernel.bindings) {
         let id = match spec.texture {
+            Some((w, h, _)) if binding.access == Access::Storage => exec.output_texture(w, h)?,
             Some((w, h, format)) => exec.texture(w, h, format, bytemuck::cast_slice(&spec.data))?,
             None => {
                 let id = exec.create_buffer(spec.data.len().max(1) as u64 * 4)?;
@@ -225,14 +280,18 @@ pub fn run_case<E: Host>(exec: &mut E, case: &Case) -> Result<Vec<Vec<u32>>, E::
         groups: Groups::Direct(case.groups),
     })?;
     let mut out = Vec::with_capacity(ids.len());
-    for (id, spec) in ids.iter().zip(&case.buffers) {
-        if spec.texture.is_some() {
-            out.push(spec.data.clone());
-            continue;
+    for ((id, spec), binding) in ids.iter().zip(&case.buffers).zip(case.kernel.bindings) {
+        match spec.texture {
+            Some((w, h, _)) if binding.access == Access::Storage => {
+                out.push(bytemuck::cast_slice(&exec.read_texture(*id, w, h)?).to_vec())
+            }
+            Some(_) => out.push(spec.data.clone()),
+            None => {
+                let mut words = vec![0u32; spec.data.len()];
+                exec.read_buffer(*id, bytemuck::cast_slice_mut(&mut words))?;
+                out.push(words);
+            }
         }
-        let mut words = vec![0u32; spec.data.len()];
-        exec.read_buffer(*id, bytemuck::cast_slice_mut(&mut words))?;
-        out.push(words);
     }
     Ok(out)
 }

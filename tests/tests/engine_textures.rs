@@ -1,7 +1,8 @@
 //! The engine's own textures through `Denoiser::ingest`, on the CPU and on wgpu: a reversed-Z
 //! engine with view-space normals and UV velocities lands on the same inputs as the G-buffer
 //! written in our own formats, decoded by reprojection or (before an earlier reader) by the
-//! `ingest` pass, and a buffer bound where a texture belongs is refused.
+//! `ingest` pass; the denoised frame written into the engine's texture is the one the denoiser's
+//! own output holds; a buffer bound where a texture belongs is refused.
 
 mod gpu;
 
@@ -12,6 +13,7 @@ use vrrt_core::executor::{ExecError, Executor};
 use vrrt_core::glam::Vec3;
 use vrrt_core::inputs::{DepthEncoding, InputConventions, MotionSign, MotionUnits, NormalSpace};
 use vrrt_core::packing::{pack_normal_roughness, unpack_motion, unpack_normal_roughness};
+use vrrt_core::payload::{PackedFiltered, Sample};
 use vrrt_core::settings::Settings;
 use vrrt_core::textures::Texel;
 use vrrt_tests::Host;
@@ -147,6 +149,81 @@ fn a_reversed_z_engine_lands_on_our_own_inputs() {
         let name = b.name();
         for stratum in [0, 2] {
             check(name, ingested(b, stratum));
+        }
+    }
+    let failures = gpu::validation_failures(&backends);
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// One frame from the engine's textures, denoised into the engine's R32F texture
+/// (`resolve_into`) or into the denoiser's own buffer (`resolve`, read from `output`): the
+/// denoised values of the one plane. Every pixel's rays return a noisy 0.25 or 0.75.
+fn denoised<E: Host>(exec: &mut E, into_texture: bool) -> Vec<f32>
+where
+    E::Error: std::fmt::Debug,
+{
+    let mut denoiser = Denoiser::new(exec, W, H, Settings::default()).unwrap();
+    let frame = FrameInfo {
+        reset: true,
+        pixel_angle: 0.05,
+        view: view(),
+        ..FrameInfo::default()
+    };
+    denoiser.begin_frame(exec, frame).unwrap();
+    let [d, n, m] = engine_textures(exec, &frame.view);
+    let textures = EngineTextures::new(d, n, m, conventions()).unwrap();
+    denoiser.ingest(exec, &textures).unwrap();
+    denoiser.plan_rays(exec).unwrap();
+    let samples: Vec<_> = (0..W * H)
+        .map(|i| {
+            let v = if i % 3 == 0 { 0.25 } else { 0.75 };
+            Sample {
+                m1: v,
+                m2: v * v,
+                rays: 1,
+                first: v,
+            }
+            .pack()
+        })
+        .collect();
+    exec.write_buffer(denoiser.samples(), bytemuck::cast_slice(&samples))
+        .unwrap();
+    let n = (W * H) as usize;
+    if into_texture {
+        let target = exec.output_texture(W, H).unwrap();
+        denoiser.resolve_into(exec, target).unwrap();
+        let texels = exec.read_texture(target, W, H).unwrap();
+        return texels.iter().map(|t| t[0]).collect();
+    }
+    denoiser.resolve(exec).unwrap();
+    let mut out = vec![PackedFiltered::default(); n];
+    exec.read_buffer(denoiser.output(), bytemuck::cast_slice_mut(&mut out))
+        .unwrap();
+    out.iter().map(|f| f.unpack().value).collect()
+}
+
+#[test]
+fn the_engine_texture_gets_the_denoised_frame() {
+    let want = denoised(&mut vrrt_cpu::CpuExecutor::new(), false);
+    assert!(
+        want.iter().any(|&v| v > 0.0),
+        "the frame denoised to nothing"
+    );
+    assert_eq!(
+        denoised(&mut vrrt_cpu::CpuExecutor::new(), true),
+        want,
+        "cpu"
+    );
+    let mut backends = gpu::backends();
+    for b in backends.iter_mut() {
+        let name = b.name();
+        let (got, own) = (denoised(b, true), denoised(b, false));
+        assert_eq!(got, own, "{name}: texture against its own output");
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                (g - w).abs() <= 1e-3 * w.abs().max(1e-3),
+                "{name}: pixel {i}: {g} vs {w}"
+            );
         }
     }
     let failures = gpu::validation_failures(&backends);

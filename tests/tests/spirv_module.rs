@@ -2,7 +2,6 @@
 
 use vrrt_tests::spirv::entry_points;
 
-use vrrt_core::executor::Access;
 use vrrt_spirv::SPIRV as MODULE;
 
 #[test]
@@ -25,7 +24,7 @@ fn every_kernel_desc_matches_its_entry_point() {
         );
         let of_kind = |texture: bool| -> Vec<u32> {
             (0..kernel.bindings.len() as u32)
-                .filter(|&i| (kernel.bindings[i as usize].access == Access::Sampled) == texture)
+                .filter(|&i| kernel.bindings[i as usize].access.texture() == texture)
                 .collect()
         };
         assert_eq!(

@@ -167,11 +167,32 @@ impl Denoiser {
     /// [`Self::detect_changes`] ran, accumulation, variance estimation and the à-trous
     /// iterations.
     pub fn resolve<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
+        self.resolve_passes(exec, None)
+    }
+
+    /// [`Self::resolve`] with the last à-trous iteration writing into the engine's own texture
+    /// `target` (no copy pass; [`Self::output`] is then not written this frame): an R32F
+    /// storage texture `width × height · planes` texels, plane `z`'s pixel `(x, y)` at
+    /// `(x, y + z · height)` (the denoised value; `WgpuExecutor::import_texture`, `AshExecutor::import_image`, or on the CPU
+    /// `CpuExecutor::create_texture`).
+    pub fn resolve_into<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        target: BufferId,
+    ) -> Result<(), E::Error> {
+        self.resolve_passes(exec, Some(target))
+    }
+
+    fn resolve_passes<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        target: Option<BufferId>,
+    ) -> Result<(), E::Error> {
         self.detect(exec, false)?;
         self.accumulate(exec)?;
         self.estimate_variance(exec)?;
         self.penumbra_guide(exec)?;
-        self.filter(exec)
+        self.filter(exec, target)
     }
 
     /// Accumulation of this frame's samples into the reprojected history.
@@ -308,44 +329,45 @@ impl Denoiser {
     }
 
     /// The à-trous iterations, ping-ponging between the two filter buffers (`out` says which
-    /// holds the result).
-    fn filter<E: Executor>(&mut self, exec: &mut E) -> Result<(), E::Error> {
-        let (s, l) = (self.settings, self.layout);
-        let (w, h, planes) = (self.width, self.height, l.planes);
-        let plane_scale = s.filter.plane_tolerance * self.frame.pixel_angle;
+    /// holds the result), the last into `target` when the engine gave one (at least one
+    /// iteration then, which passes every tile through when the filter has none).
+    fn filter<E: Executor>(
+        &mut self,
+        exec: &mut E,
+        target: Option<BufferId>,
+    ) -> Result<(), E::Error> {
+        let (w, h, planes) = (self.width, self.height, self.layout.planes);
+        let iterations = self.settings.filter.atrous_iterations;
         self.out = 0;
-        for i in 0..s.filter.atrous_iterations {
-            let params = atrous::AtrousParams {
-                width: w,
-                height: h,
-                step: 1 << i,
-                iteration: i,
-                sigma_luminance: s.filter.sigma_luminance,
-                plane_scale,
-                normal_power: s.filter.normal_power,
-                cap_variance: s.filter.cap_variance as u32,
-                ao_planes: l.ao_planes,
-                ao_normal_power: s.filter.ao_normal_power,
-                symmetric_planes: if s.filter.ao_symmetric_taps {
-                    l.ao_planes
-                } else {
-                    0
-                },
-                guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
-                guide_scale: guide_scale(s.filter.guide_sigma),
-                guided_sigma_luminance: s.filter.guided_sigma_luminance,
-                penumbra_plane: l.penumbra_plane.unwrap_or(reproject::NO_PLANE),
-                penumbra_scale: if s.filter.penumbra_reach > 0.0 {
-                    1.0 / s.filter.penumbra_reach
-                } else {
-                    0.0
-                },
-                penumbra_sigma_luminance: s.filter.penumbra_sigma_luminance,
-            };
+        let passes = if target.is_some() {
+            iterations.max(1)
+        } else {
+            iterations
+        };
+        for i in 0..passes {
+            let params = self.atrous_params(i);
+            let (input, depth, normal_roughness) = (
+                self.filtered[self.out],
+                self.depth[self.cur],
+                self.normal_roughness[self.cur],
+            );
+            if let (Some(out), true) = (target, i + 1 == passes) {
+                let atrous = kernels::AtrousEngineBindings {
+                    input,
+                    depth,
+                    normal_roughness,
+                    view: self.view,
+                    tiles: self.tiles,
+                    guide: self.guide,
+                    penumbra: self.penumbra,
+                    out,
+                };
+                return exec.dispatch(&atrous.over_grid(&params, w, h, planes));
+            }
             let atrous = kernels::AtrousBindings {
-                input: self.filtered[self.out],
-                depth: self.depth[self.cur],
-                normal_roughness: self.normal_roughness[self.cur],
+                input,
+                depth,
+                normal_roughness,
                 view: self.view,
                 tiles: self.tiles,
                 guide: self.guide,
@@ -356,6 +378,38 @@ impl Denoiser {
             self.out = 1 - self.out;
         }
         Ok(())
+    }
+
+    /// The parameters of à-trous iteration `i`.
+    fn atrous_params(&self, i: u32) -> atrous::AtrousParams {
+        let (s, l) = (self.settings, self.layout);
+        atrous::AtrousParams {
+            width: self.width,
+            height: self.height,
+            step: 1 << i,
+            iteration: i,
+            sigma_luminance: s.filter.sigma_luminance,
+            plane_scale: s.filter.plane_tolerance * self.frame.pixel_angle,
+            normal_power: s.filter.normal_power,
+            cap_variance: s.filter.cap_variance as u32,
+            ao_planes: l.ao_planes,
+            ao_normal_power: s.filter.ao_normal_power,
+            symmetric_planes: if s.filter.ao_symmetric_taps {
+                l.ao_planes
+            } else {
+                0
+            },
+            guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
+            guide_scale: guide_scale(s.filter.guide_sigma),
+            guided_sigma_luminance: s.filter.guided_sigma_luminance,
+            penumbra_plane: l.penumbra_plane.unwrap_or(reproject::NO_PLANE),
+            penumbra_scale: if s.filter.penumbra_reach > 0.0 {
+                1.0 / s.filter.penumbra_reach
+            } else {
+                0.0
+            },
+            penumbra_sigma_luminance: s.filter.penumbra_sigma_luminance,
+        }
     }
 }
 

@@ -27,12 +27,21 @@ pub enum Access {
     /// (float texels) on the GPU backends, a row-major slice of [`crate::textures::Texel`]s on the
     /// CPU.
     Sampled,
+    /// An engine texture the kernel writes without reading (the denoised output,
+    /// [`crate::textures::Store`]): an R32F storage image on the GPU backends, a row-major
+    /// slice of [`crate::textures::Texel`]s on the CPU.
+    Storage,
 }
 
 impl Access {
     /// Whether the kernel may modify the buffer.
     pub fn writes(self) -> bool {
         !matches!(self, Access::Read | Access::Sampled)
+    }
+
+    /// Whether the binding is an engine texture rather than a storage buffer.
+    pub fn texture(self) -> bool {
+        matches!(self, Access::Sampled | Access::Storage)
     }
 }
 
@@ -233,7 +242,7 @@ impl<'a> Pass<'a> {
             if self.buffers[..i].contains(&id) {
                 return Err(ExecError::AliasedBinding(id));
             }
-            let texture = binding.access == Access::Sampled;
+            let texture = binding.access.texture();
             if is_texture(id) != texture {
                 return Err(ExecError::WrongKind {
                     binding: binding.name,

@@ -14,15 +14,16 @@ use super::detect::per_plane;
 use super::penumbra;
 use super::reflect::NO_GUIDE;
 use super::reproject::NO_PLANE;
-use super::AtrousIo;
-use crate::camera::PixelRays;
+use super::{AtrousEngineIo, AtrousIo};
+use crate::camera::{PixelRays, View};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
 use crate::payload::{self, PackedFiltered};
 use crate::surface::{self, TangentPlane};
+use crate::textures::Store;
 use bytemuck::{Pod, Zeroable};
-use glam::{UVec3, Vec3};
+use glam::{UVec3, Vec3, Vec4};
 
 /// Push constants of [`atrous`].
 #[repr(C)]
@@ -125,6 +126,17 @@ const TAP_DISTANCE: [[f32; 3]; 3] = [
 const SQRT_5: f32 = 2.236_068;
 const GAUSS3: [f32; 2] = [1.0 / 2.0, 1.0 / 4.0];
 
+/// What an à-trous iteration reads, shared by [`atrous`] and [`atrous_engine`].
+struct Reads<'a> {
+    input: &'a [PackedFiltered],
+    depth: &'a [f32],
+    normal_roughness: &'a [u32],
+    view: &'a [View],
+    tiles: &'a [u32],
+    guide: &'a [f32],
+    penumbra: &'a [f32],
+}
+
 /// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]): the
 /// GPU runs `N = 1`, one invocation per pixel.
 #[inline(always)]
@@ -143,8 +155,81 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
-    let x0 = id.x as i32;
+    let reads = Reads {
+        input,
+        depth,
+        normal_roughness,
+        view,
+        tiles,
+        guide,
+        penumbra,
+    };
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let plane_row = (id.z * h + id.y) * w;
+    iterate(id, p, reads).store(out, (plane_row + id.x) as usize, live);
+}
+
+/// [`atrous`]'s last iteration written into the engine's texture (`out`, R32F): plane `z`'s
+/// pixel `(x, y)` at texel `(x, y + z · height)`, the denoised value in red.
+#[inline(always)]
+pub fn atrous_engine<const N: usize>(
+    id: UVec3,
+    p: &AtrousParams,
+    io: AtrousEngineIo<'_>,
+    out: impl Store,
+) {
+    let AtrousEngineIo {
+        input,
+        depth,
+        normal_roughness,
+        view,
+        tiles,
+        guide,
+        penumbra,
+    } = io;
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
+        return;
+    }
+    let reads = Reads {
+        input,
+        depth,
+        normal_roughness,
+        view,
+        tiles,
+        guide,
+        penumbra,
+    };
+    let (value, _) = payload::unpack_filtered(iterate::<N>(id, p, reads));
+    let mut l = 0;
+    while l < N {
+        if id.x + (l as u32) < w {
+            let texel = Vec4::new(value.0[l], 0.0, 0.0, 1.0);
+            out.store(id.x + l as u32, id.y + id.z * h, w, texel);
+        }
+        l += 1;
+    }
+}
+
+/// The iteration's result at `N` pixels of a row (`id` the first, inside the image): filtered,
+/// or passed through where the tile needs no more iterations or there is no surface.
+#[inline(always)]
+fn iterate<const N: usize>(
+    id: UVec3,
+    p: &AtrousParams,
+    reads: Reads<'_>,
+) -> Lanes<PackedFiltered, N> {
+    let Reads {
+        input,
+        depth,
+        normal_roughness,
+        view,
+        tiles,
+        guide,
+        penumbra,
+    } = reads;
+    let (w, h) = (p.width, p.height);
+    let x0 = id.x as i32;
     let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(x0 + l as i32, w));
     let plane_row = (id.z * h + id.y) * w;
     let row = id.y * w;
@@ -153,8 +238,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
     let needed = Lanes::<u32, N>::gather(tiles, xs.map(|x| tile_index(x, id.y, w) as u32));
     let pass = cd.zip(needed, |d, t| !surface::has_surface(d) || p.iteration >= t);
     if pass.all() {
-        packed.store(out, (plane_row + id.x) as usize, live);
-        return;
+        return packed;
     }
     let (value, variance) = payload::unpack_filtered(packed);
     let n = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w).map(packing::unpack_normal);
@@ -218,9 +302,7 @@ pub fn atrous<const N: usize>(id: UVec3, p: &AtrousParams, io: AtrousIo<'_>) {
         sum.zip(sum_w, |sum, s| sum / s),
         sum_var.zip(sum_w, |sum_var, s| sum_var / (s * s)),
     );
-    filtered
-        .select(pass.map(|p| !p), packed)
-        .store(out, (plane_row + id.x) as usize, live);
+    filtered.select(pass.map(|p| !p), packed)
 }
 
 /// The weighted sums over the centre `c`'s 24 taps, the centre's own sample (`variance`)

@@ -2,12 +2,13 @@
 //! where a kernel is written. See [`crate::declare`] for what is derived from each entry.
 //!
 //! An entry reads `entry => DESC, Bindings, Io: fn module::function, threads(x, y, z), params Type
-//! { name: read|write|update|atomic ElementType, .. }`. Bindings are numbered in order; `write`
-//! means each invocation writes only elements it owns (without reading them), `update` that it
-//! reads and rewrites only elements it owns (in place), `atomic` that invocations contend through
-//! `crate::atomic`, and `sampled` an engine texture read by texel fetches (`crate::textures::Texture`;
-//! element type `Texel`; `fn` and `lanes` kernels, which take each as an `impl Fetch` argument
-//! after their buffers). Types are written `module::Type`, or bare when [`super::names`] lists them.
+//! { name: read|write|update|atomic|sampled|storage ElementType, .. }`. Bindings are numbered in
+//! order; `write` means each invocation writes only elements it owns (without reading them),
+//! `update` that it reads and rewrites only elements it owns (in place), `atomic` that invocations
+//! contend through `crate::atomic`; `sampled` is an engine texture read by texel fetches and
+//! `storage` one written (element type `Texel`; `fn` and `lanes` kernels take each as an
+//! `impl Fetch` or `impl Store` argument after their buffers, `crate::textures`). Types are written
+//! `module::Type`, or bare when [`super::names`] lists them.
 
 use super::names::*;
 
@@ -46,6 +47,19 @@ crate::kernel_table! {
         guide: read f32,
         penumbra: read f32,
         out: write PackedFiltered,
+    }
+
+    /// [`atrous::atrous_engine`]: the last à-trous iteration, into the engine's texture.
+    atrous_engine => ATROUS_ENGINE, AtrousEngineBindings, AtrousEngineIo: lanes(32, avx512 64) atrous::atrous_engine,
+    threads(8, 8, 1), params atrous::AtrousParams {
+        input: read PackedFiltered,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        view: read View,
+        tiles: read TileWord,
+        guide: read f32,
+        penumbra: read f32,
+        out: storage Texel,
     }
 
     /// [`classify::classify`]: iterations per 8×8 tile from the words `variance` gathered, and
