@@ -97,6 +97,59 @@ impl WgpuExecutor {
         self.imported(id).map(|t| &t.texture)
     }
 
+    /// Copies the first mip level of imported texture `id` into `out` (rows packed tightly), after
+    /// the work recorded so far: submits it and waits. For hosts that check what a pass wrote
+    /// into a texture; `out` must hold exactly the level's bytes.
+    pub fn read_texture(&mut self, id: BufferId, out: &mut [u8]) -> Result<(), WgpuError> {
+        let texture = self
+            .texture(id)
+            .ok_or_else(|| WgpuError::Texture(format!("{id:?} is not an imported texture")))?
+            .clone();
+        let (w, h) = (texture.width(), texture.height());
+        let texel = texture.format().block_copy_size(None).unwrap_or(4);
+        if out.len() as u64 != w as u64 * h as u64 * texel as u64 {
+            return Err(WgpuError::Texture(format!(
+                "{id:?} holds {w}x{h} texels of {texel} bytes, not {} bytes",
+                out.len()
+            )));
+        }
+        vrrt_core::executor::Executor::finish(self)?;
+        let row = (w * texel).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let buffer = self.scoped(|| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("vrrt texture readback"),
+                size: row as u64 * h as u64,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        })?;
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        let layout = wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(row),
+            rows_per_image: Some(h),
+        };
+        let copy = wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout,
+        };
+        encoder.copy_texture_to_buffer(texture.as_image_copy(), copy, texture.size());
+        self.queue.submit([encoder.finish()]);
+        let slice = buffer.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| WgpuError::Device(format!("waiting for a texture readback: {e}")))?;
+        let mapped = slice
+            .get_mapped_range()
+            .map_err(|e| WgpuError::Device(format!("mapping a texture readback: {e:?}")))?;
+        let packed = (w * texel) as usize;
+        for (r, dst) in out.chunks_exact_mut(packed).enumerate() {
+            dst.copy_from_slice(&mapped[r * row as usize..][..packed]);
+        }
+        Ok(())
+    }
+
     /// The imported texture `id`, if it is one.
     pub(crate) fn imported(&self, id: BufferId) -> Option<&Imported> {
         if id.0 & TEXTURE_BIT == 0 {

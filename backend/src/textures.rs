@@ -210,7 +210,12 @@ impl Backend {
                     .map_err(err)?;
                 out.iter().map(|t| t[0]).collect()
             }
-            Backend::Wgpu(e) => read_wgpu(e, id, width, height)?,
+            Backend::Wgpu(e) => {
+                let mut out = vec![0.0f32; texels];
+                e.read_texture(id, bytemuck::cast_slice_mut(&mut out))
+                    .map_err(err)?;
+                out
+            }
             Backend::Ash(e) => {
                 let mut out = vec![0.0f32; texels];
                 e.read_image(id, bytemuck::cast_slice_mut(&mut out))
@@ -228,55 +233,4 @@ fn extent(width: u32, height: u32) -> wgpu::Extent3d {
         height,
         depth_or_array_layers: 1,
     }
-}
-
-/// The texels of an R32F texture imported into `e`, copied out after its pending work.
-fn read_wgpu(
-    e: &mut vrrt_wgpu::WgpuExecutor,
-    id: BufferId,
-    width: u32,
-    height: u32,
-) -> Result<Vec<f32>, BackendError> {
-    e.finish().map_err(err)?;
-    let texture = e
-        .texture(id)
-        .ok_or_else(|| err(format!("{id:?} is not a texture")))?
-        .clone();
-    let row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer = e.device().create_buffer(&wgpu::BufferDescriptor {
-        label: Some("vrrt texture readback"),
-        size: row as u64 * height as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = e.device().create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(row),
-                rows_per_image: Some(height),
-            },
-        },
-        extent(width, height),
-    );
-    e.queue().submit([encoder.finish()]);
-    let slice = buffer.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |_| {});
-    e.device()
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|x| err(format!("{x:?}")))?;
-    let mapped = slice
-        .get_mapped_range()
-        .map_err(|x| err(format!("mapping the readback: {x:?}")))?;
-    let mut values = Vec::with_capacity(width as usize * height as usize);
-    for r in 0..height as usize {
-        let start = r * row as usize;
-        values.extend_from_slice(bytemuck::cast_slice(
-            &mapped[start..start + width as usize * 4],
-        ));
-    }
-    Ok(values)
 }

@@ -12,6 +12,10 @@
 //!    history was lost, fewer where it converged, within the budget);
 //! 3. trace them and write the noisy [`Sample`]s into [`Denoiser::samples`];
 //! 4. [`Denoiser::resolve`]: the denoised signal is in [`Denoiser::output`].
+//!
+//! [`raster`] is the other kind of application: a small wgpu raster engine drawing a real scene
+//! into G-buffer textures of its own conventions, which the denoiser decodes itself
+//! (`examples/raster_engine.rs`).
 
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
@@ -22,6 +26,8 @@ use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedSample, Sample};
 use vrrt_core::settings::Settings;
 use vrrt_cpu::CpuExecutor;
+
+pub mod raster;
 
 /// Image width of the examples.
 pub const WIDTH: u32 = 64;

@@ -143,6 +143,31 @@ impl EngineTextures {
     pub fn conventions(&self) -> &InputConventions {
         &self.conventions
     }
+
+    /// Records the `ingest` pass that decodes these textures into `inputs` of a `width × height`
+    /// image, with the cameras of `view`: what [`Denoiser::ingest`] records into its own where
+    /// the inputs are read before reprojection. For a renderer inside
+    /// [`crate::frame::Frame::render`], whose G-buffer closure is handed this frame's inputs and
+    /// view (`frame::GBuffer`) while the frame holds the denoiser.
+    pub fn ingest<E: Executor>(
+        &self,
+        exec: &mut E,
+        inputs: Inputs,
+        view: BufferId,
+        (width, height): (u32, u32),
+    ) -> Result<(), E::Error> {
+        let params = self.conventions.params(width, height);
+        let ingest = kernels::IngestBindings {
+            engine_depth: self.depth,
+            engine_normal: self.normal_roughness,
+            engine_motion: self.motion,
+            view,
+            depth: inputs.depth,
+            normal_roughness: inputs.normal_roughness,
+            motion: inputs.motion,
+        };
+        exec.dispatch(&ingest.over_grid(&params, width, height, 1))
+    }
 }
 
 /// What the temporal-gradient prepass re-traces against: this frame's scene on the executor.
@@ -735,24 +760,14 @@ impl Denoiser {
         exec: &mut E,
         textures: &EngineTextures,
     ) -> Result<(), E::Error> {
-        let params = textures.conventions.params(self.width, self.height);
         let read_before_reprojection =
             self.layout.parallax_plane.is_some() || self.settings.prepass.stratum > 0;
-        if !read_before_reprojection {
-            exec.write_buffer(self.conventions, bytemuck::bytes_of(&params))?;
-            self.engine = Some(*textures);
-            return Ok(());
+        if read_before_reprojection {
+            return textures.ingest(exec, self.inputs(), self.view, (self.width, self.height));
         }
-        let inputs = self.inputs();
-        let ingest = kernels::IngestBindings {
-            engine_depth: textures.depth,
-            engine_normal: textures.normal_roughness,
-            engine_motion: textures.motion,
-            view: self.view,
-            depth: inputs.depth,
-            normal_roughness: inputs.normal_roughness,
-            motion: inputs.motion,
-        };
-        exec.dispatch(&ingest.over_grid(&params, self.width, self.height, 1))
+        let params = textures.conventions.params(self.width, self.height);
+        exec.write_buffer(self.conventions, bytemuck::bytes_of(&params))?;
+        self.engine = Some(*textures);
+        Ok(())
     }
 }

@@ -30,7 +30,9 @@ pub use target::{GBuffer, RaygenTarget};
 
 use crate::budget::{self, MsBudget, TraceCost};
 use crate::camera::{Camera, View};
-use crate::denoiser::{Denoiser, DenoiserError, FrameInfo, GradientRays, GradientScene};
+use crate::denoiser::{
+    Denoiser, DenoiserError, EngineTextures, FrameInfo, GradientRays, GradientScene,
+};
 use crate::executor::{BufferId, Executor};
 use crate::kernels::balance::{Balance, MAX_GROUPS};
 use crate::kernels::gbuffer::InstanceData;
@@ -165,6 +167,10 @@ pub struct Frame {
     budget: Option<MsBudget>,
     /// The executor's timings before this frame's passes: the frame's are those after.
     first_timing: usize,
+    /// The engine's own G-buffer textures, when the inputs come from them.
+    engine: Option<EngineTextures>,
+    /// The engine's texture the denoised signal goes into, when it has one.
+    output: Option<BufferId>,
 }
 
 impl Frame {
@@ -218,6 +224,8 @@ impl Frame {
             resume: false,
             budget: MsBudget::from_settings(&settings.rates),
             first_timing: 0,
+            engine: None,
+            output: None,
         })
     }
 
@@ -258,9 +266,24 @@ impl Frame {
         GBuffer::of(&self.denoiser, self.geometry[(self.frames % 2) as usize])
     }
 
+    /// Takes the inputs of the frames rendered from now on from the engine's own G-buffer
+    /// textures ([`Denoiser::ingest`]: reprojection decodes them on its way), or, with `None`,
+    /// from the denoiser's input buffers again. The G-buffer closure of [`Self::render`] then
+    /// only renders into those textures and the renderer's geometry.
+    pub fn set_engine_textures(&mut self, textures: Option<EngineTextures>) {
+        self.engine = textures;
+    }
+
+    /// Writes the denoised signal of the frames rendered from now on into the engine's own
+    /// texture ([`Denoiser::resolve_into`]: an R32F storage texture the last à-trous iteration
+    /// writes), or, with `None`, into [`Denoiser::output`] again.
+    pub fn set_output_texture(&mut self, target: Option<BufferId>) {
+        self.output = target;
+    }
+
     /// Records one frame. `gbuffer(exec, target)` records the renderer's G-buffer into the
-    /// denoiser's input buffers and the renderer's geometry; it is not called when the signal is
-    /// absent.
+    /// denoiser's input buffers (or the engine's textures, [`Self::set_engine_textures`]) and
+    /// the renderer's geometry; it is not called when the signal is absent.
     pub fn render<E: Executor>(
         &mut self,
         exec: &mut E,
@@ -279,6 +302,9 @@ impl Frame {
         let info = self.temporal(exec, scene)?;
         let target = self.gbuffer();
         gbuffer(exec, target)?;
+        if let Some(textures) = &self.engine {
+            self.denoiser.ingest(exec, textures)?;
+        }
         let gradient_ran = self.gradients(exec, scene)?;
         let reflection_scene = scene.reflection_scene();
         if let Some(r) = &self.reflections {
@@ -299,7 +325,10 @@ impl Frame {
         if let Some(r) = reflections {
             r.guide(exec, &self.denoiser)?;
         }
-        self.denoiser.resolve(exec)?;
+        match self.output {
+            Some(texture) => self.denoiser.resolve_into(exec, texture)?,
+            None => self.denoiser.resolve(exec)?,
+        }
         Ok(FrameReport {
             absent: false,
             reset: info.reset,
