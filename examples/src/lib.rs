@@ -21,6 +21,7 @@ use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, FrameInfo, Inputs};
 use vrrt_core::executor::{BufferId, Executor, Groups, KernelDesc, Pass, PassTiming};
 use vrrt_core::glam::Vec3;
+use vrrt_core::inputs::{InputConventions, MotionUnits, NormalSpace};
 use vrrt_core::packing;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedSample, Sample};
@@ -122,6 +123,49 @@ pub fn gbuffer(frame: u32) -> GBufferImages {
             };
             g.depth.push(depth);
             g.motion.push(packing::pack_motion(-shift, 0.0, 0.0));
+        }
+    }
+    g
+}
+
+/// The same G-buffer as an engine's own textures in its own conventions
+/// ([`texture_conventions`]): linear depth (R32F), view-space normals with roughness (RGBA32F)
+/// and motion in UV units (RGBA32F), row-major texels.
+pub struct GBufferTexels {
+    /// Depth, one `f32` per texel.
+    pub depth: Vec<f32>,
+    /// View-space normal `xyz` and linear roughness.
+    pub normal: Vec<[f32; 4]>,
+    /// Motion to last frame in UV units, the view-depth change, 0.
+    pub motion: Vec<[f32; 4]>,
+}
+
+/// The conventions of [`gbuffer_texels`].
+pub fn texture_conventions() -> InputConventions {
+    InputConventions {
+        normal_space: NormalSpace::View,
+        motion_units: MotionUnits::Uv,
+        ..InputConventions::default()
+    }
+}
+
+/// [`gbuffer`]'s frame `frame` as the engine's textures: every surface faces the camera, which
+/// in view space is `+z`.
+pub fn gbuffer_texels(frame: u32) -> GBufferTexels {
+    let mut g = GBufferTexels {
+        depth: Vec::with_capacity(PIXELS),
+        normal: vec![[0.0, 0.0, 1.0, 1.0]; PIXELS],
+        motion: Vec::with_capacity(PIXELS),
+    };
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let (depth, shift) = if in_box(x, y, frame) {
+                (5.0, BOX_SPEED as f32)
+            } else {
+                (10.0, 0.0)
+            };
+            g.depth.push(depth);
+            g.motion.push([-shift / WIDTH as f32, 0.0, 0.0, 0.0]);
         }
     }
     g
