@@ -1,12 +1,15 @@
 //! VRRT-rs inside an application that has its own Vulkan instance, device and command buffers:
 //! the executor borrows them ([`AshExecutor::from_raw`]) and records the denoiser's passes into
-//! the application's command buffer ([`AshExecutor::record_into`]).
+//! the application's command buffer ([`AshExecutor::record_into`]). The denoiser reads the
+//! application's own G-buffer images in its conventions ([`AshExecutor::import_image`],
+//! `Denoiser::ingest`) and writes the result into the application's own image
+//! (`Denoiser::resolve_into`): no copy pass either way.
 //!
 //! The executor inserts the barriers between its own passes and against its own earlier work
 //! (uploads, readbacks, earlier recordings). The application inserts the ones between *its*
 //! commands and the denoiser's, marked `BARRIER` below: before the passes, from its last access
-//! of a buffer to `COMPUTE_SHADER` (read and write); after them, from `COMPUTE_SHADER` writes to
-//! its own consumer. Run with `VRRT_VALIDATION=1` to have the synchronization validation layer
+//! of a buffer or image to `COMPUTE_SHADER` (read and write); after them, from `COMPUTE_SHADER`
+//! writes to its own consumer. Run with `VRRT_VALIDATION=1` to have the synchronization validation layer
 //! check them.
 //!
 //! `cargo run --release -p vrrt-examples --example ash_engine`
@@ -19,12 +22,11 @@ use std::ffi::{c_void, CStr};
 use std::sync::atomic::{AtomicU32, Ordering};
 use vrrt_ash::ash::{self, vk};
 use vrrt_ash::{AshExecutor, RawVulkan};
-use vrrt_core::denoiser::Denoiser;
+use vrrt_core::denoiser::{Denoiser, EngineTextures};
 use vrrt_core::executor::Pass;
-use vrrt_core::payload::PackedFiltered;
 use vrrt_examples::{
-    assert_close, capture, cpu_frames, frame_info, gbuffer, require_vulkan, settings, trace,
-    validation, values, FRAMES, HALF_STEPS, HEIGHT, PIXELS, WIDTH,
+    assert_close, capture, cpu_frames, frame_info, gbuffer_texels, require_vulkan, settings,
+    texture_conventions, trace, validation, FRAMES, HALF_STEPS, HEIGHT, PIXELS, WIDTH,
 };
 
 type Error = Box<dyn std::error::Error>;
@@ -57,56 +59,59 @@ fn run(app: &App) -> Result<(), Error> {
     // thread uses the queue.
     let mut ex = unsafe { AshExecutor::from_raw(raw) }?;
     let mut d = Denoiser::new(&mut ex, WIDTH, HEIGHT, settings()).map_err(|e| e.to_string())?;
+    let images = AppImages::new(app)?;
+    // Imported once: the denoiser binds them as they are every frame. SAFETY: 2D views of
+    // single-sampled images of the executor's device, alive until after it is dropped; the
+    // barriers below keep them in these layouts whenever the denoiser's passes run.
+    let (read, general) = (
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::ImageLayout::GENERAL,
+    );
+    let textures = EngineTextures::new(
+        unsafe { ex.import_image(images.depth.view, read, WIDTH, HEIGHT, 4) }?,
+        unsafe { ex.import_image(images.normal.view, read, WIDTH, HEIGHT, 16) }?,
+        unsafe { ex.import_image(images.motion.view, read, WIDTH, HEIGHT, 16) }?,
+        texture_conventions(),
+    )?;
+    let output = unsafe { ex.import_image(images.ao.view, general, WIDTH, HEIGHT, 4) }?;
 
     // The application's host-visible buffers: G-buffer and samples it uploads, the image it reads.
-    let gbuffer_bytes: Vec<u64> = gbuffer(0)
-        .uploads(d.inputs())
-        .iter()
-        .map(|(_, b)| b.len() as u64)
-        .collect();
+    let texel_bytes = [4, 16, 16].map(|b| b * PIXELS as u64);
     let samples_bytes = std::mem::size_of_val(trace(0, &[0; PIXELS]).as_slice()) as u64;
-    let output_bytes = (PIXELS * size_of::<PackedFiltered>()) as u64;
     let src = vk::BufferUsageFlags::TRANSFER_SRC;
-    let staging_gbuffer = gbuffer_bytes
+    let staging_gbuffer = texel_bytes
         .iter()
         .map(|&bytes| app.host_buffer(bytes, src))
         .collect::<Result<Vec<_>, _>>()?;
     let staging_samples = app.host_buffer(samples_bytes, src)?;
-    let readback = app.host_buffer(output_bytes, vk::BufferUsageFlags::TRANSFER_DST)?;
+    let readback = app.host_buffer(4 * PIXELS as u64, vk::BufferUsageFlags::TRANSFER_DST)?;
 
     let reference = cpu_frames();
     let mut worst = 0;
     for (frame, want) in (0..FRAMES).zip(&reference) {
         d.begin_frame(&mut ex, frame_info(frame))?;
-        let images = gbuffer(frame);
-        let uploads = images.uploads(d.inputs());
-        let inputs = uploads
-            .iter()
-            .map(|(id, _)| ex.raw_buffer(*id))
-            .collect::<Result<Vec<_>, _>>()?;
+        let g = gbuffer_texels(frame);
+        let texels: [&[u8]; 3] = [
+            bytemuck::cast_slice(&g.depth),
+            bytemuck::cast_slice(&g.normal),
+            bytemuck::cast_slice(&g.motion),
+        ];
         let samples = ex.raw_buffer(d.samples())?;
 
-        // Command buffer 1: the application's G-buffer (a copy here, a raster or compute pass in
-        // an engine), then reprojection, requests and load balancing.
-        for ((_, bytes), staging) in uploads.iter().zip(&staging_gbuffer) {
+        // Command buffer 1: the application's G-buffer pass (uploads here, a raster pass in an
+        // engine) into its images, then reprojection (which reads them), requests and balancing.
+        for (bytes, staging) in texels.iter().zip(&staging_gbuffer) {
             unsafe { staging.write(bytes) };
         }
-        let plan = capture(&mut ex, |e| d.plan_rays(e))?;
+        let plan = capture(&mut ex, |e| {
+            d.ingest(e, &textures)?;
+            d.plan_rays(e)
+        })?;
         unsafe {
             app.submit(
                 &mut ex,
                 &plan.get(),
-                |cmd| {
-                    for ((&dst, staging), &bytes) in
-                        inputs.iter().zip(&staging_gbuffer).zip(&gbuffer_bytes)
-                    {
-                        // BARRIER (write-after-read): earlier denoiser passes read this input.
-                        app.barrier(cmd, dst, COMPUTE, TRANSFER_WRITE);
-                        app.copy(cmd, staging.buffer, dst, bytes);
-                        // BARRIER (read-after-write): the passes read what the copy wrote.
-                        app.barrier(cmd, dst, TRANSFER_WRITE, COMPUTE);
-                    }
-                },
+                |cmd| images.upload(app, cmd, &staging_gbuffer),
                 |_| {},
             )
         }?;
@@ -121,12 +126,10 @@ fn run(app: &App) -> Result<(), Error> {
             "frame {frame}: rays differ from the CPU backend"
         );
 
-        // Command buffer 2: the application's samples, accumulation and filtering, and the
-        // application's copy of the denoised image.
+        // Command buffer 2: the application's samples, accumulation and filtering into its image,
+        // and the application's copy of that image to the host.
         unsafe { staging_samples.write(bytemuck::cast_slice(&trace(frame, &rays))) };
-        let resolve = capture(&mut ex, |e| d.resolve(e))?;
-        // Which buffer holds the result is known once the passes are planned (ping-pong).
-        let output = ex.raw_buffer(d.output())?;
+        let resolve = capture(&mut ex, |e| d.resolve_into(e, output))?;
         unsafe {
             app.submit(
                 &mut ex,
@@ -137,22 +140,17 @@ fn run(app: &App) -> Result<(), Error> {
                     app.copy(cmd, staging_samples.buffer, samples, samples_bytes);
                     // BARRIER (read-after-write): accumulation reads what the copy wrote.
                     app.barrier(cmd, samples, TRANSFER_WRITE, COMPUTE);
+                    images.ao_for_writing(app, cmd, frame == 0);
                 },
-                |cmd| {
-                    // BARRIER (read-after-write): the copy reads what the last filter pass wrote.
-                    app.barrier(cmd, output, COMPUTE, TRANSFER_READ);
-                    app.copy(cmd, output, readback.buffer, output_bytes);
-                    // BARRIER: make the copy visible to the host's read after the fence.
-                    app.barrier(cmd, readback.buffer, TRANSFER_WRITE, HOST_READ);
-                },
+                |cmd| images.ao_to_host(app, cmd, &readback),
             )
         }?;
-        let mut denoised = vec![PackedFiltered::default(); PIXELS];
+        let mut denoised = vec![0.0f32; PIXELS];
         unsafe { readback.read(bytemuck::cast_slice_mut(&mut denoised)) };
         // Not bit-exact: the GPU's math is its own ([`assert_close`]).
         let err = assert_close(
             &format!("frame {frame}"),
-            &values(&denoised),
+            &denoised,
             &want.denoised,
             HALF_STEPS,
         );
@@ -165,8 +163,128 @@ fn run(app: &App) -> Result<(), Error> {
     {
         unsafe { b.destroy(&app.device) };
     }
+    unsafe { images.destroy(&app.device) };
     verdict(worst);
     Ok(())
+}
+
+/// The application's own images: its G-buffer in its conventions (linear depth R32F,
+/// view-space normals and UV motion RGBA32F), and the R32F image the denoised AO goes into.
+struct AppImages {
+    depth: AppImage,
+    normal: AppImage,
+    motion: AppImage,
+    ao: AppImage,
+}
+
+impl AppImages {
+    fn new(app: &App) -> Result<Self, Error> {
+        let gbuffer = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        let ao = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        Ok(AppImages {
+            depth: app.image(vk::Format::R32_SFLOAT, gbuffer)?,
+            normal: app.image(vk::Format::R32G32B32A32_SFLOAT, gbuffer)?,
+            motion: app.image(vk::Format::R32G32B32A32_SFLOAT, gbuffer)?,
+            ao: app.image(vk::Format::R32_SFLOAT, ao)?,
+        })
+    }
+
+    /// Records the G-buffer pass: here copies of `staging` (depth, normal, motion) into the
+    /// images, left in `SHADER_READ_ONLY_OPTIMAL` for reprojection.
+    unsafe fn upload(&self, app: &App, cmd: vk::CommandBuffer, staging: &[HostBuffer]) {
+        let (undefined, to_copy, read) = (
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        );
+        for (image, staging) in [&self.depth, &self.normal, &self.motion]
+            .iter()
+            .zip(staging)
+        {
+            let image = image.image;
+            unsafe {
+                // BARRIER (write-after-read): last frame's reprojection read the image.
+                app.layout(cmd, image, undefined, to_copy, COMPUTE, TRANSFER_WRITE);
+                app.copy_to_image(cmd, staging.buffer, image);
+                // BARRIER (read-after-write): reprojection reads what the copy wrote.
+                app.layout(cmd, image, to_copy, read, TRANSFER_WRITE, COMPUTE);
+            }
+        }
+    }
+
+    /// BARRIER (write-after-read): last frame's copy to the host read the AO image, which the
+    /// last filter pass writes in `GENERAL` layout (from `UNDEFINED` on the `first` frame).
+    unsafe fn ao_for_writing(&self, app: &App, cmd: vk::CommandBuffer, first: bool) {
+        let general = vk::ImageLayout::GENERAL;
+        let before = if first {
+            vk::ImageLayout::UNDEFINED
+        } else {
+            general
+        };
+        unsafe { app.layout(cmd, self.ao.image, before, general, TRANSFER_READ, COMPUTE) };
+    }
+
+    /// The AO image's copy to `readback`, after the last filter pass wrote it.
+    unsafe fn ao_to_host(&self, app: &App, cmd: vk::CommandBuffer, readback: &HostBuffer) {
+        let general = vk::ImageLayout::GENERAL;
+        unsafe {
+            // BARRIER (read-after-write): the copy reads what the last filter pass wrote.
+            app.layout(cmd, self.ao.image, general, general, COMPUTE, TRANSFER_READ);
+            app.copy_from_image(cmd, self.ao.image, readback.buffer);
+            // BARRIER: make the copy visible to the host's read after the fence.
+            app.barrier(cmd, readback.buffer, TRANSFER_WRITE, HOST_READ);
+        }
+    }
+
+    unsafe fn destroy(self, device: &ash::Device) {
+        for image in [self.depth, self.normal, self.motion, self.ao] {
+            // SAFETY: no GPU work uses the images any more.
+            unsafe { image.destroy(device) };
+        }
+    }
+}
+
+/// An image with its own device memory and a view of its one level.
+struct AppImage {
+    image: vk::Image,
+    memory: vk::DeviceMemory,
+    view: vk::ImageView,
+}
+
+impl AppImage {
+    unsafe fn destroy(self, device: &ash::Device) {
+        // SAFETY: no GPU work uses the image any more.
+        unsafe {
+            device.destroy_image_view(self.view, None);
+            device.destroy_image(self.image, None);
+            device.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// The one level and layer of a colour image.
+const COLOR: vk::ImageSubresourceRange = vk::ImageSubresourceRange {
+    aspect_mask: vk::ImageAspectFlags::COLOR,
+    base_mip_level: 0,
+    level_count: 1,
+    base_array_layer: 0,
+    layer_count: 1,
+};
+
+/// A copy of a whole `WIDTH × HEIGHT` image from or to a buffer, rows packed.
+fn whole_image() -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width: WIDTH,
+            height: HEIGHT,
+            depth: 1,
+        })
 }
 
 /// Fails on any validation error the layers printed, else says how close the frames were.
@@ -358,18 +476,9 @@ impl App {
         let info = vk::BufferCreateInfo::default().size(size).usage(usage);
         let buffer = unsafe { d.create_buffer(&info, None) }?;
         let req = unsafe { d.get_buffer_memory_requirements(buffer) };
-        let props = unsafe {
-            self.instance
-                .get_physical_device_memory_properties(self.physical_device)
-        };
         let flags = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
-        let type_index = (0..props.memory_type_count)
-            .find(|&i| {
-                req.memory_type_bits & (1 << i) != 0
-                    && props.memory_types[i as usize]
-                        .property_flags
-                        .contains(flags)
-            })
+        let type_index = self
+            .memory_type(req.memory_type_bits, flags)
             .ok_or("no host-visible coherent memory")?;
         let alloc = vk::MemoryAllocateInfo::default()
             .allocation_size(req.size)
@@ -382,6 +491,105 @@ impl App {
             memory,
             ptr: ptr.cast(),
         })
+    }
+
+    /// A memory type allowed by `bits` with `flags`.
+    fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Option<u32> {
+        let props = unsafe {
+            self.instance
+                .get_physical_device_memory_properties(self.physical_device)
+        };
+        (0..props.memory_type_count).find(|&i| {
+            bits & (1 << i) != 0
+                && props.memory_types[i as usize]
+                    .property_flags
+                    .contains(flags)
+        })
+    }
+
+    /// A `WIDTH × HEIGHT` image of `format` with device memory and a view.
+    fn image(&self, format: vk::Format, usage: vk::ImageUsageFlags) -> Result<AppImage, Error> {
+        let d = &self.device;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width: WIDTH,
+                height: HEIGHT,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let image = unsafe { d.create_image(&info, None) }?;
+        let req = unsafe { d.get_image_memory_requirements(image) };
+        let type_index = self
+            .memory_type(req.memory_type_bits, vk::MemoryPropertyFlags::DEVICE_LOCAL)
+            .or_else(|| self.memory_type(req.memory_type_bits, vk::MemoryPropertyFlags::empty()))
+            .ok_or("no memory for an image")?;
+        let alloc = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(type_index);
+        let memory = unsafe { d.allocate_memory(&alloc, None) }?;
+        unsafe { d.bind_image_memory(image, memory, 0) }?;
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(COLOR);
+        let view = unsafe { d.create_image_view(&view_info, None) }?;
+        Ok(AppImage {
+            image,
+            memory,
+            view,
+        })
+    }
+
+    /// An image memory barrier on `image`, from layout `old` to `new`.
+    unsafe fn layout(
+        &self,
+        cmd: vk::CommandBuffer,
+        image: vk::Image,
+        old: vk::ImageLayout,
+        new: vk::ImageLayout,
+        src: Scope,
+        dst: Scope,
+    ) {
+        let barrier = vk::ImageMemoryBarrier::default()
+            .old_layout(old)
+            .new_layout(new)
+            .src_access_mask(src.1)
+            .dst_access_mask(dst.1)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image)
+            .subresource_range(COLOR);
+        let none = vk::DependencyFlags::empty();
+        unsafe {
+            self.device
+                .cmd_pipeline_barrier(cmd, src.0, dst.0, none, &[], &[], &[barrier])
+        };
+    }
+
+    unsafe fn copy_to_image(&self, cmd: vk::CommandBuffer, src: vk::Buffer, image: vk::Image) {
+        let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        let region = [whole_image()];
+        unsafe {
+            self.device
+                .cmd_copy_buffer_to_image(cmd, src, image, layout, &region)
+        };
+    }
+
+    unsafe fn copy_from_image(&self, cmd: vk::CommandBuffer, image: vk::Image, dst: vk::Buffer) {
+        let layout = vk::ImageLayout::GENERAL;
+        let region = [whole_image()];
+        unsafe {
+            self.device
+                .cmd_copy_image_to_buffer(cmd, image, layout, dst, &region)
+        };
     }
 
     /// A buffer memory barrier on all of `buffer`.
