@@ -31,7 +31,8 @@ impl AshExecutor {
     /// # Safety
     /// `view` belongs to this executor's device and stays alive while passes may bind it. It is a
     /// 2D view (one mip level, one layer) of a single-sampled image with `SAMPLED` usage in a
-    /// float-sampled format of `width × height` texels of `texel_bytes`. Whenever a recorded pass
+    /// float-sampled format, or of a depth format's depth aspect, of `width × height` texels of
+    /// `texel_bytes`. Whenever a recorded pass
     /// reads it, the image is in `layout` (`SHADER_READ_ONLY_OPTIMAL` or `GENERAL`) and the
     /// engine's writes to it were made available to compute-shader reads by a barrier of its own.
     pub unsafe fn import_image(
@@ -60,9 +61,10 @@ impl AshExecutor {
         }))
     }
 
-    /// A device-local `width × height` image of `format` (`texel_bytes` per texel) holding `data`
-    /// (rows packed tightly), for a host without an engine of its own: uploaded through the
-    /// staging ring in the executor's stream and left in `SHADER_READ_ONLY_OPTIMAL`.
+    /// A device-local `width × height` image of `format` (`texel_bytes` per texel; a depth format
+    /// holds its depth) holding `data` (rows packed tightly), for a host without an engine of its
+    /// own: uploaded through the staging ring in the executor's stream and left in
+    /// `SHADER_READ_ONLY_OPTIMAL`.
     pub fn create_image(
         &mut self,
         width: u32,
@@ -88,7 +90,7 @@ impl AshExecutor {
             extent: (width, height),
         };
         let id = self.add_texture(texture);
-        self.upload_image(image, width, height, data)?;
+        self.upload_image(image, (width, height), aspect_of(format), data)?;
         Ok(id)
     }
 
@@ -109,8 +111,14 @@ impl AshExecutor {
             extent: (width, height),
         });
         let cmd = self.recording()?;
-        let to_general = image_barrier(image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL)
-            .dst_access_mask(vk::AccessFlags::SHADER_WRITE);
+        let color = vk::ImageAspectFlags::COLOR;
+        let to_general = image_barrier(
+            image,
+            color,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::GENERAL,
+        )
+        .dst_access_mask(vk::AccessFlags::SHADER_WRITE);
         let (top, compute) = (
             vk::PipelineStageFlags::TOP_OF_PIPE,
             vk::PipelineStageFlags::COMPUTE_SHADER,
@@ -148,9 +156,15 @@ impl AshExecutor {
         }
         let cmd = self.recording()?;
         let dst = self.readback_buffer(bytes)?;
-        let written = image_barrier(image, vk::ImageLayout::GENERAL, vk::ImageLayout::GENERAL)
-            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-            .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+        let color = vk::ImageAspectFlags::COLOR;
+        let written = image_barrier(
+            image,
+            color,
+            vk::ImageLayout::GENERAL,
+            vk::ImageLayout::GENERAL,
+        )
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+        .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
         let to_host = vk::BufferMemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
             .dst_access_mask(vk::AccessFlags::HOST_READ)
@@ -159,7 +173,7 @@ impl AshExecutor {
             .buffer(dst)
             .offset(0)
             .size(vk::WHOLE_SIZE);
-        let region = copy_region(0, width, height);
+        let region = copy_region(0, width, height, color);
         let (compute, transfer, host) = (
             vk::PipelineStageFlags::COMPUTE_SHADER,
             vk::PipelineStageFlags::TRANSFER,
@@ -240,7 +254,7 @@ impl AshExecutor {
                 .image(image)
                 .view_type(vk::ImageViewType::TYPE_2D)
                 .format(format)
-                .subresource_range(color_range());
+                .subresource_range(range(aspect_of(format)));
             let view = d
                 .bind_image_memory(image, memory, 0)
                 .and_then(|()| d.create_image_view(&view_info, None));
@@ -260,26 +274,28 @@ impl AshExecutor {
     fn upload_image(
         &mut self,
         image: vk::Image,
-        width: u32,
-        height: u32,
+        (width, height): (u32, u32),
+        aspect: vk::ImageAspectFlags,
         data: &[u8],
     ) -> Result<(), AshError> {
         let cmd = self.recording()?;
         let (src, offset) = self.staging.push(&self.device, &self.mem_props, data)?;
         let to_transfer = image_barrier(
             image,
+            aspect,
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::TRANSFER_DST_OPTIMAL,
         )
         .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE);
         let to_shader = image_barrier(
             image,
+            aspect,
             vk::ImageLayout::TRANSFER_DST_OPTIMAL,
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         )
         .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
         .dst_access_mask(vk::AccessFlags::SHADER_READ);
-        let region = copy_region(offset, width, height);
+        let region = copy_region(offset, width, height, aspect);
         let d = &self.device;
         let none = vk::DependencyFlags::empty();
         // SAFETY: `cmd` is recording; the image and staging buffer live until it completes.
@@ -315,9 +331,10 @@ pub(crate) unsafe fn destroy(textures: Vec<Texture>, device: &ash::Device) {
     }
 }
 
-/// A layout transition of `image`'s one level and layer, no accesses yet.
+/// A layout transition of `image`'s one level and layer (of `aspect`), no accesses yet.
 fn image_barrier(
     image: vk::Image,
+    aspect: vk::ImageAspectFlags,
     old: vk::ImageLayout,
     new: vk::ImageLayout,
 ) -> vk::ImageMemoryBarrier<'static> {
@@ -327,15 +344,21 @@ fn image_barrier(
         .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
         .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
         .image(image)
-        .subresource_range(color_range())
+        .subresource_range(range(aspect))
 }
 
-/// A copy of a whole `width × height` image from or to a buffer at `offset`, rows packed.
-fn copy_region(offset: u64, width: u32, height: u32) -> vk::BufferImageCopy {
+/// A copy of a whole `width × height` image (its `aspect`) from or to a buffer at `offset`, rows
+/// packed.
+fn copy_region(
+    offset: u64,
+    width: u32,
+    height: u32,
+    aspect: vk::ImageAspectFlags,
+) -> vk::BufferImageCopy {
     vk::BufferImageCopy::default()
         .buffer_offset(offset)
         .image_subresource(vk::ImageSubresourceLayers {
-            aspect_mask: vk::ImageAspectFlags::COLOR,
+            aspect_mask: aspect,
             mip_level: 0,
             base_array_layer: 0,
             layer_count: 1,
@@ -347,10 +370,20 @@ fn copy_region(offset: u64, width: u32, height: u32) -> vk::BufferImageCopy {
         })
 }
 
-/// The one mip level and layer of a colour image.
-fn color_range() -> vk::ImageSubresourceRange {
+/// The aspect a texel fetch of `format` reads: depth for a depth format, else colour.
+fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
+    match format {
+        vk::Format::D16_UNORM | vk::Format::D32_SFLOAT | vk::Format::X8_D24_UNORM_PACK32 => {
+            vk::ImageAspectFlags::DEPTH
+        }
+        _ => vk::ImageAspectFlags::COLOR,
+    }
+}
+
+/// The one mip level and layer of an image's `aspect`.
+fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
     vk::ImageSubresourceRange {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
+        aspect_mask: aspect,
         base_mip_level: 0,
         level_count: 1,
         base_array_layer: 0,

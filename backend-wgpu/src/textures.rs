@@ -25,7 +25,8 @@ impl WgpuExecutor {
     /// engine's G-buffer: `Denoiser::ingest`) or write into it (`Denoiser::resolve_into`), as it
     /// is, every frame it is bound. It must belong to this executor's device and be 2D and
     /// single-sampled. Read: [`wgpu::TextureUsages::TEXTURE_BINDING`] and a float-sampled format
-    /// (R32F, RG16F, RGBA16F, RGB10A2, RGBA8 and the like; depth formats are not accepted yet).
+    /// (R32F, RG16F, RGBA16F, RGB10A2, RGBA8 and the like) or a depth format (Depth32Float: its
+    /// depth aspect, read as unfilterable floats).
     /// Written: [`wgpu::TextureUsages::STORAGE_BINDING`] and R32F. Its first mip level is
     /// used; what it is bound as is checked when a pass binds it.
     pub fn import_texture(&mut self, texture: &wgpu::Texture) -> Result<BufferId, WgpuError> {
@@ -45,13 +46,20 @@ impl WgpuExecutor {
                 texture.sample_count()
             ));
         }
+        // A depth format is read through its depth aspect, as unfilterable floats.
+        let aspect = if format.has_depth_aspect() {
+            wgpu::TextureAspect::DepthOnly
+        } else {
+            wgpu::TextureAspect::All
+        };
         let view = texture.create_view(&wgpu::TextureViewDescriptor {
             label: Some("vrrt engine texture"),
             base_mip_level: 0,
             mip_level_count: Some(1),
+            aspect,
             ..Default::default()
         });
-        let texel = format.block_copy_size(None).unwrap_or(4) as u64;
+        let texel = format.block_copy_size(Some(aspect)).unwrap_or(4) as u64;
         let bytes = texture.width() as u64 * texture.height() as u64 * texel;
         let id = BufferId(TEXTURE_BIT | self.textures.len() as u32);
         self.textures.push(Imported {
@@ -73,7 +81,8 @@ impl WgpuExecutor {
         let float = matches!(
             format.sample_type(None, None),
             Some(wgpu::TextureSampleType::Float { .. })
-        );
+        ) || format.sample_type(Some(wgpu::TextureAspect::DepthOnly), None)
+            == Some(wgpu::TextureSampleType::Depth);
         let why = match access {
             Access::Sampled if !usage.contains(wgpu::TextureUsages::TEXTURE_BINDING) => {
                 "is read but lacks TEXTURE_BINDING usage".to_string()

@@ -22,6 +22,9 @@ pub enum TextureFormat {
     Rgba32Float,
     /// 10-bit unorm RGB and 2-bit alpha (NRD's normal + roughness packing).
     Rgb10a2Unorm,
+    /// A depth buffer's f32 depth. wgpu takes no uploads into depth textures (an engine renders
+    /// them): on wgpu [`Backend::create_texture`] refuses it.
+    Depth32Float,
 }
 
 impl TextureFormat {
@@ -33,6 +36,7 @@ impl TextureFormat {
             TextureFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
             TextureFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
             TextureFormat::Rgb10a2Unorm => wgpu::TextureFormat::Rgb10a2Unorm,
+            TextureFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
         }
     }
 
@@ -45,6 +49,7 @@ impl TextureFormat {
             TextureFormat::Rgba16Float => (Format::R16G16B16A16_SFLOAT, 8),
             TextureFormat::Rgba32Float => (Format::R32G32B32A32_SFLOAT, 16),
             TextureFormat::Rgb10a2Unorm => (Format::A2B10G10R10_UNORM_PACK32, 4),
+            TextureFormat::Depth32Float => (Format::D32_SFLOAT, 4),
         }
     }
 
@@ -56,7 +61,9 @@ impl TextureFormat {
             (v.clamp(0.0, 1.0) * max).round() as u32
         };
         match self {
-            TextureFormat::R32Float => out.extend_from_slice(&t[0].to_le_bytes()),
+            TextureFormat::R32Float | TextureFormat::Depth32Float => {
+                out.extend_from_slice(&t[0].to_le_bytes())
+            }
             TextureFormat::Rg16Float => t[..2]
                 .iter()
                 .for_each(|&v| out.extend_from_slice(&half(v).to_le_bytes())),
@@ -84,7 +91,7 @@ impl TextureFormat {
             (v.clamp(0.0, 1.0) * max).round() / max
         };
         match self {
-            TextureFormat::R32Float => [t[0], 0.0, 0.0, 1.0],
+            TextureFormat::R32Float | TextureFormat::Depth32Float => [t[0], 0.0, 0.0, 1.0],
             TextureFormat::Rg16Float => [half(t[0]), half(t[1]), 0.0, 1.0],
             TextureFormat::Rgba16Float => t.map(half),
             TextureFormat::Rgba32Float => t,
@@ -120,6 +127,9 @@ impl Backend {
                 let fetched: Vec<Texel> = texels.iter().map(|&t| format.fetched(t)).collect();
                 e.create_texture(width, height, &fetched).map_err(err)
             }
+            Backend::Wgpu(_) if format == TextureFormat::Depth32Float => Err(err(
+                "wgpu takes no uploads into a depth texture: render into it and import it",
+            )),
             Backend::Wgpu(e) => {
                 let mut bytes = Vec::new();
                 texels.iter().for_each(|&t| format.encode(t, &mut bytes));

@@ -6,7 +6,7 @@
 
 mod gpu;
 
-use vrrt_backend::TextureFormat;
+use vrrt_backend::{Backend, TextureFormat};
 use vrrt_core::camera::{Camera, View};
 use vrrt_core::denoiser::{Denoiser, EngineTextures, FrameInfo};
 use vrrt_core::executor::{ExecError, Executor};
@@ -21,6 +21,7 @@ use vrrt_tests::Host;
 const W: u32 = 24;
 const H: u32 = 16;
 const NEAR: f32 = 0.1;
+const R32F: TextureFormat = TextureFormat::R32Float;
 
 fn view() -> View {
     let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y, 0.8);
@@ -46,9 +47,18 @@ fn scene() -> Vec<(f32, Vec3, f32, [f32; 3])> {
         .collect()
 }
 
-/// The same scene as a reversed-Z engine writes it: device depth, view-space normals, UV
+/// The same scene as a reversed-Z engine writes it: device depth (R32F), view-space normals, UV
 /// velocities (this frame minus last), the depth change with the velocity's sign.
 fn engine_textures(exec: &mut impl Host, view: &View) -> [vrrt_core::executor::BufferId; 3] {
+    engine_textures_with(exec, view, TextureFormat::R32Float)
+}
+
+/// [`engine_textures`] with the depth in `depth_format`.
+fn engine_textures_with(
+    exec: &mut impl Host,
+    view: &View,
+    depth_format: TextureFormat,
+) -> [vrrt_core::executor::BufferId; 3] {
     let cam = &view.camera;
     let (mut depth, mut normal, mut motion) = (Vec::<Texel>::new(), Vec::new(), Vec::new());
     for (d, n, r, m) in scene() {
@@ -59,7 +69,7 @@ fn engine_textures(exec: &mut impl Host, view: &View) -> [vrrt_core::executor::B
     }
     let mut texture = |format, texels: &[Texel]| exec.texture(W, H, format, texels).unwrap();
     [
-        texture(TextureFormat::R32Float, &depth),
+        texture(depth_format, &depth),
         texture(TextureFormat::Rgba32Float, &normal),
         texture(TextureFormat::Rgba32Float, &motion),
     ]
@@ -79,7 +89,11 @@ fn conventions() -> InputConventions {
 /// The inputs decoded from the engine's textures once the rays are planned: depth, normal +
 /// roughness and motion words. With the gradient prepass on (`prepass_stratum` > 0) the inputs
 /// are read before reprojection, so the `ingest` pass decodes them; otherwise reprojection does.
-fn ingested<E: Host>(exec: &mut E, prepass_stratum: u32) -> (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)
+fn ingested<E: Host>(
+    exec: &mut E,
+    prepass_stratum: u32,
+    depth_format: TextureFormat,
+) -> (Vec<f32>, Vec<u32>, Vec<[u32; 2]>)
 where
     E::Error: std::fmt::Debug,
 {
@@ -92,7 +106,7 @@ where
         ..FrameInfo::default()
     };
     denoiser.begin_frame(exec, frame).unwrap();
-    let [d, n, m] = engine_textures(exec, &frame.view);
+    let [d, n, m] = engine_textures_with(exec, &frame.view, depth_format);
     let textures = EngineTextures::new(d, n, m, conventions()).unwrap();
     denoiser.ingest(exec, &textures).unwrap();
     denoiser.plan_rays(exec).unwrap();
@@ -142,13 +156,16 @@ fn check(name: &str, (depth, normal, motion): (Vec<f32>, Vec<u32>, Vec<[u32; 2]>
 #[test]
 fn a_reversed_z_engine_lands_on_our_own_inputs() {
     for stratum in [0, 2] {
-        check("cpu", ingested(&mut vrrt_cpu::CpuExecutor::new(), stratum));
+        check(
+            "cpu",
+            ingested(&mut vrrt_cpu::CpuExecutor::new(), stratum, R32F),
+        );
     }
     let mut backends = gpu::backends();
     for b in backends.iter_mut() {
         let name = b.name();
         for stratum in [0, 2] {
-            check(name, ingested(b, stratum));
+            check(name, ingested(b, stratum, R32F));
         }
     }
     let failures = gpu::validation_failures(&backends);
@@ -228,6 +245,24 @@ fn the_engine_texture_gets_the_denoised_frame() {
     }
     let failures = gpu::validation_failures(&backends);
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// A depth buffer (D32F) read as the depth: on the CPU and ash; wgpu takes no uploads into depth
+/// textures, and its raster engine example reads its own z-buffer.
+#[test]
+fn a_depth_buffer_is_read_as_depth() {
+    let depth = TextureFormat::Depth32Float;
+    check("cpu", ingested(&mut vrrt_cpu::CpuExecutor::new(), 0, depth));
+    let mut backends = gpu::backends();
+    for b in backends.iter_mut().filter(|b| matches!(b, Backend::Ash(_))) {
+        check("ash", ingested(b, 0, depth));
+    }
+    let failures = gpu::validation_failures(&backends);
+    assert!(failures.is_empty(), "{failures:?}");
+    if let Some(b) = backends.iter_mut().find(|b| matches!(b, Backend::Wgpu(_))) {
+        let e = b.create_texture(W, H, depth, &[[0.0; 4]; (W * H) as usize]);
+        assert!(e.unwrap_err().to_string().contains("render into it"));
+    }
 }
 
 #[test]

@@ -3,16 +3,14 @@
 //!
 //! | texture | format | holds |
 //! |---|---|---|
-//! | [`GBufferTextures::depth`] | R32Float | reversed-Z device depth, infinite far plane at [`NEAR`] (0: sky) |
+//! | [`GBufferTextures::depth`] | Depth32Float | the depth test's own z-buffer: reversed-Z device depth, infinite far plane at [`NEAR`] (0: sky) |
 //! | [`GBufferTextures::normal`] | RGBA16Float | view-space shading normal (x right, y up, z towards the viewer), linear roughness in w |
 //! | [`GBufferTextures::motion`] | RGBA16Float | velocity in UV units (`[0, 1]²`, y down), this frame minus last; view-depth change in z |
 //! | [`GBufferTextures::hit`] | RG32Uint | geometric normal and instance, for VRRT's tracer ([`RasterEngine::copy_hits`]) |
 //!
 //! Why these: they are what engines write (a depth buffer, view-space normals, UV velocities),
 //! and none is VRRT's own format, so the denoiser must decode every one of them
-//! ([`conventions`], `Denoiser::ingest`). The depth is written twice: the depth attachment is
-//! what the depth test needs, and a copy in an R32Float colour target is what the denoiser
-//! reads, since it does not read depth formats yet.
+//! ([`conventions`], `Denoiser::ingest`). The denoiser reads the depth test's own z-buffer.
 //!
 //! The geometry drawn is the scene's meshes, each placed by its instance's transform this frame
 //! and last frame, so moving objects get their own motion; the camera is the scene's. Pixel
@@ -45,8 +43,7 @@ pub fn conventions() -> InputConventions {
 }
 
 /// The colour targets' formats, in the shader's `@location` order.
-const FORMATS: [wgpu::TextureFormat; 4] = [
-    wgpu::TextureFormat::R32Float,
+const FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba16Float,
     wgpu::TextureFormat::Rgba16Float,
     wgpu::TextureFormat::Rg32Uint,
@@ -54,7 +51,7 @@ const FORMATS: [wgpu::TextureFormat; 4] = [
 
 /// The engine's G-buffer: the textures its fragment shader writes.
 pub struct GBufferTextures {
-    /// Reversed-Z device depth (R32Float), read by the denoiser.
+    /// The depth attachment of the depth test (Depth32Float, reversed Z), read by the denoiser.
     pub depth: wgpu::Texture,
     /// View-space normal and linear roughness (RGBA16Float), read by the denoiser.
     pub normal: wgpu::Texture,
@@ -62,8 +59,6 @@ pub struct GBufferTextures {
     pub motion: wgpu::Texture,
     /// `packing::pack_hit` of the geometric normal and instance (RG32Uint), for the tracer.
     pub hit: wgpu::Texture,
-    /// The depth attachment of the depth test (Depth32Float).
-    z_buffer: wgpu::Texture,
 }
 
 impl GBufferTextures {
@@ -87,15 +82,14 @@ impl GBufferTextures {
         // The denoiser samples the first three; the hits are copied into its tracer's buffer.
         let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
         GBufferTextures {
-            depth: texture("engine depth", FORMATS[0], sampled),
-            normal: texture("engine normals", FORMATS[1], sampled),
-            motion: texture("engine velocity", FORMATS[2], sampled),
-            hit: texture("engine hits", FORMATS[3], wgpu::TextureUsages::COPY_SRC),
-            z_buffer: texture(
+            depth: texture(
                 "engine z-buffer",
                 wgpu::TextureFormat::Depth32Float,
-                wgpu::TextureUsages::empty(),
+                sampled,
             ),
+            normal: texture("engine normals", FORMATS[0], sampled),
+            motion: texture("engine velocity", FORMATS[1], sampled),
+            hit: texture("engine hits", FORMATS[2], wgpu::TextureUsages::COPY_SRC),
         }
     }
 }
@@ -248,7 +242,6 @@ impl RasterEngine {
         };
         let transparent = wgpu::Color::TRANSPARENT;
         let targets = [
-            (view(&t.depth), transparent),
             (view(&t.normal), transparent),
             (view(&t.motion), transparent),
             (view(&t.hit), no_instance),
@@ -264,7 +257,7 @@ impl RasterEngine {
                 },
             })
         });
-        let z = view(&t.z_buffer);
+        let z = view(&t.depth);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("engine G-buffer"),
             color_attachments: &colors,
@@ -272,7 +265,7 @@ impl RasterEngine {
                 view: &z,
                 depth_ops: Some(wgpu::Operations {
                     load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Discard,
+                    store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,
             }),

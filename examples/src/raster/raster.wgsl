@@ -1,12 +1,11 @@
 // The raster engine's G-buffer pass: its own conventions, not VRRT's (see mod.rs).
 //
-// Outputs per pixel:
-//   0  R32Float     reversed-Z device depth (near / view depth; 0 = sky)
-//   1  RGBA16Float  view-space shading normal (x right, y up, z towards the viewer), linear
+// Outputs per pixel, besides the reversed-Z depth of the depth test (near / view depth; 0 = sky):
+//   0  RGBA16Float  view-space shading normal (x right, y up, z towards the viewer), linear
 //                   roughness in w
-//   2  RGBA16Float  velocity in UV units ([0,1]², y down), this frame minus last, and the view
+//   1  RGBA16Float  velocity in UV units ([0,1]², y down), this frame minus last, and the view
 //                   depth change (this frame minus last) in z
-//   3  RG32Uint     what VRRT's built-in tracer reads besides the denoiser's inputs: the
+//   2  RG32Uint     what VRRT's built-in tracer reads besides the denoiser's inputs: the
 //                   geometric normal (octahedral 16 + 16 bits) and the instance, as
 //                   `vrrt_core::packing::pack_hit` packs them
 
@@ -74,10 +73,9 @@ fn vs_main(v: Vertex, @builtin(instance_index) i: u32) -> Varyings {
 }
 
 struct Targets {
-    @location(0) depth: f32,
-    @location(1) normal: vec4<f32>,
-    @location(2) motion: vec4<f32>,
-    @location(3) hit: vec2<u32>,
+    @location(0) normal: vec4<f32>,
+    @location(1) motion: vec4<f32>,
+    @location(2) hit: vec2<u32>,
 }
 
 fn oct_encode(n: vec3<f32>) -> vec2<f32> {
@@ -106,7 +104,6 @@ fn fs_main(in: Varyings) -> Targets {
         n = -n;
     }
     var out: Targets;
-    out.depth = in.position.z;
     let view_n = vec3<f32>(dot(n, frame.right.xyz), dot(n, frame.up.xyz), -dot(n, frame.forward.xyz));
     out.normal = vec4<f32>(view_n, in.params.x);
     // Velocity: where the point is now minus where it was, in UV; a point that was behind the
