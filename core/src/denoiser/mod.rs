@@ -266,6 +266,9 @@ pub struct Denoiser {
     view: BufferId,
     /// The engine textures' conventions (`IngestParams`), for `reproject_engine`.
     conventions: BufferId,
+    /// What `conventions` holds, so that an engine's unchanged conventions are not uploaded
+    /// again every frame.
+    conventions_written: Option<crate::inputs::IngestParams>,
     /// The engine's textures this frame, read by reprojection ([`Self::ingest`]).
     engine: Option<EngineTextures>,
     history: [BufferId; 2],
@@ -368,6 +371,7 @@ impl Denoiser {
             motion: id("motion")[0],
             view: id("view")[0],
             conventions: id("conventions")[0],
+            conventions_written: None,
             engine: None,
             history: id("history"),
             samples: id("samples")[0],
@@ -766,7 +770,10 @@ impl Denoiser {
             return textures.ingest(exec, self.inputs(), self.view, (self.width, self.height));
         }
         let params = textures.conventions.params(self.width, self.height);
-        exec.write_buffer(self.conventions, bytemuck::bytes_of(&params))?;
+        if self.conventions_written != Some(params) {
+            exec.write_buffer(self.conventions, bytemuck::bytes_of(&params))?;
+            self.conventions_written = Some(params);
+        }
         self.engine = Some(*textures);
         Ok(())
     }
