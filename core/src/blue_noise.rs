@@ -10,7 +10,6 @@
 //! [`screen_point`] is the blue noise of the ray directions ([`crate::sampling::SamplePattern`]):
 //! procedural, so the ray kernels and the gradient re-trace need no mask buffer.
 
-use crate::math;
 use crate::sequence::{pcg_hash, R2_STEP};
 
 /// Levels of the pixel hierarchy [`screen_point`] orders: the pattern repeats every `2^12` pixels.
@@ -99,7 +98,7 @@ pub fn generate_mask() -> [f32; LEN] {
     for (dy, row) in kernel.iter_mut().enumerate() {
         for (dx, k) in row.iter_mut().enumerate() {
             let (fx, fy) = ((dx as i32 - RADIUS) as f32, (dy as i32 - RADIUS) as f32);
-            *k = math::exp(-(fx * fx + fy * fy) / (2.0 * SIGMA * SIGMA));
+            *k = crate::math::exp(-(fx * fx + fy * fy) / (2.0 * SIGMA * SIGMA));
         }
     }
     let mut energy = [0.0f32; LEN];

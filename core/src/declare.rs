@@ -273,9 +273,10 @@ macro_rules! kernel_table {
                 }
             }
         }
-        // The same code compiled for AVX2 (8 lanes in one register) and F16C, chosen at run time.
+        // The same code compiled for AVX2 (8 lanes in one register), F16C and FMA
+        // (`math::mul_add`), chosen at run time.
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        #[target_feature(enable = "avx2,f16c")]
+        #[target_feature(enable = "avx2,f16c,fma")]
         unsafe fn lanes_avx2(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$lanes>(span, b) }
@@ -285,8 +286,11 @@ macro_rules! kernel_table {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
                 $crate::kernel_table!(@run_avx512 [$($wide)?] span b);
-                if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("f16c") {
-                    // SAFETY: the CPU has AVX2 and F16C; the rest is the caller's contract.
+                if std::is_x86_feature_detected!("avx2")
+                    && std::is_x86_feature_detected!("f16c")
+                    && std::is_x86_feature_detected!("fma")
+                {
+                    // SAFETY: the CPU has AVX2, F16C and FMA; the rest is the caller's contract.
                     return unsafe { lanes_avx2(span, b) };
                 }
             }
@@ -300,7 +304,7 @@ macro_rules! kernel_table {
     (@avx512 []) => {};
     (@avx512 [$wide:tt]) => {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        #[target_feature(enable = "avx2,avx512f,avx512bw,avx512dq,avx512vl")]
+        #[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512dq,avx512vl")]
         unsafe fn lanes_avx512(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$wide>(span, b) }
@@ -309,11 +313,12 @@ macro_rules! kernel_table {
     (@run_avx512 [] $span:ident $b:ident) => {};
     (@run_avx512 [$wide:tt] $span:ident $b:ident) => {
         if std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("fma")
             && std::is_x86_feature_detected!("avx512bw")
             && std::is_x86_feature_detected!("avx512dq")
             && std::is_x86_feature_detected!("avx512vl")
         {
-            // SAFETY: the CPU has AVX-512; the rest is the caller's contract.
+            // SAFETY: the CPU has AVX-512 and FMA; the rest is the caller's contract.
             return unsafe { lanes_avx512($span, $b) };
         }
     };

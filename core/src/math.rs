@@ -161,17 +161,61 @@ fn exp2_normal(x: f32) -> f32 {
     let n = floor(x);
     // 2^f = sqrt(2) * e^((f - 1/2) ln 2), |y| <= 0.347.
     let y = (x - n - 0.5) * core::f32::consts::LN_2;
-    let p = 1.0
-        + y * (1.0
-            + y * (0.5
-                + y * (1.0 / 6.0
-                    + y * (1.0 / 24.0
-                        + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
+    let mut p = 1.0 / 5040.0;
+    p = mul_add(p, y, 1.0 / 720.0);
+    p = mul_add(p, y, 1.0 / 120.0);
+    p = mul_add(p, y, 1.0 / 24.0);
+    p = mul_add(p, y, 1.0 / 6.0);
+    p = mul_add(p, y, 0.5);
+    p = mul_add(p, y, 1.0);
+    p = mul_add(p, y, 1.0);
     // 2^n without a float-to-int conversion (no vector form before AVX-512): n + 127 + 1.5·2^23
     // is an integer below 2^24, exact, with n + 127 in its low mantissa bits; shifted into the
     // exponent field, everything above them falls off.
     let scale = f32::from_bits((n + (127.0 + 12_582_912.0)).to_bits() << 23);
     p * core::f32::consts::SQRT_2 * scale
+}
+
+/// `a · b + c`, fused where the hardware fuses: the GPU's drivers contract it, and the CPU's
+/// vector runners (`kernel_table!`'s AVX2 and AVX-512 ones) are compiled with FMA, where it is
+/// one instruction (à-trous took a fifth less time). Outside them (scalar kernels, hosts
+/// without FMA) it is a call to the fused operation: correct, slower, so it is used in the
+/// filters' per-tap arithmetic, not in what generates rays. Camera rays stay unfused
+/// ([`crate::camera::PixelRays::dir`]): a fused ray direction on the CPU against an unfused
+/// one on a GPU sends a glossy ray elsewhere, and the backends' reflections parted.
+#[inline(always)]
+pub fn mul_add(a: f32, b: f32, c: f32) -> f32 {
+    #[cfg(any(target_arch = "spirv", not(feature = "std")))]
+    {
+        a * b + c
+    }
+    #[cfg(all(not(target_arch = "spirv"), feature = "std"))]
+    {
+        a.mul_add(b, c)
+    }
+}
+
+/// `a·b`: the GPU's dot product, fused multiply-adds ([`mul_add`]) on the CPU.
+#[inline(always)]
+pub fn dot(a: glam::Vec3, b: glam::Vec3) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        a.dot(b)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        mul_add(a.x, b.x, mul_add(a.y, b.y, a.z * b.z))
+    }
+}
+
+/// `a · s + b` per component, fused where [`mul_add`] is.
+#[inline(always)]
+pub fn mul_add3(a: glam::Vec3, s: f32, b: glam::Vec3) -> glam::Vec3 {
+    glam::Vec3::new(
+        mul_add(a.x, s, b.x),
+        mul_add(a.y, s, b.y),
+        mul_add(a.z, s, b.z),
+    )
 }
 
 /// `e^x` through [`exp2`].

@@ -290,16 +290,29 @@ impl TangentPlane {
         t
     }
 
+    /// The plane whose [`Self::distance`] is this one's times `s > 0`: a filter that divides
+    /// every tap's distance by the centre's tolerance multiplies it in once.
+    #[inline]
+    pub fn scaled(self, s: f32) -> Self {
+        TangentPlane {
+            a: self.a * s,
+            bx: self.bx * s,
+            by: self.by * s,
+            c: self.c * s,
+        }
+    }
+
     /// `n·(q − eye)` of the point at view depth `depth` of pixel `(x, y)`.
     #[inline]
     fn height(&self, x: u32, y: u32, depth: f32) -> f32 {
-        depth * (self.a + self.bx * x as f32 + self.by * y as f32)
+        depth * math::mul_add(self.bx, x as f32, math::mul_add(self.by, y as f32, self.a))
     }
 
     /// Distance of the point at view depth `depth` of pixel `(x, y)` from the plane.
     #[inline]
     pub fn distance(&self, x: u32, y: u32, depth: f32) -> f32 {
-        math::abs(self.height(x, y, depth) - self.c)
+        let k = math::mul_add(self.bx, x as f32, math::mul_add(self.by, y as f32, self.a));
+        math::abs(math::mul_add(depth, k, -self.c))
     }
 }
 
@@ -326,8 +339,8 @@ pub fn normal_weights<const N: usize>(
 #[inline(always)]
 pub fn squared_cosines<const N: usize>(n: Lanes<Vec3, N>, u: Lanes<Vec3, N>) -> Lanes<f32, N> {
     n.zip(u, |n, u| {
-        let d = math::max(n.dot(u), 0.0);
-        math::min(d * d / u.dot(u), 1.0)
+        let d = math::max(math::dot(n, u), 0.0);
+        math::min(d * d / math::dot(u, u), 1.0)
     })
 }
 

@@ -243,14 +243,13 @@ fn iterate<const N: usize>(
     let (value, variance) = payload::unpack_filtered(packed);
     let n = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w).map(packing::unpack_normal);
     let rays = PixelRays::new(&view[0].camera, w, h);
+    // Distances in units of the plane tolerance at one pixel of offset: the per-pixel
+    // reciprocal folded into the plane, so every tap multiplies by its offset's only.
     let plane = Lanes::<TangentPlane, N>::from_index(|l| {
-        TangentPlane::new(
-            &rays,
-            n.0[l as usize],
-            xs.0[l as usize],
-            id.y,
-            cd.0[l as usize],
-        )
+        let l = l as usize;
+        let d = cd.0[l];
+        TangentPlane::new(&rays, n.0[l], xs.0[l], id.y, d)
+            .scaled(1.0 / math::max(p.plane_scale * d, 1e-12))
     });
     let mut blurred = blurred_variance::<N>(input, id, p);
     if p.cap_variance != 0 {
@@ -271,7 +270,6 @@ fn iterate<const N: usize>(
     };
     // Reciprocals once per pixel: every tap multiplies instead of dividing.
     let lum_scale = blurred.map(|b| 1.0 / (sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6));
-    let plane_scale = cd.map(|d| 1.0 / math::max(p.plane_scale * d, 1e-12));
 
     let c = Centre {
         id,
@@ -285,7 +283,6 @@ fn iterate<const N: usize>(
         normal: n,
         plane,
         lum_scale,
-        plane_scale,
         normal_power,
     };
     let symmetric = super::plane_in(p.symmetric_planes, id.z);
@@ -352,8 +349,9 @@ fn filter_taps<const N: usize>(
                     if a.valid.0[l] && b.valid.0[l] {
                         let e = 0.5 * (a.exponent.0[l] + b.exponent.0[l]);
                         let w = a.weight * w_n.0[l] * math::exp(-e);
-                        sum.0[l] += w * (a.value.0[l] + b.value.0[l]);
-                        sum_var.0[l] += w * w * (a.variance.0[l] + b.variance.0[l]);
+                        sum.0[l] = math::mul_add(w, a.value.0[l] + b.value.0[l], sum.0[l]);
+                        sum_var.0[l] =
+                            math::mul_add(w * w, a.variance.0[l] + b.variance.0[l], sum_var.0[l]);
                         sum_w.0[l] += 2.0 * w;
                     }
                 });
@@ -378,11 +376,10 @@ struct Centre<const N: usize> {
     reach: Lanes<f32, N>,
     value: Lanes<f32, N>,
     normal: Lanes<Vec3, N>,
+    /// The centre's tangent plane, its distances scaled to exponents one pixel of offset away.
     plane: Lanes<TangentPlane, N>,
     /// Exponent per unit of luminance difference.
     lum_scale: Lanes<f32, N>,
-    /// Exponent per unit of distance from the centre's tangent plane, one pixel of offset away.
-    plane_scale: Lanes<f32, N>,
     normal_power: f32,
 }
 
@@ -448,8 +445,11 @@ fn tap<const N: usize>(
         // Columns outside the image are never used (`valid`); clamped, they stay the finite
         // values of some pixel.
         let x = lanes::clamp_column(qx.0[l], w);
-        c.plane.0[l].distance(x, qy as u32, qd.0[l]) * (c.plane_scale.0[l] * per_offset)
-            + math::abs(c.value.0[l] - value.0[l]) * c.lum_scale.0[l]
+        math::mul_add(
+            c.plane.0[l].distance(x, qy as u32, qd.0[l]),
+            per_offset,
+            math::abs(c.value.0[l] - value.0[l]) * c.lum_scale.0[l],
+        )
     });
     // The guides' terms only on their planes (uniform branches).
     if c.guided {

@@ -164,14 +164,14 @@ pub fn same_surface(
     u: Vec3,
     p: &ReprojectParams,
 ) -> bool {
-    let (nu, uu) = (n.dot(u), u.dot(u));
+    let (nu, uu) = (math::dot(n, u), math::dot(u, u));
     let thr = p.normal_threshold;
     let (above, within) = (nu * nu >= thr * thr * uu, nu * nu <= thr * thr * uu);
     // `nu ≥ thr·|u|`: for a threshold ≥ 0 a non-negative cosine at least that large; below 0,
     // any non-negative cosine or a negative one no larger in magnitude.
     let n_ok = ((nu >= 0.0) & above) | ((thr < 0.0) & ((nu >= 0.0) | within));
     let reach = p.plane_threshold * math::max(depth, 1e-6);
-    let ud = u.dot(prev - t);
+    let ud = math::dot(u, prev - t);
     // `&`, not `&&`: no branch, so a row of lanes is vector code.
     surface::has_surface(depth) & n_ok & (ud * ud <= reach * reach * uu)
 }
@@ -283,7 +283,7 @@ fn footprint<const N: usize>(
         let same = Lanes::<bool, N>::from_index(|l| {
             let l = l as usize;
             let [x, y] = t.0[l];
-            let q = origin + rays.dir(x, y) * pd.0[l];
+            let q = math::mul_add3(rays.dir(x, y), pd.0[l], origin);
             used.0[l] & same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
         });
         f.texel[k] = texel;

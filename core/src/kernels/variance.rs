@@ -164,7 +164,10 @@ fn estimate<const N: usize>(
     let rays = PixelRays::new(&view.camera, w, h);
     let plane = Lanes::<TangentPlane, N>::from_index(|l| {
         let x = lanes::clamp_column(x0 + l as i32, w);
-        TangentPlane::new(&rays, n.0[l as usize], x, id.y, cd.0[l as usize])
+        let d = cd.0[l as usize];
+        // Distances in units of the plane tolerance (as à-trous').
+        TangentPlane::new(&rays, n.0[l as usize], x, id.y, d)
+            .scaled(1.0 / math::max(p.plane_scale * d, 1e-12))
     });
     let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let guided = id.z == p.guide_plane;
@@ -186,17 +189,22 @@ fn estimate<const N: usize>(
                 let qd = Lanes::<f32, N>::load_row(depth, row, qx0, w);
                 let u = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
                     .map(packing::unpack_direction);
-                let offset = math::sqrt((dx * dx + dy * dy) as f32);
+                // The centre lies on its own plane: no plane term (its distance is 0 only
+                // without fused multiply-adds, and its offset is 0).
+                let per_offset = if dx == 0 && dy == 0 {
+                    0.0
+                } else {
+                    1.0 / math::sqrt((dx * dx + dy * dy) as f32)
+                };
                 let w_n = surface::normal_weights(n, u, normal_power);
                 let qg = guide_row::<N>(guide, guided, row, qx0, w);
                 let wt = Lanes::<f32, N>::from_index(|l| {
                     let l = l as usize;
-                    let scale = math::max(p.plane_scale * cd.0[l] * offset, 1e-12);
                     // Columns outside the image are never used below; clamped, they stay the
                     // finite values of some pixel.
                     let x = lanes::clamp_column(qx0 + l as i32, w);
-                    let e = plane.0[l].distance(x, qy as u32, qd.0[l]) / scale
-                        + guide_exponent(cg.0[l], qg.0[l], p.guide_scale);
+                    let plane_e = plane.0[l].distance(x, qy as u32, qd.0[l]) * per_offset;
+                    let e = plane_e + guide_exponent(cg.0[l], qg.0[l], p.guide_scale);
                     w_n.0[l] * math::exp(-e)
                 });
                 let valid = Lanes::<bool, N>::from_index(|l| {
