@@ -202,6 +202,7 @@ mod tests {
                 penumbra_reach: 0.1 + 0.2,
                 penumbra_sigma_luminance: 1.25,
                 penumbra_radius: 1,
+                workgroup_tiles: true,
             },
             reflections: ReflectionSettings {
                 max_roughness: 0.25,

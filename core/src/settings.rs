@@ -401,6 +401,12 @@ pub struct FilterSettings {
     pub penumbra_sigma_luminance: f32,
     /// Window radius of the penumbra guide's mean (0..=3; default 2).
     pub penumbra_radius: u32,
+    /// À-trous reads its taps from workgroup tiles, each texel loaded and decoded once per
+    /// workgroup (`kernels::atrous::tile`), instead of once per tap (default off). The results
+    /// are the same; only the speed differs, and it is a choice for GPUs, not yet measured on
+    /// one: on lavapipe the tiles are slower, and the CPU backend runs a workgroup's invocations
+    /// one after another (see `docs/results/per-pass.md`).
+    pub workgroup_tiles: bool,
 }
 
 impl Settings {

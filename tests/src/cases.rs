@@ -29,6 +29,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         Tolerance::DEFAULT,
     ),
     (
+        "atrous_tiled",
+        crate::filter_cases::atrous_tiled_case,
+        Tolerance::DEFAULT,
+    ),
+    (
         "atrous_engine",
         crate::ingest_cases::atrous_engine_case,
         Tolerance::DEFAULT,

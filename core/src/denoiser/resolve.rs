@@ -338,6 +338,7 @@ impl Denoiser {
     ) -> Result<(), E::Error> {
         let (w, h, planes) = (self.width, self.height, self.layout.planes);
         let iterations = self.settings.filter.atrous_iterations;
+        let tiled = self.settings.filter.workgroup_tiles;
         self.out = 0;
         let passes = if target.is_some() {
             iterations.max(1)
@@ -364,17 +365,33 @@ impl Denoiser {
                 };
                 return exec.dispatch(&atrous.over_grid(&params, w, h, planes));
             }
-            let atrous = kernels::AtrousBindings {
-                input,
-                depth,
-                normal_roughness,
-                view: self.view,
-                tiles: self.tiles,
-                guide: self.guide,
-                penumbra: self.penumbra,
-                out: self.filtered[1 - self.out],
-            };
-            exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
+            let out = self.filtered[1 - self.out];
+            if tiled {
+                let atrous = kernels::AtrousTiledBindings {
+                    input,
+                    depth,
+                    normal_roughness,
+                    view: self.view,
+                    tiles: self.tiles,
+                    guide: self.guide,
+                    penumbra: self.penumbra,
+                    out,
+                };
+                let (gw, gh) = atrous::tile::grid(w, h, params.step);
+                exec.dispatch(&atrous.over_grid(&params, gw, gh, planes))?;
+            } else {
+                let atrous = kernels::AtrousBindings {
+                    input,
+                    depth,
+                    normal_roughness,
+                    view: self.view,
+                    tiles: self.tiles,
+                    guide: self.guide,
+                    penumbra: self.penumbra,
+                    out,
+                };
+                exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
+            }
             self.out = 1 - self.out;
         }
         Ok(())

@@ -49,6 +49,22 @@ crate::kernel_table! {
         out: write PackedFiltered,
     }
 
+    /// [`atrous::tile`]: [`atrous::atrous`] with its taps from a workgroup tile of texels
+    /// decoded once ([`atrous::tile::load`], [`atrous::tile::filter`]); dispatched over
+    /// [`atrous::tile::grid`].
+    atrous_tiled => ATROUS_TILED, AtrousTiledBindings, AtrousTiledIo: workgroup atrous::tile::Tile,
+    phases [atrous::tile::load, atrous::tile::filter],
+    threads(8, 8, 1), params atrous::AtrousParams {
+        input: read PackedFiltered,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        view: read View,
+        tiles: read TileWord,
+        guide: read f32,
+        penumbra: read f32,
+        out: write PackedFiltered,
+    }
+
     /// [`atrous::atrous_engine`]: the last à-trous iteration, into the engine's texture.
     atrous_engine => ATROUS_ENGINE, AtrousEngineBindings, AtrousEngineIo: lanes(32, avx512 64) atrous::atrous_engine,
     threads(8, 8, 1), params atrous::AtrousParams {

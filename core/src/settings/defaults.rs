@@ -98,6 +98,7 @@ impl Default for FilterSettings {
             penumbra_reach: 0.5,
             penumbra_sigma_luminance: 2.0,
             penumbra_radius: 2,
+            workgroup_tiles: false,
         }
     }
 }

@@ -242,7 +242,72 @@ fn iterate<const N: usize>(
     }
     let (value, variance) = payload::unpack_filtered(packed);
     let n = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w).map(packing::unpack_normal);
-    let rays = PixelRays::new(&view[0].camera, w, h);
+    let centre = CentreTexels {
+        depth: cd,
+        normal: n,
+        value,
+        variance,
+    };
+    let rows = Rows {
+        input,
+        depth,
+        normal_roughness,
+    };
+    let extra = Extra {
+        input,
+        view: &view[0],
+        guide,
+        penumbra,
+    };
+    let filtered = filter_at(id, p, rows, extra, xs, &centre);
+    filtered.select(pass.map(|p| !p), packed)
+}
+
+/// What the centre pixels of a filter step bring: view depth, unit normal, value and variance,
+/// and the 3×3-blurred variance.
+#[derive(Copy, Clone)]
+struct CentreTexels<const N: usize> {
+    depth: Lanes<f32, N>,
+    normal: Lanes<Vec3, N>,
+    value: Lanes<f32, N>,
+    variance: Lanes<f32, N>,
+}
+
+/// What a filter step reads besides its taps: the camera and the two guides.
+#[derive(Copy, Clone)]
+struct Extra<'a> {
+    input: &'a [PackedFiltered],
+    view: &'a View,
+    guide: &'a [f32],
+    penumbra: &'a [f32],
+}
+
+/// The filtered `(value, variance)` of `N` pixels of a row (`id` the first, at columns `xs`)
+/// whose taps come from `src`: the weights of every tap against the centre's.
+#[inline(always)]
+fn filter_at<const N: usize, S: TapSource<N>>(
+    id: UVec3,
+    p: &AtrousParams,
+    src: S,
+    extra: Extra<'_>,
+    xs: Lanes<u32, N>,
+    centre: &CentreTexels<N>,
+) -> Lanes<PackedFiltered, N> {
+    let Extra {
+        input,
+        view,
+        guide,
+        penumbra,
+    } = extra;
+    let (w, h) = (p.width, p.height);
+    let (row, x0) = (id.y * w, id.x as i32);
+    let CentreTexels {
+        depth: cd,
+        normal: n,
+        value,
+        variance,
+    } = *centre;
+    let rays = PixelRays::new(&view.camera, w, h);
     // Distances in units of the plane tolerance at one pixel of offset: the per-pixel
     // reciprocal folded into the plane, so every tap multiplies by its offset's only.
     let plane = Lanes::<TangentPlane, N>::from_index(|l| {
@@ -270,7 +335,6 @@ fn iterate<const N: usize>(
     };
     // Reciprocals once per pixel: every tap multiplies instead of dividing.
     let lum_scale = blurred.map(|b| 1.0 / (sigma_luminance * math::sqrt(math::max(b, 0.0)) + 1e-6));
-
     let c = Centre {
         id,
         p: *p,
@@ -286,30 +350,19 @@ fn iterate<const N: usize>(
         normal_power,
     };
     let symmetric = super::plane_in(p.symmetric_planes, id.z);
-    let (sum, sum_var, sum_w) = filter_taps(
-        input,
-        depth,
-        normal_roughness,
-        guide,
-        &c,
-        variance,
-        symmetric,
-    );
-    let filtered = payload::pack_filtered(
+    let (sum, sum_var, sum_w) = filter_taps(src, guide, &c, variance, symmetric);
+    payload::pack_filtered(
         sum.zip(sum_w, |sum, s| sum / s),
         sum_var.zip(sum_w, |sum_var, s| sum_var / (s * s)),
-    );
-    filtered.select(pass.map(|p| !p), packed)
+    )
 }
 
 /// The weighted sums over the centre `c`'s 24 taps, the centre's own sample (`variance`)
 /// included at weight 1: value, variance (squared weights) and weight. On `symmetric` planes
 /// the taps count in point-symmetric pairs.
 #[inline(always)]
-fn filter_taps<const N: usize>(
-    input: &[PackedFiltered],
-    depth: &[f32],
-    normal_roughness: &[u32],
+fn filter_taps<const N: usize, S: TapSource<N>>(
+    src: S,
     guide: &[f32],
     c: &Centre<N>,
     variance: Lanes<f32, N>,
@@ -324,7 +377,7 @@ fn filter_taps<const N: usize>(
         while tx <= 2 {
             if !symmetric {
                 if tx != 0 || ty != 0 {
-                    let t = tap(input, depth, normal_roughness, guide, c, tx, ty);
+                    let t = tap(src, guide, c, tx, ty);
                     let w_n = t.cosine2.pow(0.5 * c.normal_power);
                     lanes::each_lane!(l in N {
                         if t.valid.0[l] {
@@ -339,8 +392,8 @@ fn filter_taps<const N: usize>(
                 // The pair (tx, ty), (-tx, -ty): both or neither, at one weight, the geometric
                 // mean of theirs. Their B3 weights are equal, so it is
                 // `tw · ((n·a)²(n·b)²)^(p/4) · exp(−(e_a + e_b)/2)`: one power, one exponential.
-                let a = tap(input, depth, normal_roughness, guide, c, tx, ty);
-                let b = tap(input, depth, normal_roughness, guide, c, -tx, -ty);
+                let a = tap(src, guide, c, tx, ty);
+                let b = tap(src, guide, c, -tx, -ty);
                 let w_n = a
                     .cosine2
                     .zip(b.cosine2, |a, b| a * b)
@@ -399,12 +452,64 @@ struct Tap<const N: usize> {
     variance: Lanes<f32, N>,
 }
 
+/// Where a filter step's taps come from: the buffers ([`Rows`]), or a workgroup's tile of
+/// texels decoded once ([`tile`]). Each method gives one quantity of the centre `c`'s tap
+/// `(tx, ty)` ([`TapAt`]), so a row of lanes
+/// flows into the weights without a struct of them in between.
+trait TapSource<const N: usize>: Copy {
+    /// View depth (0 where no surface).
+    fn depth(&self, c: &Centre<N>, t: TapAt) -> Lanes<f32, N>;
+    /// Value and variance.
+    fn filtered(&self, c: &Centre<N>, t: TapAt) -> (Lanes<f32, N>, Lanes<f32, N>);
+    /// `max(0, n·m)²` of the centre's normal `n` and the tap's `m`
+    /// ([`surface::squared_cosines`]).
+    fn cosine2(&self, c: &Centre<N>, t: TapAt) -> Lanes<f32, N>;
+}
+
+/// Where a tap lies: `(tx, ty)` in steps from the centre, pixel columns `qx0 + l` of row `qy`.
+#[derive(Copy, Clone)]
+struct TapAt {
+    tx: i32,
+    ty: i32,
+    qx0: i32,
+    qy: u32,
+}
+
+/// Taps read from the buffers, a row of `N` at a time (the CPU's lanes; one on the GPU).
+#[derive(Copy, Clone)]
+struct Rows<'a> {
+    input: &'a [PackedFiltered],
+    depth: &'a [f32],
+    normal_roughness: &'a [u32],
+}
+
+impl<const N: usize> TapSource<N> for Rows<'_> {
+    #[inline(always)]
+    fn depth(&self, c: &Centre<N>, t: TapAt) -> Lanes<f32, N> {
+        let w = c.p.width;
+        Lanes::load_row(self.depth, t.qy * w, t.qx0, w)
+    }
+
+    #[inline(always)]
+    fn filtered(&self, c: &Centre<N>, t: TapAt) -> (Lanes<f32, N>, Lanes<f32, N>) {
+        let (w, h) = (c.p.width, c.p.height);
+        let row = (c.id.z * h + t.qy) * w;
+        payload::unpack_filtered(Lanes::load_row(self.input, row, t.qx0, w))
+    }
+
+    #[inline(always)]
+    fn cosine2(&self, c: &Centre<N>, t: TapAt) -> Lanes<f32, N> {
+        let w = c.p.width;
+        let m = Lanes::<u32, N>::load_row(self.normal_roughness, t.qy * w, t.qx0, w)
+            .map(packing::unpack_direction);
+        surface::squared_cosines(c.normal, m)
+    }
+}
+
 /// Tap `(tx, ty)` (in steps) of the centre `c`.
 #[inline(always)]
-fn tap<const N: usize>(
-    input: &[PackedFiltered],
-    depth: &[f32],
-    normal_roughness: &[u32],
+fn tap<const N: usize, S: TapSource<N>>(
+    src: S,
     guide: &[f32],
     c: &Centre<N>,
     tx: i32,
@@ -426,18 +531,20 @@ fn tap<const N: usize>(
             variance: zero,
         };
     }
-    let (qrow, qplane_row) = (qy as u32 * w, (id.z * h + qy as u32) * w);
     let qx0 = id.x as i32 + tx * step;
     let qx = Lanes::<i32, N>::from_index(|l| qx0 + l as i32);
-    let qd = Lanes::<f32, N>::load_row(depth, qrow, qx0, w);
+    let at = TapAt {
+        tx,
+        ty,
+        qx0,
+        qy: qy as u32,
+    };
+    let qd = src.depth(c, at);
     let valid = qx.zip(qd, |x, d| x >= 0 && x < w as i32 && surface::has_surface(d));
-    let packed = Lanes::<PackedFiltered, N>::load_row(input, qplane_row, qx0, w);
-    let (value, variance) = payload::unpack_filtered(packed);
+    let (value, variance) = src.filtered(c, at);
     let offset_len = TAP_DISTANCE[ay][ax] * p.step as f32;
     let per_offset = 1.0 / offset_len;
-    let m =
-        Lanes::<u32, N>::load_row(normal_roughness, qrow, qx0, w).map(packing::unpack_direction);
-    let cosine2 = surface::squared_cosines(c.normal, m);
+    let cosine2 = src.cosine2(c, at);
     // Plane and luminance weights are both exponentials: one exp of the summed exponents (the
     // exp was most of the filter's time on the CPU).
     let mut e = Lanes::<f32, N>::from_index(|l| {
@@ -453,7 +560,7 @@ fn tap<const N: usize>(
     });
     // The guides' terms only on their planes (uniform branches).
     if c.guided {
-        let qg = guide_row::<N>(guide, true, qrow, qx0, w);
+        let qg = guide_row::<N>(guide, true, qy as u32 * w, qx0, w);
         lanes::each_lane!(l in N {
             e.0[l] += guide_exponent(c.guide.0[l], qg.0[l], p.guide_scale);
         });
@@ -527,215 +634,7 @@ fn blurred_variance<const N: usize>(
     sum
 }
 
+pub mod tile;
+
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::camera::{Camera, View};
-    use crate::payload::Filtered;
-    use glam::Vec3;
-
-    /// One iteration of `p` at pixel `(x, y)` of a `w`×`h` wall facing the camera, 5 units away
-    /// where `depth` says so (0: no surface), holding `input` and `guide`: the hit-distance guide
-    /// when `p.guide_plane` is 0, the penumbra guide when `p.penumbra_plane` is; every tile
-    /// filters.
-    fn filter_wall(
-        input: &[PackedFiltered],
-        depth: &[f32],
-        guide: &[f32],
-        w: u32,
-        p: AtrousParams,
-        x: u32,
-        y: u32,
-    ) -> f32 {
-        let h = input.len() as u32 / w;
-        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
-        let view = [View {
-            camera,
-            prev_camera: camera,
-        }];
-        let (tw, th) = crate::kernels::classify::tile_grid(w, h);
-        let tiles = std::vec![5; (tw * th) as usize];
-        let normals = std::vec![packing::pack_normal_roughness(Vec3::Z, 0.0); input.len()];
-        let mut out = input.to_vec();
-        let io = AtrousIo {
-            input,
-            depth,
-            normal_roughness: &normals,
-            view: &view,
-            tiles: &tiles,
-            guide,
-            penumbra: guide,
-            out: &mut out,
-        };
-        let p = AtrousParams {
-            width: w,
-            height: h,
-            ..p
-        };
-        atrous::<1>(UVec3::new(x, y, 0), &p, io);
-        out[(y * w + x) as usize].unpack().value
-    }
-
-    /// The first iteration at the middle of a 5×3 patch of one wall: a highlight along the top
-    /// row (4.0, variance of the estimate 4.0), a dark, settled surface below it (0.1, variance
-    /// 1e-4).
-    fn below_a_highlight(cap_variance: u32) -> f32 {
-        let input: std::vec::Vec<PackedFiltered> = (0..15)
-            .map(|i| {
-                let (value, variance) = if i < 5 { (4.0, 4.0) } else { (0.1, 1e-4) };
-                Filtered { value, variance }.pack()
-            })
-            .collect();
-        let p = AtrousParams {
-            cap_variance,
-            ..Default::default()
-        };
-        filter_wall(&input, &[5.0; 15], &[NO_GUIDE], 5, p, 2, 1)
-    }
-
-    #[test]
-    fn a_capped_variance_keeps_the_highlight_out() {
-        // Blurred, the dark pixel's σ is the highlight's (about 1): the bright taps get in.
-        assert!(below_a_highlight(0) > 0.15, "{}", below_a_highlight(0));
-        // Capped at its own (0.01), they do not.
-        assert!(
-            (below_a_highlight(1) - 0.1).abs() < 1e-3,
-            "{}",
-            below_a_highlight(1)
-        );
-    }
-
-    /// Pixel `x` of a row on one wall whose value rises linearly (0.1 a pixel) and whose
-    /// surface ends after pixel 5 (a crease seen edge-on), filtered with taps in pairs on plane 0
-    /// (`symmetric_planes` 1) or one at a time (0).
-    fn at_an_edge(x: u32, symmetric_planes: u32) -> f32 {
-        let input: std::vec::Vec<PackedFiltered> = (0..9)
-            .map(|i| {
-                Filtered {
-                    value: 0.1 * i as f32,
-                    variance: 1.0,
-                }
-                .pack()
-            })
-            .collect();
-        let depth: std::vec::Vec<f32> = (0..9).map(|i| if i <= 5 { 5.0 } else { 0.0 }).collect();
-        let p = AtrousParams {
-            symmetric_planes,
-            ..Default::default()
-        };
-        filter_wall(&input, &depth, &[NO_GUIDE], 9, p, x, 0)
-    }
-
-    #[test]
-    fn symmetric_pairs_do_not_lean_away_from_an_edge() {
-        for x in [4, 5] {
-            let centre = Filtered {
-                value: 0.1 * x as f32,
-                variance: 1.0,
-            }
-            .pack()
-            .unpack()
-            .value;
-            // One tap at a time the window holds only the darker side: the mean leans to it.
-            assert!(
-                at_an_edge(x, 0) < centre - 0.01,
-                "{x}: {}",
-                at_an_edge(x, 0)
-            );
-            // In pairs a linear ramp cancels.
-            approx::assert_abs_diff_eq!(at_an_edge(x, 1), centre, epsilon = 2e-3);
-        }
-    }
-
-    /// Pixel 3 of a 9-pixel row of one flat wall at 1 rpp (variance 1): a dark reflection
-    /// (0.1) in pixels 0..=3 whose rays hit at 4 units, a bright one (1.0) from pixel 4 on
-    /// whose rays hit at 1000, filtered with or without the guide.
-    fn beside_a_reflected_edge(guided: bool) -> f32 {
-        let input: std::vec::Vec<PackedFiltered> = (0..9)
-            .map(|i| {
-                let value = if i <= 3 { 0.1 } else { 1.0 };
-                Filtered {
-                    value,
-                    variance: 1.0,
-                }
-                .pack()
-            })
-            .collect();
-        let guide: std::vec::Vec<f32> = (0..9).map(|i| if i <= 3 { 2.0 } else { 10.0 }).collect();
-        let p = AtrousParams {
-            guide_plane: if guided { 0 } else { NO_PLANE },
-            guide_scale: core::f32::consts::FRAC_1_SQRT_2 / 1.6,
-            ..Default::default()
-        };
-        filter_wall(&input, &[5.0; 9], &guide, 9, p, 3, 0)
-    }
-
-    #[test]
-    fn the_guide_keeps_a_reflected_edge_the_g_buffer_does_not_see() {
-        // One flat wall: the normal and plane weights see nothing, and σ = 1 lets the bright
-        // taps in.
-        assert!(
-            beside_a_reflected_edge(false) > 0.3,
-            "{}",
-            beside_a_reflected_edge(false)
-        );
-        let guided = beside_a_reflected_edge(true);
-        assert!((guided - 0.1).abs() < 1e-3, "{guided}");
-    }
-
-    /// Pixel 3 of a 9-pixel row of one flat wall at 1 rpp (variance 1): an umbra (0) in pixels
-    /// 0..=3 beside a lit floor (1), whose penumbra is `width` pixels wide (`None`: no blocker
-    /// nearby), at the default reach (0.5) and the penumbra plane's σ_l.
-    fn beside_a_shadow_edge(width: Option<f32>) -> f32 {
-        let input: std::vec::Vec<PackedFiltered> = (0..9)
-            .map(|i| {
-                let value = if i <= 3 { 0.0 } else { 1.0 };
-                Filtered {
-                    value,
-                    variance: 1.0,
-                }
-                .pack()
-            })
-            .collect();
-        let p = AtrousParams {
-            penumbra_plane: 0,
-            penumbra_scale: 2.0,
-            penumbra_sigma_luminance: 2.0,
-            ..Default::default()
-        };
-        filter_wall(
-            &input,
-            &[5.0; 9],
-            &[width.unwrap_or(NO_GUIDE); 9],
-            9,
-            p,
-            3,
-            0,
-        )
-    }
-
-    #[test]
-    fn the_penumbra_keeps_a_contact_shadows_edge_and_lets_a_wide_one_blur() {
-        // A contact shadow (1 pixel): the lit taps are out of reach.
-        let sharp = beside_a_shadow_edge(Some(1.0));
-        assert!(sharp < 0.01, "{sharp}");
-        // A wide penumbra (20 pixels): the first iteration's taps are all within it, and the
-        // luminance test at σ_l 2 lets them in, as it does with no blocker nearby.
-        let wide = beside_a_shadow_edge(Some(20.0));
-        assert!(wide > 0.15, "{wide}");
-        let unlimited = beside_a_shadow_edge(None);
-        assert!((wide - unlimited).abs() < 0.005, "{wide} {unlimited}");
-    }
-
-    #[test]
-    fn tap_tables_match_the_per_tap_formulas() {
-        for j in 0..3 {
-            for i in 0..3 {
-                let w = B3[i] * B3[j] * (1.0 / (B3[0] * B3[0]));
-                assert_eq!(TAP_WEIGHT[j][i].to_bits(), w.to_bits());
-                let d = math::sqrt((i * i + j * j) as f32);
-                assert_eq!(TAP_DISTANCE[j][i].to_bits(), d.to_bits());
-            }
-        }
-    }
-}
+mod tests;

@@ -1,0 +1,245 @@
+//! [`super::atrous`] with its taps read from workgroup memory: a GPU workgroup first loads and
+//! decodes every texel its pixels' taps touch, once, then each invocation filters from there,
+//! instead of each of its 24 taps loading and decoding a neighbour of its own.
+//!
+//! A workgroup covers [`GROUP`]×[`GROUP`] pixels of one *lattice*: those of the same column and
+//! row remainder modulo the step (`x = rx + i·step`). Every tap of such a pixel lies on the same
+//! lattice, two points further at most, so one tile of `(GROUP + 4)²` texels serves every
+//! iteration whatever its step; a square of neighbouring pixels would need `(GROUP + 4·step)²`.
+//! The per-tile iteration counts ([`crate::kernels::classify`]) still decide per pixel, and the
+//! 3×3-blurred variance (unit offsets, not on the lattice) is read from the buffer.
+
+use super::super::classify::tile_index;
+use super::super::{AtrousTiledIo, WorkgroupIds};
+use super::AtrousParams;
+use super::{filter_at, Centre, CentreTexels, Extra, TapAt, TapSource};
+use crate::lanes::Lanes;
+use crate::packing;
+use crate::surface;
+use crate::trace::normalize;
+use bytemuck::{Pod, Zeroable};
+use glam::{UVec3, Vec3};
+
+/// Pixels per side of a workgroup (its threads are `GROUP`×`GROUP`).
+pub const GROUP: u32 = 8;
+/// Texels per side of its tile: the pixels and two lattice points either side.
+const SIDE: u32 = GROUP + 4;
+/// Texels of a tile.
+const LEN: usize = (SIDE * SIDE) as usize;
+
+/// Workgroup memory of [`atrous_tiled`](super::super::ATROUS_TILED): the tile's texels decoded,
+/// one array per component. A texel outside the image has depth 0 (no surface: never a tap).
+#[repr(C)]
+#[derive(Copy, Clone, Pod, Zeroable)]
+pub struct Tile {
+    depth: [f32; LEN],
+    value: [f32; LEN],
+    variance: [f32; LEN],
+    nx: [f32; LEN],
+    ny: [f32; LEN],
+    nz: [f32; LEN],
+}
+
+/// The extent [`atrous_tiled`](super::super::ATROUS_TILED) is dispatched over for an image of
+/// `width`×`height` at `step` (as `Pass::over_grid`'s width and height): `step` lattices across,
+/// each a whole number of workgroups.
+pub fn grid(width: u32, height: u32, step: u32) -> (u32, u32) {
+    let side = |n: u32| step * groups_across(n, step) * GROUP;
+    (side(width), side(height))
+}
+
+/// Workgroups across one lattice of an image `n` pixels wide at `step`.
+#[inline]
+fn groups_across(n: u32, step: u32) -> u32 {
+    n.div_ceil(step).div_ceil(GROUP)
+}
+
+/// Where a workgroup's lattice lies along one axis: its remainder `r` and the lattice index
+/// `first` of its first pixel (pixel `r + (first + i)·step`).
+#[inline]
+fn lattice(group: u32, n: u32, step: u32) -> (u32, u32) {
+    let across = groups_across(n, step);
+    (group / across, (group % across) * GROUP)
+}
+
+/// Pixel coordinate of lattice point `first + i − 2` (tile index `i`) along an axis, `None`
+/// outside the image.
+#[inline]
+fn coordinate(r: u32, first: u32, i: u32, step: u32, n: u32) -> Option<u32> {
+    let k = (first + i) as i32 - 2;
+    let c = r as i32 + k * step as i32;
+    if k >= 0 && c < n as i32 {
+        Some(c as u32)
+    } else {
+        None
+    }
+}
+
+/// Phase 1: the workgroup's invocations load and decode the tile's texels between them.
+#[inline]
+pub fn load(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: &mut Tile) {
+    let AtrousTiledIo {
+        input,
+        depth,
+        normal_roughness,
+        ..
+    } = io;
+    let (w, h, s) = (p.width, p.height, p.step);
+    let (rx, fx) = lattice(ids.group.x, w, s);
+    let (ry, fy) = lattice(ids.group.y, h, s);
+    let z = ids.group.z;
+    let mut i = ids.local_index;
+    while i < LEN as u32 {
+        let t = i as usize;
+        let at = (
+            coordinate(rx, fx, i % SIDE, s, w),
+            coordinate(ry, fy, i / SIDE, s, h),
+        );
+        if let (Some(x), Some(y)) = at {
+            let f = input[((z * h + y) * w + x) as usize].unpack();
+            let n = packing::unpack_direction(normal_roughness[(y * w + x) as usize]);
+            tile.depth[t] = depth[(y * w + x) as usize];
+            tile.value[t] = f.value;
+            tile.variance[t] = f.variance;
+            tile.nx[t] = n.x;
+            tile.ny[t] = n.y;
+            tile.nz[t] = n.z;
+        } else {
+            tile.depth[t] = 0.0;
+        }
+        i += GROUP * GROUP;
+    }
+}
+
+/// Phase 2: each invocation filters its pixel from the tile (or passes it through, as
+/// [`super::atrous`]).
+#[inline]
+pub fn filter(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: &mut Tile) {
+    let AtrousTiledIo {
+        input,
+        view,
+        tiles,
+        guide,
+        penumbra,
+        out,
+        ..
+    } = io;
+    let (w, h, s) = (p.width, p.height, p.step);
+    let (lx, ly) = (ids.local_index % GROUP, ids.local_index / GROUP);
+    let (rx, fx) = lattice(ids.group.x, w, s);
+    let (ry, fy) = lattice(ids.group.y, h, s);
+    let (Some(x), Some(y)) = (
+        coordinate(rx, fx, lx + 2, s, w),
+        coordinate(ry, fy, ly + 2, s, h),
+    ) else {
+        return;
+    };
+    let id = UVec3::new(x, y, ids.group.z);
+    let index = ((id.z * h + y) * w + x) as usize;
+    let centre = (lx + 2 + (ly + 2) * SIDE) as usize;
+    let cd = tile.depth[centre];
+    if !surface::has_surface(cd) || p.iteration >= tiles[tile_index(x, y, w)] {
+        out[index] = input[index];
+        return;
+    }
+    let taps = TileTaps {
+        tile: &*tile,
+        centre: centre as i32,
+    };
+    let c = CentreTexels {
+        depth: Lanes([cd]),
+        normal: Lanes([normalize(taps.direction(centre))]),
+        value: Lanes([tile.value[centre]]),
+        variance: Lanes([tile.variance[centre]]),
+    };
+    let extra = Extra {
+        input,
+        view: &view[0],
+        guide,
+        penumbra,
+    };
+    out[index] = filter_at(id, p, taps, extra, Lanes([x]), &c).0[0];
+}
+
+/// Taps from a workgroup's tile: tap `(tx, ty)` of the pixel at tile index `centre` is texel
+/// `centre + tx + ty·SIDE`, whatever the step.
+#[derive(Copy, Clone)]
+struct TileTaps<'a> {
+    tile: &'a Tile,
+    centre: i32,
+}
+
+impl TileTaps<'_> {
+    #[inline]
+    fn direction(&self, t: usize) -> Vec3 {
+        Vec3::new(self.tile.nx[t], self.tile.ny[t], self.tile.nz[t])
+    }
+}
+
+impl TileTaps<'_> {
+    /// Tile index of tap `t`.
+    #[inline]
+    fn at(&self, t: TapAt) -> usize {
+        (self.centre + t.tx + t.ty * SIDE as i32) as usize
+    }
+}
+
+impl TapSource<1> for TileTaps<'_> {
+    #[inline(always)]
+    fn depth(&self, _c: &Centre<1>, t: TapAt) -> Lanes<f32, 1> {
+        Lanes([self.tile.depth[self.at(t)]])
+    }
+
+    #[inline(always)]
+    fn filtered(&self, _c: &Centre<1>, t: TapAt) -> (Lanes<f32, 1>, Lanes<f32, 1>) {
+        let i = self.at(t);
+        (Lanes([self.tile.value[i]]), Lanes([self.tile.variance[i]]))
+    }
+
+    #[inline(always)]
+    fn cosine2(&self, c: &Centre<1>, t: TapAt) -> Lanes<f32, 1> {
+        surface::squared_cosines(c.normal, Lanes([self.direction(self.at(t))]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_declared_workgroup_is_the_tiles() {
+        assert_eq!(
+            super::super::super::ATROUS_TILED.workgroup_size,
+            [GROUP, GROUP, 1]
+        );
+    }
+
+    /// Every pixel of an image lies on exactly one lattice point of one workgroup of the grid,
+    /// at every step, for sizes that are no multiple of a workgroup or a step.
+    #[test]
+    fn the_grid_covers_every_pixel_once() {
+        for (w, h) in [(1, 1), (37, 19), (130, 67)] {
+            for step in [1, 2, 4, 8, 16] {
+                let (gw, gh) = grid(w, h, step);
+                let mut seen = std::vec![0u32; (w * h) as usize];
+                for gy in 0..gh / GROUP {
+                    for gx in 0..gw / GROUP {
+                        let ((rx, fx), (ry, fy)) = (lattice(gx, w, step), lattice(gy, h, step));
+                        for j in 0..GROUP {
+                            for i in 0..GROUP {
+                                let at = (
+                                    coordinate(rx, fx, i + 2, step, w),
+                                    coordinate(ry, fy, j + 2, step, h),
+                                );
+                                if let (Some(x), Some(y)) = at {
+                                    seen[(y * w + x) as usize] += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+                assert!(seen.iter().all(|&n| n == 1), "{w}x{h} step {step}");
+            }
+        }
+    }
+}
