@@ -184,6 +184,7 @@ mod tests {
                 shadow_verify_history: 9.5,
                 shadow_drop_sigma: 2.25,
                 reflection_confirm_sigma: 0.5,
+                workgroup_tiles: true,
             },
             filter: FilterSettings {
                 atrous_iterations: 2,

@@ -277,6 +277,11 @@ pub struct DetectorSettings {
     /// change now and then, and a converged reflection dropped by chance comes back as blotches
     /// (see `docs/algorithms/change-detector.md`).
     pub reflection_confirm_sigma: f32,
+    /// The detector reads each texel's terms from a workgroup tile, computed once per workgroup
+    /// (`kernels::refill::tile`), instead of once per window it falls in (default off). The
+    /// results are the same; a choice for GPUs, not yet measured on one (see
+    /// `docs/results/per-pass.md`).
+    pub workgroup_tiles: bool,
 }
 
 /// The reflection passes (`crate::reflections`, `kernels::reflect`): the rays' roughness cut-off

@@ -341,6 +341,17 @@ pub(crate) fn detect_refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
+/// `detect_refill_tiled`: `detect_refill`'s case through the kernel whose window sums come from
+/// a workgroup tile.
+pub(crate) fn detect_refill_tiled_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let base = detect_refill_case(rng, w, h);
+    Case {
+        name: base.name.replace("detect_refill", "detect_refill_tiled"),
+        kernel: &vrrt_core::kernels::DETECT_REFILL_TILED,
+        ..base
+    }
+}
+
 /// Decisions as [`refill::fit`] leaves them: rays below and from a cut bin, 0 for skipped.
 fn fitted_decisions(rng: &mut Pcg32) -> [balance::Balance; 2] {
     [0; 2].map(|_| balance::Balance {
@@ -430,5 +441,38 @@ pub(crate) fn refill_fit_case(rng: &mut Pcg32, _w: u32, _h: u32) -> Case {
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: [1, 1, 1],
+    }
+}
+
+#[cfg(test)]
+mod tile_tests {
+    use super::*;
+    use crate::cases::{rng, DECIDED, SIZES};
+
+    /// The tiled detector lists and writes what the plain one does, word for word, at every
+    /// radius.
+    #[test]
+    fn the_tiled_detector_is_the_detector() {
+        let mut radii = [false; 5];
+        for seed in 0..16u64 {
+            for &(w, h) in SIZES {
+                let plain = detect_refill_case(&mut rng(300 + seed), w, h);
+                let tiled = detect_refill_tiled_case(&mut rng(300 + seed), w, h);
+                let p: refill::DetectRefillParams = bytemuck::pod_read_unaligned(&plain.params);
+                radii[p.detect.radius as usize] = true;
+                radii[p.detect.shadow_radius as usize] = true;
+                let mut cpu = vrrt_cpu::CpuExecutor::new();
+                let a = crate::run_case(&mut cpu, &plain).unwrap();
+                let b = crate::run_case(&mut cpu, &tiled).unwrap();
+                let r = crate::compare(&plain, &DECIDED, &a, &b);
+                // The lists are filled through atomics: compared as multisets (`unordered`).
+                assert!(
+                    r.failures == 0 && r.decided_mismatches == 0 && r.float_mismatches == 0,
+                    "{}: {r:?}",
+                    tiled.name
+                );
+            }
+        }
+        assert_eq!(radii, [true; 5], "every radius exercised");
     }
 }

@@ -70,6 +70,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         DECIDED,
     ),
     (
+        "detect_refill_tiled",
+        crate::balance_cases::detect_refill_tiled_case,
+        DECIDED,
+    ),
+    (
         "refill_fit",
         crate::balance_cases::refill_fit_case,
         Tolerance::DEFAULT,
@@ -143,7 +148,7 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
 
 /// Cases whose outputs a float comparison decides (the buffers marked `decided`, each with its
 /// reason): 1% of those elements may differ; every other word is held to the default.
-const DECIDED: Tolerance = Tolerance::deciding(0.01);
+pub(crate) const DECIDED: Tolerance = Tolerance::deciding(0.01);
 
 /// Image sizes every case runs at: a single pixel, odd sizes, and one spanning many groups.
 pub const SIZES: &[(u32, u32)] = &[(1, 1), (37, 19), (130, 67)];
@@ -331,8 +336,8 @@ pub(crate) fn detect_params(rng: &mut Pcg32, w: u32, h: u32) -> detect::DetectPa
     detect::DetectParams {
         width: w,
         height: h,
-        radius: rng.random_range(0..4),
-        shadow_radius: rng.random_range(0..4),
+        radius: rng.random_range(0..=4),
+        shadow_radius: rng.random_range(0..=4),
         shadow_planes: rng.random_range(0..1 << PLANES),
         z_full: [1.0, 3.0, 5.0][rng.random_range(0..3)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],

@@ -61,7 +61,20 @@ impl Denoiser {
             args: self.refill_args,
             hist: self.refill_hist,
         };
-        exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
+        if s.detector.workgroup_tiles {
+            let pass = kernels::DetectRefillTiledBindings {
+                requests: pass.requests,
+                samples: pass.samples,
+                history: pass.history,
+                changes: pass.changes,
+                work: pass.work,
+                args: pass.args,
+                hist: pass.hist,
+            };
+            exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
+        } else {
+            exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
+        }
         self.fit_refill_lists(exec, false)?;
         Ok(true)
     }

@@ -75,8 +75,8 @@ pub fn lambda<const N: usize>(
     samples: &[PackedSample],
 ) -> Lanes<f32, N> {
     let (w, h) = (p.width, p.height);
-    let r = per_plane(p.radius, p.shadow_radius, p.shadow_planes, id.z) as i32;
-    let z_full = per_plane(p.z_full, p.ao_z_full, p.ao_planes, id.z);
+    let (r, z_full) = plane_window(p, id.z);
+    let r = r as i32;
     let x0 = id.x as i32;
     // Window sums of this frame's means, the history means and the variance of their difference.
     let mut sums = [Lanes::<f32, N>::splat(0.0); 3];
@@ -132,18 +132,34 @@ pub fn lambda<const N: usize>(
     let [sum_s, sum_m, var] = sums;
     Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
-        let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
-        let diff = math::abs(sum_s - sum_m);
-        let top = math::max(sum_s, sum_m);
-        let z = diff / math::sqrt(var);
-        let significance = math::saturate(z - (z_full - 1.0));
-        let lambda = math::saturate(diff / top) * significance;
-        if top > 0.0 && var > 0.0 {
-            lambda
-        } else {
-            0.0
-        }
+        lambda_of([sum_s.0[l], sum_m.0[l], var.0[l]], z_full)
     })
+}
+
+/// `λ` of a pixel from its window's sums of this frame's means, the history means and the
+/// variance of their difference (module rule), counted fully from `z_full` standard deviations.
+#[inline(always)]
+pub fn lambda_of([sum_s, sum_m, var]: [f32; 3], z_full: f32) -> f32 {
+    let diff = math::abs(sum_s - sum_m);
+    let top = math::max(sum_s, sum_m);
+    let z = diff / math::sqrt(var);
+    let significance = math::saturate(z - (z_full - 1.0));
+    let lambda = math::saturate(diff / top) * significance;
+    if top > 0.0 && var > 0.0 {
+        lambda
+    } else {
+        0.0
+    }
+}
+
+/// The window radius and `z_full` of plane `z` (`p.radius` and `p.z_full`, or the shadow and
+/// AO planes' own).
+#[inline]
+pub fn plane_window(p: &DetectParams, z: u32) -> (u32, f32) {
+    (
+        per_plane(p.radius, p.shadow_radius, p.shadow_planes, z),
+        per_plane(p.z_full, p.ao_z_full, p.ao_planes, z),
+    )
 }
 
 /// The detector's setting for plane `plane` (its window radius, significance, the `λ` above
@@ -200,17 +216,28 @@ fn terms<const N: usize>(
     let m = Lanes::<PackedPayload, N>::load_row(history, row, qx0, w);
     let mut t = [[0.0; N]; 3];
     lanes::each_lane!(l in N {
-        let (s, m, qx) = (s.0[l].unpack(), m.0[l].unpack(), qx0 + l as i32);
-        let counts =
-            qx >= 0 && qx < w as i32 && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
-        let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
-        if counts {
-            t[0][l] = s.m1;
-            t[1][l] = m.m1;
-            t[2][l] = v;
-        }
+        let qx = qx0 + l as i32;
+        let inside = qx >= 0 && qx < w as i32;
+        let [a, b, c] = pixel_terms(s.0[l].unpack(), m.0[l].unpack(), inside, p);
+        t[0][l] = a;
+        t[1][l] = b;
+        t[2][l] = c;
     });
     t
+}
+
+/// What one pixel (its rays `s`, its history `m`) adds to the window sums around it: this
+/// frame's mean, its history mean and the variance of their difference where it counts (`inside`
+/// the image, traced, with history, finite), +0 where it does not.
+#[inline(always)]
+pub fn pixel_terms(s: Sample, m: Payload, inside: bool, p: &DetectParams) -> [f32; 3] {
+    let counts = inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
+    let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
+    if counts {
+        [s.m1, m.m1, v]
+    } else {
+        [0.0; 3]
+    }
 }
 
 #[cfg(test)]

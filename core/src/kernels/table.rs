@@ -281,6 +281,20 @@ crate::kernel_table! {
         hist: atomic u32,
     }
 
+    /// [`refill::tile`]: [`refill::detect_refill`] with the detector's terms from a workgroup
+    /// tile ([`refill::tile::load`], [`refill::tile::finish`]).
+    detect_refill_tiled => DETECT_REFILL_TILED, DetectRefillTiledBindings, DetectRefillTiledIo: workgroup refill::tile::Tile,
+    phases [refill::tile::load, refill::tile::finish],
+    threads(8, 8, 1), params refill::DetectRefillParams {
+        requests: read Request,
+        samples: read PackedSample,
+        history: read PackedPayload,
+        changes: write f32,
+        work: write WorkEntry,
+        args: atomic u32,
+        hist: atomic u32,
+    }
+
     /// [`fill::fill`]: writes a value to the first `len` words; `len.div_ceil(64)` groups.
     fill => FILL, FillBindings, FillIo: fn fill::fill,
     threads(64, 1, 1), params fill::FillParams {

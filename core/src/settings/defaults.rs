@@ -75,6 +75,7 @@ impl Default for DetectorSettings {
             shadow_verify_history: 1.0,
             shadow_drop_sigma: 1.5,
             reflection_confirm_sigma: 1.25,
+            workgroup_tiles: false,
         }
     }
 }

@@ -420,6 +420,8 @@ pub fn cap(id: UVec3, p: &CapParams, io: RefillCapIo<'_>) {
     };
 }
 
+pub mod tile;
+
 #[cfg(test)]
 mod tests {
     use super::*;
