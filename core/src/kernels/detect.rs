@@ -132,7 +132,17 @@ pub fn lambda<const N: usize>(
     let [sum_s, sum_m, var] = sums;
     Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
-        lambda_of([sum_s.0[l], sum_m.0[l], var.0[l]], z_full)
+        let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
+        let diff = math::abs(sum_s - sum_m);
+        let top = math::max(sum_s, sum_m);
+        let z = diff / math::sqrt(var);
+        let significance = math::saturate(z - (z_full - 1.0));
+        let lambda = math::saturate(diff / top) * significance;
+        if top > 0.0 && var > 0.0 {
+            lambda
+        } else {
+            0.0
+        }
     })
 }
 
@@ -154,7 +164,7 @@ pub fn lambda_of([sum_s, sum_m, var]: [f32; 3], z_full: f32) -> f32 {
 
 /// The window radius and `z_full` of plane `z` (`p.radius` and `p.z_full`, or the shadow and
 /// AO planes' own).
-#[inline]
+#[inline(always)]
 pub fn plane_window(p: &DetectParams, z: u32) -> (u32, f32) {
     (
         per_plane(p.radius, p.shadow_radius, p.shadow_planes, z),
@@ -215,25 +225,35 @@ fn terms<const N: usize>(
     let s = Lanes::<PackedSample, N>::load_row(samples, row, qx0, w);
     let m = Lanes::<PackedPayload, N>::load_row(history, row, qx0, w);
     let mut t = [[0.0; N]; 3];
+    // The test spelled out here, not through `pixel_terms`: called, the row stayed scalar
+    // code (the detector took three times as long on the CPU).
     lanes::each_lane!(l in N {
-        let qx = qx0 + l as i32;
-        let inside = qx >= 0 && qx < w as i32;
-        let [a, b, c] = pixel_terms(s.0[l].unpack(), m.0[l].unpack(), inside, p);
-        t[0][l] = a;
-        t[1][l] = b;
-        t[2][l] = c;
+        let (s, m, qx) = (s.0[l].unpack(), m.0[l].unpack(), qx0 + l as i32);
+        let counts =
+            qx >= 0 && qx < w as i32 && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
+        let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
+        if counts {
+            t[0][l] = s.m1;
+            t[1][l] = m.m1;
+            t[2][l] = v;
+        }
     });
     t
 }
 
-/// What one pixel (its rays `s`, its history `m`) adds to the window sums around it: this
-/// frame's mean, its history mean and the variance of their difference where it counts (`inside`
-/// the image, traced, with history, finite), +0 where it does not.
+/// Whether a pixel (its rays `s`, its history `m`, `inside` the image) adds to the window sums
+/// around it: traced, with history, finite.
+#[inline(always)]
+fn counts(s: Sample, m: Payload, inside: bool) -> bool {
+    inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1)
+}
+
+/// What one pixel adds to the window sums around it ([`Terms`]): this frame's mean, its history
+/// mean and the variance of their difference where it [counts](counts), +0 where not.
 #[inline(always)]
 pub fn pixel_terms(s: Sample, m: Payload, inside: bool, p: &DetectParams) -> [f32; 3] {
-    let counts = inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1);
     let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
-    if counts {
+    if counts(s, m, inside) {
         [s.m1, m.m1, v]
     } else {
         [0.0; 3]
