@@ -132,17 +132,7 @@ pub fn lambda<const N: usize>(
     let [sum_s, sum_m, var] = sums;
     Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
-        let (sum_s, sum_m, var) = (sum_s.0[l], sum_m.0[l], var.0[l]);
-        let diff = math::abs(sum_s - sum_m);
-        let top = math::max(sum_s, sum_m);
-        let z = diff / math::sqrt(var);
-        let significance = math::saturate(z - (z_full - 1.0));
-        let lambda = math::saturate(diff / top) * significance;
-        if top > 0.0 && var > 0.0 {
-            lambda
-        } else {
-            0.0
-        }
+        lambda_of([sum_s.0[l], sum_m.0[l], var.0[l]], z_full)
     })
 }
 
