@@ -238,8 +238,9 @@ fn counts(s: Sample, m: Payload, inside: bool) -> bool {
     inside && s.rays > 0 && m.count > 0.0 && math::is_finite(s.m1)
 }
 
-/// What one pixel adds to the window sums around it ([`Terms`]): this frame's mean, its history
-/// mean and the variance of their difference where it [counts](counts), +0 where not.
+/// What one pixel adds to the window sums around it: this frame's mean, its history mean and the
+/// variance of their difference where it counts (`inside` the image, traced, with history,
+/// finite), +0 where it does not.
 #[inline(always)]
 pub fn pixel_terms(s: Sample, m: Payload, inside: bool, p: &DetectParams) -> [f32; 3] {
     let v = difference_variance(m.variance(), p.min_variance, s.rays, m.count);
