@@ -41,26 +41,31 @@ pub fn bucket_to_rate(b: u32) -> f32 {
 
 /// Bucket whose rate is nearest to `rate` (rays per pixel): `rate >= 1` rounds to whole rays
 /// (buckets 64..80, capped at 16), fractions round `1/rate` (buckets 0..63, floored at 1/64).
-/// Zero or negative or NaN rates map to [`NO_RAYS`].
+/// Zero or negative or NaN rates map to [`NO_RAYS`]. Both roundings are computed and one is
+/// selected, so a row of lanes decides without a branch per pixel.
 #[inline]
 pub fn rate_to_bucket(rate: f32) -> u32 {
-    if !(rate > 0.0) {
-        return NO_RAYS;
-    }
-    if rate >= 1.0 {
-        let r = crate::math::min(crate::math::floor(rate + 0.5), MAX_RATE as f32) as u32;
-        MIN_RATE_DIVISOR + r - 1
+    let whole = crate::math::min(crate::math::floor(rate + 0.5), MAX_RATE as f32) as u32;
+    let divisor = crate::math::min(
+        crate::math::floor(1.0 / rate + 0.5),
+        MIN_RATE_DIVISOR as f32,
+    ) as u32;
+    // A divisor of 1 only for rates in [2/3, 1): one ray, bucket 64 (63 would mean the same).
+    let fraction = if divisor <= 1 {
+        MIN_RATE_DIVISOR
     } else {
-        let d = crate::math::min(
-            crate::math::floor(1.0 / rate + 0.5),
-            MIN_RATE_DIVISOR as f32,
-        ) as u32;
-        // d = 1 only for rates in [2/3, 1): one ray, bucket 64 (63 would mean the same rate).
-        if d <= 1 {
-            MIN_RATE_DIVISOR
-        } else {
-            MIN_RATE_DIVISOR - d
-        }
+        MIN_RATE_DIVISOR - divisor
+    };
+    // `whole` is at least 1 where it is taken; below 1 it is 0 and the sum stays in range.
+    let b = if rate >= 1.0 {
+        MIN_RATE_DIVISOR + whole - 1
+    } else {
+        fraction
+    };
+    if rate > 0.0 {
+        b
+    } else {
+        NO_RAYS
     }
 }
 
@@ -167,6 +172,45 @@ pub fn flush(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`rate_to_bucket`] as it was written with early returns: the selects decide the same.
+    fn branchy(rate: f32) -> u32 {
+        if !(rate > 0.0) {
+            return NO_RAYS;
+        }
+        if rate >= 1.0 {
+            let r = (rate + 0.5).floor().min(MAX_RATE as f32) as u32;
+            return MIN_RATE_DIVISOR + r - 1;
+        }
+        let d = (1.0 / rate + 0.5).floor().min(MIN_RATE_DIVISOR as f32) as u32;
+        if d <= 1 {
+            MIN_RATE_DIVISOR
+        } else {
+            MIN_RATE_DIVISOR - d
+        }
+    }
+
+    #[test]
+    fn rate_to_bucket_selects_as_the_branches_did() {
+        let special = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            -3.0,
+            1e-38,
+            f32::MIN_POSITIVE,
+            2.0 / 3.0,
+            1.0,
+            16.5,
+            1e30,
+        ];
+        let sweep = (0..20_000).map(|i| i as f32 * 0.001 - 1.0);
+        for rate in special.into_iter().chain(sweep) {
+            assert_eq!(rate_to_bucket(rate), branchy(rate), "{rate}");
+        }
+    }
 
     #[test]
     fn rates_match_the_seed() {

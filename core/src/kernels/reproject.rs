@@ -177,38 +177,49 @@ pub fn same_surface(
 }
 
 /// Ray rate a pixel asks for, from its shortest history and largest variance over the planes.
+///
+/// In order: nothing but `base_rate` without VRRT requests; the refill of a history short of
+/// `supersample_target`; on a still frame, the refill up to `still_history`, then the floor for
+/// a quiet estimate; from `full_history` on, the rate of the first variance threshold it is
+/// under; else `base_rate`. Written as selects from the last rule to the first, not early
+/// returns, so a row of lanes decides without a branch per pixel.
 #[inline]
 pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) -> f32 {
-    if p.supersample_target <= 0.0 {
-        return p.base_rate;
+    let mut converged = p.base_rate;
+    let mut i = 4;
+    while i > 0 {
+        i -= 1;
+        if max_variance < p.variance_threshold[i] {
+            converged = p.variance_rate[i];
+        }
+    }
+    let mut rate = if min_count >= p.full_history {
+        converged
+    } else {
+        p.base_rate
+    };
+    if p.still_history > 0.0 {
+        if max_variance < p.still_variance * min_count {
+            rate = p.variance_rate[0];
+        }
+        if min_count < p.still_history {
+            // Still frame: history stays valid, so it is completed first, at whatever the budget
+            // grants (the refill rule with `still_history` as the target).
+            rate = math::clamp(math::floor(p.still_history - min_count + 0.5), 1.0, 16.0);
+        }
     }
     if min_count < p.supersample_target {
-        return math::clamp(
+        rate = math::clamp(
             math::floor(p.supersample_target - min_count + 0.5),
             1.0,
             16.0,
         );
     }
-    if p.still_history > 0.0 {
-        if min_count < p.still_history {
-            // Still frame: history stays valid, so it is completed first, at whatever the budget
-            // grants (the refill rule with `still_history` as the target).
-            return math::clamp(math::floor(p.still_history - min_count + 0.5), 1.0, 16.0);
-        }
-        if max_variance < p.still_variance * min_count {
-            return p.variance_rate[0];
-        }
+    if p.supersample_target <= 0.0 {
+        p.base_rate
+    } else {
+        rate
     }
-    if min_count >= p.full_history {
-        let mut i = 0;
-        while i < 4 {
-            if max_variance < p.variance_threshold[i] {
-                return p.variance_rate[i];
-            }
-            i += 1;
-        }
-    }
-    p.base_rate
 }
 
 /// The 2×2 bilinear footprints of `N` pixels (one lane each): texel indices and bilinear weights
@@ -679,6 +690,54 @@ fn reproject_pixels<const N: usize>(
 mod tests {
     use super::*;
     use crate::camera::View;
+
+    /// [`requested_rate`] as it was written with early returns: the selects decide the same.
+    fn branchy(min_count: f32, max_variance: f32, p: &ReprojectParams) -> f32 {
+        if p.supersample_target <= 0.0 {
+            return p.base_rate;
+        }
+        if min_count < p.supersample_target {
+            return (p.supersample_target - min_count + 0.5)
+                .floor()
+                .clamp(1.0, 16.0);
+        }
+        if p.still_history > 0.0 {
+            if min_count < p.still_history {
+                return (p.still_history - min_count + 0.5).floor().clamp(1.0, 16.0);
+            }
+            if max_variance < p.still_variance * min_count {
+                return p.variance_rate[0];
+            }
+        }
+        if min_count >= p.full_history {
+            for i in 0..4 {
+                if max_variance < p.variance_threshold[i] {
+                    return p.variance_rate[i];
+                }
+            }
+        }
+        p.base_rate
+    }
+
+    #[test]
+    fn requested_rate_selects_as_the_branches_did() {
+        let counts = [0.0, 0.5, 1.0, 3.9, 4.0, 8.0, 31.5, 32.0, 63.0, 64.0, 100.0];
+        let variances = [0.0, 5e-5, 1e-4, 5e-4, 1e-3, 5e-3, 1e-2, 0.1, f32::NAN];
+        for (target, still) in [(0.0, 0.0), (8.0, 0.0), (8.0, 32.0), (32.0, 16.0)] {
+            let p = ReprojectParams {
+                supersample_target: target,
+                still_history: still,
+                still_variance: 2e-5,
+                ..Default::default()
+            };
+            for &c in &counts {
+                for &v in &variances {
+                    let (a, b) = (requested_rate(c, v, &p), branchy(c, v, &p));
+                    assert_eq!(a.to_bits(), b.to_bits(), "{c} {v} {target} {still}");
+                }
+            }
+        }
+    }
 
     const W: u32 = 8;
     const H: u32 = 4;
