@@ -34,7 +34,7 @@ use crate::packing;
 use crate::payload::{pack_filtered, unpack_filtered, Filtered, PackedPayload};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
-use glam::UVec3;
+use glam::{UVec3, Vec3};
 
 /// Push constants of [`variance`].
 #[repr(C)]
@@ -169,9 +169,63 @@ fn estimate<const N: usize>(
         TangentPlane::new(&rays, n.0[l as usize], x, id.y, d)
             .scaled(1.0 / math::max(p.plane_scale * d, 1e-12))
     });
-    let normal_power = per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z);
     let guided = id.z == p.guide_plane;
-    let cg = guide_row::<N>(guide, guided, id.y * w, x0, w);
+    let c = WindowCentre {
+        normal: n,
+        plane,
+        normal_power: per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z),
+        guided,
+        guide: guide_row::<N>(guide, guided, id.y * w, x0, w),
+    };
+    let [s1, s2, sw] = window_sums(id, p, &c, (payload, depth, normal_roughness, guide));
+    Lanes::<Filtered, N>::from_index(|l| {
+        let l = l as usize;
+        let (h, s1, s2, sw) = (hist.0[l], s1.0[l], s2.0[l], sw.0[l]);
+        let per_estimate = per_estimate.0[l];
+        let (m1s, m2s) = (s1 / sw, s2 / sw);
+        let spatial_var = math::max(m2s - m1s * m1s, 0.0);
+        let t = math::saturate(h.count / spatial_until);
+        let spatial = Filtered {
+            value: math::lerp(m1s, h.m1, t),
+            variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
+        };
+        if young.0[l] && !(sw <= 0.0) {
+            spatial
+        } else {
+            temporal.0[l]
+        }
+    })
+}
+
+/// What the window's neighbours of `N` pixels are weighed against: the centres' unit normals,
+/// tangent planes (distances in units of the plane tolerance), normal exponent and guides.
+#[derive(Copy, Clone)]
+struct WindowCentre<const N: usize> {
+    normal: Lanes<Vec3, N>,
+    plane: Lanes<TangentPlane, N>,
+    normal_power: f32,
+    guided: bool,
+    guide: Lanes<f32, N>,
+}
+
+/// The spatial estimate's weighted sums over each lane's `(2r+1)²` window: first and second
+/// moments and weights, each neighbour counted by the rays it holds.
+#[inline(always)]
+fn window_sums<const N: usize>(
+    id: UVec3,
+    p: &VarianceParams,
+    c: &WindowCentre<N>,
+    (payload, depth, normal_roughness, guide): (&[PackedPayload], &[f32], &[u32], &[f32]),
+) -> [Lanes<f32, N>; 3] {
+    let WindowCentre {
+        normal: n,
+        plane,
+        normal_power,
+        guided,
+        guide: cg,
+    } = *c;
+    let (w, h) = (p.width, p.height);
+    let x0 = id.x as i32;
     let r = p.radius as i32;
     let mut s1 = Lanes::<f32, N>::splat(0.0);
     let mut s2 = s1;
@@ -224,21 +278,5 @@ fn estimate<const N: usize>(
         }
         dy += 1;
     }
-    Lanes::<Filtered, N>::from_index(|l| {
-        let l = l as usize;
-        let (h, s1, s2, sw) = (hist.0[l], s1.0[l], s2.0[l], sw.0[l]);
-        let per_estimate = per_estimate.0[l];
-        let (m1s, m2s) = (s1 / sw, s2 / sw);
-        let spatial_var = math::max(m2s - m1s * m1s, 0.0);
-        let t = math::saturate(h.count / spatial_until);
-        let spatial = Filtered {
-            value: math::lerp(m1s, h.m1, t),
-            variance: math::lerp(spatial_var, h.variance(), t) * per_estimate,
-        };
-        if young.0[l] && !(sw <= 0.0) {
-            spatial
-        } else {
-            temporal.0[l]
-        }
-    })
+    [s1, s2, sw]
 }
