@@ -61,20 +61,11 @@ impl Denoiser {
             args: self.refill_args,
             hist: self.refill_hist,
         };
+        let mut pass = pass.over_grid(&fused, w, h, l.groups());
         if s.detector.workgroup_tiles {
-            let pass = kernels::DetectRefillTiledBindings {
-                requests: pass.requests,
-                samples: pass.samples,
-                history: pass.history,
-                changes: pass.changes,
-                work: pass.work,
-                args: pass.args,
-                hist: pass.hist,
-            };
-            exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
-        } else {
-            exec.dispatch(&pass.over_grid(&fused, w, h, l.groups()))?;
+            pass = pass.variant_over_grid(&kernels::DETECT_REFILL_TILED, w, h, l.groups());
         }
+        exec.dispatch(&pass)?;
         self.fit_refill_lists(exec, false)?;
         Ok(true)
     }
@@ -378,33 +369,22 @@ impl Denoiser {
                 };
                 return exec.dispatch(&atrous.over_grid(&params, w, h, planes));
             }
-            let out = self.filtered[1 - self.out];
+            let bindings = kernels::AtrousBindings {
+                input,
+                depth,
+                normal_roughness,
+                view: self.view,
+                tiles: self.tiles,
+                guide: self.guide,
+                penumbra: self.penumbra,
+                out: self.filtered[1 - self.out],
+            };
+            let mut pass = bindings.over_grid(&params, w, h, planes);
             if tiled {
-                let atrous = kernels::AtrousTiledBindings {
-                    input,
-                    depth,
-                    normal_roughness,
-                    view: self.view,
-                    tiles: self.tiles,
-                    guide: self.guide,
-                    penumbra: self.penumbra,
-                    out,
-                };
                 let (gw, gh) = atrous::tile::grid(w, h, params.step);
-                exec.dispatch(&atrous.over_grid(&params, gw, gh, planes))?;
-            } else {
-                let atrous = kernels::AtrousBindings {
-                    input,
-                    depth,
-                    normal_roughness,
-                    view: self.view,
-                    tiles: self.tiles,
-                    guide: self.guide,
-                    penumbra: self.penumbra,
-                    out,
-                };
-                exec.dispatch(&atrous.over_grid(&params, w, h, planes))?;
+                pass = pass.variant_over_grid(&kernels::ATROUS_TILED, gw, gh, planes);
             }
+            exec.dispatch(&pass)?;
             self.out = 1 - self.out;
         }
         Ok(())

@@ -196,6 +196,31 @@ impl<'a> Pass<'a> {
         }
     }
 
+    /// This pass's buffers and parameters given to `kernel`, a variant of its kernel that binds
+    /// and reads the same (`atrous_tiled` of `atrous`, `detect_refill_tiled` of
+    /// `detect_refill`), over a `width × height × planes` grid of `kernel`'s workgroups: a
+    /// variant needs no bindings struct of its own.
+    ///
+    /// # Panics
+    /// Where `kernel`'s bindings or push constants differ from this pass's kernel's: it would
+    /// read the buffers as something else.
+    pub fn variant_over_grid(
+        self,
+        kernel: &'static KernelDesc,
+        width: u32,
+        height: u32,
+        planes: u32,
+    ) -> Self {
+        assert!(
+            kernel.bindings == self.kernel.bindings
+                && kernel.params_size == self.kernel.params_size,
+            "{} is no variant of {}: their bindings or parameters differ",
+            kernel.entry,
+            self.kernel.entry
+        );
+        Pass::over_grid(kernel, self.buffers, self.params, width, height, planes)
+    }
+
     /// Checks that buffers and parameters match the kernel description.
     pub fn validate(&self) -> Result<(), PlanError> {
         if self.buffers.len() != self.kernel.bindings.len() {

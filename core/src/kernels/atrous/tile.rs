@@ -214,6 +214,14 @@ mod tests {
         );
     }
 
+    /// The denoiser dispatches it with `atrous`'s buffers (`Pass::variant_over_grid`).
+    #[test]
+    fn it_binds_what_atrous_binds() {
+        use super::super::super::{ATROUS, ATROUS_TILED};
+        assert_eq!(ATROUS_TILED.bindings, ATROUS.bindings);
+        assert_eq!(ATROUS_TILED.params_size, ATROUS.params_size);
+    }
+
     /// Every pixel of an image lies on exactly one lattice point of one workgroup of the grid,
     /// at every step, for sizes that are no multiple of a workgroup or a step.
     #[test]

@@ -157,4 +157,12 @@ mod tests {
             [GROUP, GROUP, 1]
         );
     }
+
+    /// The denoiser dispatches it with `detect_refill`'s buffers (`Pass::variant_over_grid`).
+    #[test]
+    fn it_binds_what_detect_refill_binds() {
+        use super::super::super::{DETECT_REFILL, DETECT_REFILL_TILED};
+        assert_eq!(DETECT_REFILL_TILED.bindings, DETECT_REFILL.bindings);
+        assert_eq!(DETECT_REFILL_TILED.params_size, DETECT_REFILL.params_size);
+    }
 }
