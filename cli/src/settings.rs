@@ -204,6 +204,7 @@ mod tests {
                 penumbra_sigma_luminance: 1.25,
                 penumbra_radius: 1,
                 workgroup_tiles: true,
+                fused_pair: true,
             },
             reflections: ReflectionSettings {
                 max_roughness: 0.25,

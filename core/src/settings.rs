@@ -412,6 +412,12 @@ pub struct FilterSettings {
     /// one: on lavapipe the tiles saved 1–5%, and the CPU backend runs a workgroup's invocations
     /// one after another (see `docs/results/per-pass.md`).
     pub workgroup_tiles: bool,
+    /// The first two à-trous iterations run as one dispatch (`kernels::atrous::pair`), the
+    /// first's results kept in workgroup memory, its halo filtered again by each workgroup
+    /// (default off). The results are the same and 16 bytes per pixel of AO are not moved; a
+    /// choice for GPUs, not yet measured on one, and a slow one on the CPU backend, which runs
+    /// a workgroup's invocations one after another (see `docs/results/per-pass.md`).
+    pub fused_pair: bool,
 }
 
 impl Settings {

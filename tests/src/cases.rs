@@ -34,6 +34,11 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         Tolerance::DEFAULT,
     ),
     (
+        "atrous_pair",
+        crate::filter_cases::atrous_pair_case,
+        Tolerance::DEFAULT,
+    ),
+    (
         "atrous_engine",
         crate::ingest_cases::atrous_engine_case,
         Tolerance::DEFAULT,

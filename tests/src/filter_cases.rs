@@ -165,6 +165,30 @@ pub(crate) fn atrous_tiled_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     }
 }
 
+/// `atrous`'s case through the fused first two iterations (`atrous_pair`): the same buffers,
+/// the first iteration at step 1 (its number still drawn: the tiles' counts decide both).
+pub(crate) fn atrous_pair_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
+    let base = atrous_case(rng, w, h);
+    let mut p: atrous::AtrousParams = bytemuck::pod_read_unaligned(&base.params);
+    p.step = 1;
+    p.iteration = p.iteration.min(3);
+    Case {
+        name: base
+            .name
+            .replace("atrous", "atrous_pair")
+            .replace(&format!("step {}", base_step(&base)), "steps 1, 2"),
+        kernel: &vrrt_core::kernels::ATROUS_PAIR,
+        params: bytemuck::bytes_of(&p).to_vec(),
+        groups: groups(&vrrt_core::kernels::ATROUS_PAIR, w, h, PLANES),
+        ..base
+    }
+}
+
+/// The step an `atrous` case was drawn with.
+fn base_step(case: &Case) -> u32 {
+    bytemuck::pod_read_unaligned::<atrous::AtrousParams>(&case.params).step
+}
+
 /// A guided plane, or none (`NO_PLANE`): both paths of the filters are exercised.
 fn guide_plane(rng: &mut Pcg32) -> u32 {
     [0, 1, reproject::NO_PLANE][rng.random_range(0..3)]
@@ -216,5 +240,37 @@ mod tests {
             }
         }
         assert_eq!(steps, [true; 5], "every step exercised");
+    }
+
+    /// The fused pair gives what two `atrous` passes (steps 1 and 2, the second reading the
+    /// first's output) give: on the CPU, word for word, on every size.
+    #[test]
+    fn atrous_pair_is_two_atrous_iterations() {
+        use vrrt_core::kernels::ATROUS;
+        for seed in 0..12u64 {
+            for &(w, h) in SIZES {
+                let pair = atrous_pair_case(&mut rng(190 + seed), w, h);
+                let p: atrous::AtrousParams = bytemuck::pod_read_unaligned(&pair.params);
+                let mut first = Case {
+                    kernel: &ATROUS,
+                    groups: groups(&ATROUS, w, h, PLANES),
+                    ..pair.clone()
+                };
+                let mut cpu = vrrt_cpu::CpuExecutor::new();
+                let once = crate::run_case(&mut cpu, &first).unwrap();
+                let next = atrous::AtrousParams {
+                    step: 2,
+                    iteration: p.iteration + 1,
+                    ..p
+                };
+                first.buffers[0].data = once[7].clone();
+                first.params = bytemuck::bytes_of(&next).to_vec();
+                let twice = crate::run_case(&mut cpu, &first).unwrap();
+                let fused = crate::run_case(&mut cpu, &pair).unwrap();
+                let tol = crate::Tolerance::DEFAULT;
+                let r = crate::compare_words(FILTERED, &tol, &twice[7], &fused[7]);
+                assert!(r.is_exact(), "{}: {r:?}", pair.name);
+            }
+        }
     }
 }

@@ -83,13 +83,15 @@ fn check_sequence_events(scene: &Scene) {
 }
 
 /// Renders [`FRAMES`] frames of `signal` on `exec` with the settings of `vrrt run`'s default
-/// configuration (full VRRT, 1 ray per pixel), à-trous and the detector from workgroup tiles on
-/// ash (both paths of each are held to the CPU's frames: wgpu takes the default ones).
+/// configuration (full VRRT, 1 ray per pixel), à-trous (its first two iterations fused) and the
+/// detector from workgroup tiles on ash (both paths of each are held to the CPU's frames: wgpu
+/// takes the default ones).
 fn render(exec: &mut Backend, scene: &Scene, signal: Signal) -> Vec<Frame> {
     let mut settings = Config::Vrrt.settings(Settings::default(), 1.0, signal);
     let tiles = exec.name() == "ash";
     settings.filter.workgroup_tiles = tiles;
     settings.detector.workgroup_tiles = tiles;
+    settings.filter.fused_pair = tiles;
     let (w, h) = SIZE;
     let mut r = Renderer::new(exec, w, h, signal, scene.lights.len(), settings)
         .unwrap_or_else(|e| panic!("{}: cannot create the renderer: {e}", exec.name()));

@@ -349,7 +349,11 @@ impl Denoiser {
         } else {
             iterations
         };
-        for i in 0..passes {
+        // The fused pair writes the second iteration to the filter buffers, not to a target.
+        let fused =
+            self.settings.filter.fused_pair && passes >= 2 && !(target.is_some() && passes == 2);
+        let mut i = 0;
+        while i < passes {
             let params = self.atrous_params(i);
             let (input, depth, normal_roughness) = (
                 self.filtered[self.out],
@@ -380,12 +384,16 @@ impl Denoiser {
                 out: self.filtered[1 - self.out],
             };
             let mut pass = bindings.over_grid(&params, w, h, planes);
-            if tiled {
+            if fused && i == 0 {
+                pass = pass.variant_over_grid(&kernels::ATROUS_PAIR, w, h, planes);
+                i += 1;
+            } else if tiled {
                 let (gw, gh) = atrous::tile::grid(w, h, params.step);
                 pass = pass.variant_over_grid(&kernels::ATROUS_TILED, gw, gh, planes);
             }
             exec.dispatch(&pass)?;
             self.out = 1 - self.out;
+            i += 1;
         }
         Ok(())
     }

@@ -65,6 +65,22 @@ crate::kernel_table! {
         out: write PackedFiltered,
     }
 
+    /// [`atrous::pair`]: the first two à-trous iterations (steps 1 and 2) in one dispatch, the
+    /// first's results kept in workgroup memory ([`atrous::pair::load`], [`atrous::pair::first`],
+    /// [`atrous::pair::second`]); `params` are the first's.
+    atrous_pair => ATROUS_PAIR, AtrousPairBindings, AtrousPairIo: workgroup atrous::pair::Pair,
+    phases [atrous::pair::load, atrous::pair::first, atrous::pair::second],
+    threads(8, 8, 1), params atrous::AtrousParams {
+        input: read PackedFiltered,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        view: read View,
+        tiles: read TileWord,
+        guide: read f32,
+        penumbra: read f32,
+        out: write PackedFiltered,
+    }
+
     /// [`atrous::atrous_engine`]: the last à-trous iteration, into the engine's texture.
     atrous_engine => ATROUS_ENGINE, AtrousEngineBindings, AtrousEngineIo: lanes(32, avx512 64) atrous::atrous_engine,
     threads(8, 8, 1), params atrous::AtrousParams {

@@ -100,6 +100,7 @@ impl Default for FilterSettings {
             penumbra_sigma_luminance: 2.0,
             penumbra_radius: 2,
             workgroup_tiles: false,
+            fused_pair: false,
         }
     }
 }

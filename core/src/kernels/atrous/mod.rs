@@ -254,12 +254,12 @@ fn iterate<const N: usize>(
         normal_roughness,
     };
     let extra = Extra {
-        input,
         view: &view[0],
         guide,
         penumbra,
     };
-    let filtered = filter_at(id, p, rows, extra, xs, &centre);
+    let variances = InputVariance::new(input, id, p);
+    let filtered = filter_at(id, p, (rows, variances), extra, xs, &centre);
     filtered.select(pass.map(|p| !p), packed)
 }
 
@@ -276,25 +276,24 @@ struct CentreTexels<const N: usize> {
 /// What a filter step reads besides its taps: the camera and the two guides.
 #[derive(Copy, Clone)]
 struct Extra<'a> {
-    input: &'a [PackedFiltered],
     view: &'a View,
     guide: &'a [f32],
     penumbra: &'a [f32],
 }
 
 /// The filtered `(value, variance)` of `N` pixels of a row (`id` the first, at columns `xs`)
-/// whose taps come from `src`: the weights of every tap against the centre's.
+/// whose taps come from `src`: the weights of every tap against the centre's, whose 3×3-blurred
+/// variance comes from `variances` ([`blurred_from`]).
 #[inline(always)]
 fn filter_at<const N: usize, S: TapSource<N>>(
     id: UVec3,
     p: &AtrousParams,
-    src: S,
+    (src, variances): (S, impl VarianceRows<N>),
     extra: Extra<'_>,
     xs: Lanes<u32, N>,
     centre: &CentreTexels<N>,
 ) -> Lanes<PackedFiltered, N> {
     let Extra {
-        input,
         view,
         guide,
         penumbra,
@@ -316,7 +315,7 @@ fn filter_at<const N: usize, S: TapSource<N>>(
         TangentPlane::new(&rays, n.0[l], xs.0[l], id.y, d)
             .scaled(1.0 / math::max(p.plane_scale * d, 1e-12))
     });
-    let mut blurred = blurred_variance::<N>(input, id, p);
+    let mut blurred = blurred_from(id, p, variances);
     if p.cap_variance != 0 {
         // The blur steadies σ in flat noise, but next to a noisier surface (a highlight above a
         // dark contact line) it raises the dark pixel's σ to the bright side's and the luminance
@@ -608,24 +607,60 @@ pub fn guide_exponent(centre: f32, tap: f32, scale: f32) -> f32 {
     d * d
 }
 
-/// Variance at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a less noisy σ for
-/// the luminance weight.
+/// Where [`blurred_from`] reads the variances it blurs: a row of `N` pixels at a time.
+trait VarianceRows<const N: usize>: Copy {
+    /// The variances of the pixels at columns `x0 + l` (clamped to the row) of row `y`, which
+    /// lies inside the image.
+    fn row(&self, x0: i32, y: u32) -> Lanes<f32, N>;
+}
+
+/// The variances of an iteration's input buffer, plane `plane`.
+#[derive(Copy, Clone)]
+struct InputVariance<'a> {
+    input: &'a [PackedFiltered],
+    plane: u32,
+    width: u32,
+    height: u32,
+}
+
+impl<'a> InputVariance<'a> {
+    /// The variances of `input` on pixel `id`'s plane.
+    #[inline(always)]
+    fn new(input: &'a [PackedFiltered], id: UVec3, p: &AtrousParams) -> Self {
+        InputVariance {
+            input,
+            plane: id.z,
+            width: p.width,
+            height: p.height,
+        }
+    }
+}
+
+impl<const N: usize> VarianceRows<N> for InputVariance<'_> {
+    #[inline(always)]
+    fn row(&self, x0: i32, y: u32) -> Lanes<f32, N> {
+        let row = (self.plane * self.height + y) * self.width;
+        let q = Lanes::<PackedFiltered, N>::load_row(self.input, row, x0, self.width);
+        payload::unpack_filtered(q).1
+    }
+}
+
+/// The variances `rows` gives at each lane's pixel blurred by a 3×3 Gaussian (edges clamped): a
+/// less noisy σ for the luminance weight.
 #[inline(always)]
-fn blurred_variance<const N: usize>(
-    input: &[PackedFiltered],
+fn blurred_from<const N: usize>(
     id: UVec3,
     p: &AtrousParams,
+    rows: impl VarianceRows<N>,
 ) -> Lanes<f32, N> {
     let mut sum = Lanes::<f32, N>::splat(0.0);
     let mut dy: i32 = -1;
     while dy <= 1 {
         let qy = lanes::clamp_column(id.y as i32 + dy, p.height);
-        let row = (id.z * p.height + qy) * p.width;
         let mut dx: i32 = -1;
         while dx <= 1 {
             let wt = GAUSS3[dx.unsigned_abs() as usize] * GAUSS3[dy.unsigned_abs() as usize];
-            let q = Lanes::<PackedFiltered, N>::load_row(input, row, id.x as i32 + dx, p.width);
-            let (_, variance) = payload::unpack_filtered(q);
+            let variance = rows.row(id.x as i32 + dx, qy);
             sum = sum.zip(variance, |s, v| s + wt * v);
             dx += 1;
         }
@@ -634,6 +669,7 @@ fn blurred_variance<const N: usize>(
     sum
 }
 
+pub mod pair;
 pub mod tile;
 
 #[cfg(test)]

@@ -12,9 +12,10 @@
 use super::super::classify::tile_index;
 use super::super::{AtrousTiledIo, WorkgroupIds};
 use super::AtrousParams;
-use super::{filter_at, Centre, CentreTexels, Extra, TapAt, TapSource};
+use super::{filter_at, Centre, CentreTexels, Extra, InputVariance, TapAt, TapSource};
 use crate::lanes::Lanes;
 use crate::packing;
+use crate::payload::PackedFiltered;
 use crate::surface;
 use crate::trace::normalize;
 use bytemuck::{Pod, Zeroable};
@@ -96,18 +97,47 @@ pub fn load(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: &m
             coordinate(ry, fy, i / SIDE, s, h),
         );
         if let (Some(x), Some(y)) = at {
-            let f = input[((z * h + y) * w + x) as usize].unpack();
-            let n = packing::unpack_direction(normal_roughness[(y * w + x) as usize]);
-            tile.depth[t] = depth[(y * w + x) as usize];
-            tile.value[t] = f.value;
-            tile.variance[t] = f.variance;
-            tile.nx[t] = n.x;
-            tile.ny[t] = n.y;
-            tile.nz[t] = n.z;
+            let d = Decoded::at(x, y, z, p, (input, depth, normal_roughness));
+            tile.depth[t] = d.depth;
+            tile.value[t] = d.value;
+            tile.variance[t] = d.variance;
+            tile.nx[t] = d.direction.x;
+            tile.ny[t] = d.direction.y;
+            tile.nz[t] = d.direction.z;
         } else {
             tile.depth[t] = 0.0;
         }
         i += GROUP * GROUP;
+    }
+}
+
+/// One texel decoded: what a tile keeps of it.
+pub(super) struct Decoded {
+    pub depth: f32,
+    pub value: f32,
+    pub variance: f32,
+    /// The normal's decoded, unnormalised direction.
+    pub direction: Vec3,
+}
+
+impl Decoded {
+    /// Pixel `(x, y)` (inside the image) of plane `z`, from the iteration's input and surfaces.
+    #[inline(always)]
+    pub fn at(
+        x: u32,
+        y: u32,
+        z: u32,
+        p: &AtrousParams,
+        (input, depth, normal_roughness): (&[PackedFiltered], &[f32], &[u32]),
+    ) -> Self {
+        let (w, h) = (p.width, p.height);
+        let f = input[((z * h + y) * w + x) as usize].unpack();
+        Decoded {
+            depth: depth[(y * w + x) as usize],
+            value: f.value,
+            variance: f.variance,
+            direction: packing::unpack_direction(normal_roughness[(y * w + x) as usize]),
+        }
     }
 }
 
@@ -142,63 +172,90 @@ pub fn filter(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: 
         out[index] = input[index];
         return;
     }
+    let texels = &*tile;
     let taps = TileTaps {
-        tile: &*tile,
+        texels,
         centre: centre as i32,
+        stride: 1,
     };
     let c = CentreTexels {
         depth: Lanes([cd]),
-        normal: Lanes([normalize(taps.direction(centre))]),
+        normal: Lanes([normalize(texels.direction(centre))]),
         value: Lanes([tile.value[centre]]),
         variance: Lanes([tile.variance[centre]]),
     };
     let extra = Extra {
-        input,
         view: &view[0],
         guide,
         penumbra,
     };
-    out[index] = filter_at(id, p, taps, extra, Lanes([x]), &c).0[0];
+    let variances = InputVariance::new(input, id, p);
+    out[index] = filter_at(id, p, (taps, variances), extra, Lanes([x]), &c).0[0];
 }
 
-/// Taps from a workgroup's tile: tap `(tx, ty)` of the pixel at tile index `centre` is texel
-/// `centre + tx + ty·SIDE`, whatever the step.
-#[derive(Copy, Clone)]
-struct TileTaps<'a> {
-    tile: &'a Tile,
-    centre: i32,
+/// A workgroup's texels, decoded, `SIDE` to a row: what [`TileTaps`] reads its taps from.
+pub(super) trait Texels: Copy {
+    /// Texels per row.
+    const SIDE: u32;
+    /// View depth of texel `t` (0: no surface, or outside the image).
+    fn depth(&self, t: usize) -> f32;
+    /// Value and variance of texel `t`.
+    fn filtered(&self, t: usize) -> (f32, f32);
+    /// Decoded (unnormalised) normal direction of texel `t`.
+    fn direction(&self, t: usize) -> Vec3;
 }
 
-impl TileTaps<'_> {
-    #[inline]
+impl Texels for &Tile {
+    const SIDE: u32 = SIDE;
+
+    #[inline(always)]
+    fn depth(&self, t: usize) -> f32 {
+        self.depth[t]
+    }
+
+    #[inline(always)]
+    fn filtered(&self, t: usize) -> (f32, f32) {
+        (self.value[t], self.variance[t])
+    }
+
+    #[inline(always)]
     fn direction(&self, t: usize) -> Vec3 {
-        Vec3::new(self.tile.nx[t], self.tile.ny[t], self.tile.nz[t])
+        Vec3::new(self.nx[t], self.ny[t], self.nz[t])
     }
 }
 
-impl TileTaps<'_> {
-    /// Tile index of tap `t`.
-    #[inline]
+/// Taps from a workgroup's texels: tap `(tx, ty)` of the pixel at texel `centre` is texel
+/// `centre + (tx + ty·SIDE)·stride`, whatever the step (a lattice tile's stride is 1).
+#[derive(Copy, Clone)]
+pub(super) struct TileTaps<T> {
+    pub texels: T,
+    pub centre: i32,
+    pub stride: i32,
+}
+
+impl<T: Texels> TileTaps<T> {
+    /// Texel index of tap `t`.
+    #[inline(always)]
     fn at(&self, t: TapAt) -> usize {
-        (self.centre + t.tx + t.ty * SIDE as i32) as usize
+        (self.centre + (t.tx + t.ty * T::SIDE as i32) * self.stride) as usize
     }
 }
 
-impl TapSource<1> for TileTaps<'_> {
+impl<T: Texels> TapSource<1> for TileTaps<T> {
     #[inline(always)]
     fn depth(&self, _c: &Centre<1>, t: TapAt) -> Lanes<f32, 1> {
-        Lanes([self.tile.depth[self.at(t)]])
+        Lanes([self.texels.depth(self.at(t))])
     }
 
     #[inline(always)]
     fn filtered(&self, _c: &Centre<1>, t: TapAt) -> (Lanes<f32, 1>, Lanes<f32, 1>) {
-        let i = self.at(t);
-        (Lanes([self.tile.value[i]]), Lanes([self.tile.variance[i]]))
+        let (value, variance) = self.texels.filtered(self.at(t));
+        (Lanes([value]), Lanes([variance]))
     }
 
     #[inline(always)]
     fn cosine2(&self, c: &Centre<1>, t: TapAt) -> Lanes<f32, 1> {
-        surface::squared_cosines(c.normal, Lanes([self.direction(self.at(t))]))
+        surface::squared_cosines(c.normal, Lanes([self.texels.direction(self.at(t))]))
     }
 }
 
