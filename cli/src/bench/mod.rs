@@ -129,6 +129,10 @@ pub struct Cell {
     pub frames: u32,
     /// Mean relMSE over the sequence.
     pub relmse: f64,
+    /// Mean over the sequence of the relMSE the references' own noise adds to `relmse`
+    /// (`vrrt_scene::metrics::reference_rel_noise`): `relmse` less this estimates the error
+    /// against the converged image.
+    pub reference_noise: f64,
     /// PSNR of the mean MSE.
     pub psnr: f64,
     /// Mean SSIM.
@@ -291,6 +295,7 @@ impl CellRun<'_> {
             size: opts.size,
             frames: opts.frames,
             relmse: s.mean_rel_mse,
+            reference_noise: r.mean_of(|f| f.reference_noise),
             psnr: s.psnr_of_mean_mse,
             ssim: s.mean_ssim,
             flip: r.mean_of(|f| f.flip),
@@ -363,7 +368,7 @@ fn write_results(
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
 
-const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse,max_overshoot";
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse,max_overshoot,reference_noise,relmse_vs_truth";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -494,7 +499,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{},{:.0}",
+            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{},{:.0},{},{}",
             c.key(","),
             c.size.0,
             c.size.1,
@@ -515,7 +520,9 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             fmt(c.detection.map_or(f64::NAN, |d| d.miss_rate()), 4),
             fmt(c.detection.map_or(f64::NAN, |d| d.false_positive_rate()), 5),
             spectrum::columns(c),
-            c.max_overshoot
+            c.max_overshoot,
+            fmt(c.reference_noise, 7),
+            fmt(c.relmse - c.reference_noise, 7)
         );
         session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');

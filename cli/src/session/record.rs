@@ -92,6 +92,9 @@ pub struct FrameRecord {
     pub moving_relmse: f64,
     /// relMSE of the raw samples (the denoiser's input).
     pub raw_relmse: f64,
+    /// The relMSE the reference's own noise adds to [`Self::relmse`]
+    /// ([`metrics::reference_rel_noise`]; NaN where its standard error is unknown).
+    pub reference_noise: f64,
     /// relMSE over the pixels without history: every pixel of a reset frame (the first, a camera
     /// cut), else the disoccluded ones (NaN when there are none).
     pub fresh_relmse: f64,

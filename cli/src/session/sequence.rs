@@ -297,6 +297,7 @@ fn new_record(
         temporal: f64::NAN,
         moving_relmse: f64::NAN,
         raw_relmse: f64::NAN,
+        reference_noise: f64::NAN,
         fresh_relmse: f64::NAN,
         fresh_pixels: 0,
         static_relmse: f64::NAN,
@@ -323,6 +324,7 @@ impl FrameRecord {
         self.temporal = avg(|e| e.temporal);
         self.moving_relmse = avg(|e| e.moving_relmse);
         self.raw_relmse = avg(|e| e.raw_relmse);
+        self.reference_noise = avg(|e| e.reference_noise);
         self.fresh_relmse = mean_finite(measured.iter().filter_map(|e| e.fresh.map(|f| f.0)));
         self.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
         self.static_relmse = avg(|e| e.static_relmse);
@@ -371,6 +373,12 @@ fn measure_part(
         temporal: fm.temporal.unwrap_or(f64::NAN),
         moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
         raw_relmse: rm.metrics.rel_mse,
+        reference_noise: match &r.stderr {
+            Some(se) => {
+                metrics::reference_rel_noise(r.image.view(), se.view()).context("metrics")?
+            }
+            None => f64::NAN,
+        },
         fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
         static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
         spectra,
@@ -388,6 +396,8 @@ struct PartError {
     temporal: f64,
     moving_relmse: f64,
     raw_relmse: f64,
+    /// The relMSE the reference's own noise adds ([`metrics::reference_rel_noise`]).
+    reference_noise: f64,
     /// relMSE and pixel count over the fresh pixels, when there are any.
     fresh: Option<(f64, usize)>,
     /// relMSE outside the moving mask.

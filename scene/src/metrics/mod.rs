@@ -38,7 +38,7 @@ mod structural;
 #[cfg(test)]
 mod tests;
 
-pub use noise::{standard_error, StandardError};
+pub use noise::{reference_rel_noise, standard_error, StandardError};
 #[cfg(feature = "flip")]
 pub use perceptual::{flip, flip_map};
 pub use pixelwise::{compare, masked_error, psnr_from_mse, ErrorMetrics, MaskedError};

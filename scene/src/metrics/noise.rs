@@ -1,7 +1,8 @@
 //! Monte Carlo standard error of an estimate from its running moments: how noisy a reference is,
 //! so that a test image's error can be judged against the reference's own.
 
-use super::MetricsError;
+use super::{MetricsError, REL_MSE_EPS};
+use crate::image::ImageRef;
 
 /// Noise level of a Monte Carlo estimate (e.g. a reference render), from its accumulators.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,4 +66,39 @@ pub fn standard_error<T: Copy + Into<f64>>(
         rms,
         non_finite,
     })
+}
+
+/// The relMSE a reference's own noise adds to the error of any test image measured against it
+/// ([`ErrorMetrics::rel_mse`](super::ErrorMetrics::rel_mse)): the mean over finite texels of
+/// `se² / (y² + ε)`, `y` the reference and `se` its standard error (`stderr`, one channel or as
+/// many as the reference). For a test image `x` whose noise is independent of the reference's,
+/// `E[(x − y)²] = E[(x − t)²] + se²` against the converged image `t`, so a relMSE less this
+/// estimates the error against `t`: at a few hundred samples per pixel the reference's noise is
+/// a sizeable part of a good denoiser's relMSE.
+pub fn reference_rel_noise(
+    reference: ImageRef<'_>,
+    stderr: ImageRef<'_>,
+) -> Result<f64, MetricsError> {
+    let c = reference.channels();
+    let sc = stderr.channels();
+    if (reference.width(), reference.height()) != (stderr.width(), stderr.height())
+        || !(sc == 1 || sc == c)
+    {
+        return Err(MetricsError::ShapeMismatch {
+            test: (stderr.width(), stderr.height(), sc),
+            reference: (reference.width(), reference.height(), c),
+        });
+    }
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..reference.pixel_count() {
+        let (y, se) = (reference.pixel_at(i), stderr.pixel_at(i));
+        for (k, &y) in y.iter().enumerate() {
+            let (y, se) = (f64::from(y), f64::from(se[k.min(sc - 1)]));
+            if y.is_finite() && se.is_finite() {
+                sum += se * se / (y * y + REL_MSE_EPS);
+                n += 1;
+            }
+        }
+    }
+    Ok(if n == 0 { f64::NAN } else { sum / n as f64 })
 }

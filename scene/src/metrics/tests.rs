@@ -406,3 +406,42 @@ fn spectrum_places_smooth_and_checkerboard_errors() {
     assert!(close(m.dc, 0.03125, 1e-9) && m.radial.len() == RADIAL_BINS);
     assert!(error_spectrum(flat.view(), Image::zeros(w, h + 1, 1).view()).is_err());
 }
+
+/// A noisy reference's relMSE floor, taken out of a test image's relMSE against it, leaves the
+/// test image's relMSE against the truth: images of 512x512 texels with independent noise of
+/// known σ (a hash's uniform noise, σ² = a²/3).
+#[test]
+fn reference_noise_leaves_the_error_against_the_truth() {
+    let (w, h) = (512usize, 512usize);
+    let noise = |i: usize, seed: u64| {
+        let mut z = (i as u64) ^ seed.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    let truth: Vec<f32> = (0..w * h)
+        .map(|i| 0.2 + 0.6 * (i % 97) as f32 / 96.0)
+        .collect();
+    let (a_ref, a_test) = (0.05f32, 0.08f32);
+    let reference: Vec<f32> = (0..w * h).map(|i| truth[i] + a_ref * noise(i, 1)).collect();
+    let test: Vec<f32> = (0..w * h)
+        .map(|i| truth[i] + a_test * noise(i, 2))
+        .collect();
+    let stderr = vec![a_ref / 3f32.sqrt(); w * h];
+    let (truth, reference) = (img(w, h, 1, truth), img(w, h, 1, reference));
+    let (test, stderr) = (img(w, h, 1, test), img(w, h, 1, stderr));
+    let against_truth = compare(test.view(), truth.view()).unwrap().rel_mse;
+    let measured = compare(test.view(), reference.view()).unwrap().rel_mse;
+    let floor = reference_rel_noise(reference.view(), stderr.view()).unwrap();
+    // The floor is a real part of the measured error here (0.05² of 0.05² + 0.08²: 28%)...
+    assert!(floor > 0.2 * measured, "floor {floor}, measured {measured}");
+    // ...and taking it out leaves the error against the truth, to within 3%.
+    let debiased = measured - floor;
+    assert!(
+        (debiased / against_truth - 1.0).abs() < 0.03,
+        "debiased {debiased}, against the truth {against_truth}"
+    );
+    // A standard error of another shape is an error, not a number.
+    let wrong = img(w, h / 2, 1, vec![0.0; w * h / 2]);
+    assert!(reference_rel_noise(reference.view(), wrong.view()).is_err());
+}
