@@ -13,14 +13,13 @@
 
 use super::super::classify::tile_index;
 use super::super::{AtrousPairIo, WorkgroupIds};
-use super::tile::{Decoded, Texels, TileTaps};
+use super::tile::{filter_texel, Decoded, TexelArrays, Texels};
 use super::AtrousParams;
-use super::{filter_at, CentreTexels, Extra, InputVariance, VarianceRows};
+use super::{Extra, InputVariance, VarianceRows};
 use crate::lanes::{self, Lanes};
 use crate::payload::PackedFiltered;
 use crate::surface;
-use crate::trace::normalize;
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use glam::{UVec3, Vec3};
 
 /// Pixels per side of a workgroup's output (its threads are `GROUP`×`GROUP`).
@@ -36,19 +35,12 @@ const LEN: usize = (SIDE * SIDE) as usize;
 /// Where the output starts in the tile, along each axis.
 const MARGIN: u32 = (SIDE - GROUP) / 2;
 
-/// Workgroup memory of [`atrous_pair`](super::super::ATROUS_PAIR): the tile's texels decoded,
-/// one array per component, and the first iteration's result at each texel of its region
-/// (packed as that pass stores it). A texel outside the image has depth 0 (no surface: never a
-/// tap).
+/// Workgroup memory of [`atrous_pair`](super::super::ATROUS_PAIR): the tile's texels, and the
+/// first iteration's result at each texel of its region (packed as that pass stores it).
 #[repr(C)]
-#[derive(Copy, Clone, Pod, Zeroable)]
+#[derive(Copy, Clone, Zeroable)]
 pub struct Pair {
-    depth: [f32; LEN],
-    value: [f32; LEN],
-    variance: [f32; LEN],
-    nx: [f32; LEN],
-    ny: [f32; LEN],
-    nz: [f32; LEN],
+    input: TexelArrays<SIDE, LEN>,
     first: [PackedFiltered; LEN],
 }
 
@@ -89,16 +81,12 @@ pub fn load(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &mu
     let mut i = ids.local_index;
     while i < LEN as u32 {
         let t = i as usize;
-        if let Some((x, y)) = pixel(ids.group, i % SIDE, i / SIDE, p) {
-            let d = Decoded::at(x, y, ids.group.z, p, (input, depth, normal_roughness));
-            pair.depth[t] = d.depth;
-            pair.value[t] = d.value;
-            pair.variance[t] = d.variance;
-            pair.nx[t] = d.direction.x;
-            pair.ny[t] = d.direction.y;
-            pair.nz[t] = d.direction.z;
-        } else {
-            pair.depth[t] = 0.0;
+        match pixel(ids.group, i % SIDE, i / SIDE, p) {
+            Some((x, y)) => {
+                let d = Decoded::at(x, y, ids.group.z, p, (input, depth, normal_roughness));
+                pair.input.put(t, d);
+            }
+            None => pair.input.clear(t),
         }
         i += GROUP * GROUP;
     }
@@ -129,30 +117,19 @@ pub fn first(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &m
         };
         let id = UVec3::new(x, y, ids.group.z);
         let index = ((id.z * h + y) * w + x) as usize;
-        let cd = pair.depth[t];
+        let texels = &pair.input;
+        let cd = texels.depth(t);
         if !surface::has_surface(cd) || p1.iteration >= tiles[tile_index(x, y, w)] {
             pair.first[t] = input[index];
             continue;
         }
-        let texels = Input(&*pair);
-        let c = CentreTexels {
-            depth: Lanes([cd]),
-            normal: Lanes([normalize(texels.direction(t))]),
-            value: Lanes([pair.value[t]]),
-            variance: Lanes([pair.variance[t]]),
-        };
-        let taps = TileTaps {
-            texels,
-            centre: t as i32,
-            stride: 1,
-        };
         let extra = Extra {
             view: &view[0],
             guide,
             penumbra,
         };
         let variances = InputVariance::new(input, id, &p1);
-        pair.first[t] = filter_at(id, &p1, (taps, variances), extra, Lanes([x]), &c).0[0];
+        pair.first[t] = filter_texel(id, &p1, (texels, t, 1), variances, extra);
     }
 }
 
@@ -180,24 +157,12 @@ pub fn second(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &
     let id = UVec3::new(x, y, ids.group.z);
     let index = ((id.z * h + y) * w + x) as usize;
     let t = (i + j * SIDE) as usize;
-    let cd = pair.depth[t];
+    let texels = First(&*pair);
+    let cd = texels.depth(t);
     if !surface::has_surface(cd) || p2.iteration >= tiles[tile_index(x, y, w)] {
         out[index] = pair.first[t];
         return;
     }
-    let texels = First(&*pair);
-    let (value, variance) = texels.filtered(t);
-    let c = CentreTexels {
-        depth: Lanes([cd]),
-        normal: Lanes([normalize(texels.direction(t))]),
-        value: Lanes([value]),
-        variance: Lanes([variance]),
-    };
-    let taps = TileTaps {
-        texels,
-        centre: t as i32,
-        stride: 2,
-    };
     let extra = Extra {
         view: &view[0],
         guide,
@@ -209,7 +174,7 @@ pub fn second(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &
         y0: ids.group.y * GROUP,
         width: w,
     };
-    out[index] = filter_at(id, &p2, (taps, rows), extra, Lanes([x]), &c).0[0];
+    out[index] = filter_texel(id, &p2, (texels, t, 2), rows, extra);
 }
 
 /// The first iteration's variances around a workgroup's pixels (`(x0, y0)` the first): its 3×3
@@ -231,39 +196,16 @@ impl VarianceRows<1> for FirstVariance<'_> {
     }
 }
 
-/// The tile's texels as the first iteration reads them: the input.
-#[derive(Copy, Clone)]
-struct Input<'a>(&'a Pair);
-
 /// The tile's texels as the second iteration reads them: the first iteration's results.
 #[derive(Copy, Clone)]
 struct First<'a>(&'a Pair);
-
-impl Texels for Input<'_> {
-    const SIDE: u32 = SIDE;
-
-    #[inline(always)]
-    fn depth(&self, t: usize) -> f32 {
-        self.0.depth[t]
-    }
-
-    #[inline(always)]
-    fn filtered(&self, t: usize) -> (f32, f32) {
-        (self.0.value[t], self.0.variance[t])
-    }
-
-    #[inline(always)]
-    fn direction(&self, t: usize) -> Vec3 {
-        Vec3::new(self.0.nx[t], self.0.ny[t], self.0.nz[t])
-    }
-}
 
 impl Texels for First<'_> {
     const SIDE: u32 = SIDE;
 
     #[inline(always)]
     fn depth(&self, t: usize) -> f32 {
-        self.0.depth[t]
+        (&self.0.input).depth(t)
     }
 
     #[inline(always)]
@@ -274,7 +216,7 @@ impl Texels for First<'_> {
 
     #[inline(always)]
     fn direction(&self, t: usize) -> Vec3 {
-        Input(self.0).direction(t)
+        (&self.0.input).direction(t)
     }
 }
 

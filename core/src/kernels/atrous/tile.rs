@@ -12,13 +12,15 @@
 use super::super::classify::tile_index;
 use super::super::{AtrousTiledIo, WorkgroupIds};
 use super::AtrousParams;
-use super::{filter_at, Centre, CentreTexels, Extra, InputVariance, TapAt, TapSource};
+use super::{
+    filter_at, Centre, CentreTexels, Extra, InputVariance, TapAt, TapSource, VarianceRows,
+};
 use crate::lanes::Lanes;
 use crate::packing;
 use crate::payload::PackedFiltered;
 use crate::surface;
 use crate::trace::normalize;
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use glam::{UVec3, Vec3};
 
 /// Pixels per side of a workgroup (its threads are `GROUP`×`GROUP`).
@@ -28,11 +30,11 @@ const SIDE: u32 = GROUP + 4;
 /// Texels of a tile.
 const LEN: usize = (SIDE * SIDE) as usize;
 
-/// Workgroup memory of [`atrous_tiled`](super::super::ATROUS_TILED): the tile's texels decoded,
-/// one array per component. A texel outside the image has depth 0 (no surface: never a tap).
+/// A workgroup's texels decoded, `SIDE` to a row, `LEN` in all, one array per component. A
+/// texel outside the image has depth 0 (no surface: never a tap).
 #[repr(C)]
-#[derive(Copy, Clone, Pod, Zeroable)]
-pub struct Tile {
+#[derive(Copy, Clone, Zeroable)]
+pub struct TexelArrays<const SIDE: u32, const LEN: usize> {
     depth: [f32; LEN],
     value: [f32; LEN],
     variance: [f32; LEN],
@@ -40,6 +42,28 @@ pub struct Tile {
     ny: [f32; LEN],
     nz: [f32; LEN],
 }
+
+impl<const SIDE: u32, const LEN: usize> TexelArrays<SIDE, LEN> {
+    /// Texel `t` becomes `d`.
+    #[inline(always)]
+    pub(super) fn put(&mut self, t: usize, d: Decoded) {
+        self.depth[t] = d.depth;
+        self.value[t] = d.value;
+        self.variance[t] = d.variance;
+        self.nx[t] = d.direction.x;
+        self.ny[t] = d.direction.y;
+        self.nz[t] = d.direction.z;
+    }
+
+    /// Texel `t` lies outside the image: no surface.
+    #[inline(always)]
+    pub(super) fn clear(&mut self, t: usize) {
+        self.depth[t] = 0.0;
+    }
+}
+
+/// Workgroup memory of [`atrous_tiled`](super::super::ATROUS_TILED): the tile's texels.
+pub type Tile = TexelArrays<SIDE, LEN>;
 
 /// The extent [`atrous_tiled`](super::super::ATROUS_TILED) is dispatched over for an image of
 /// `width`×`height` at `step` (as `Pass::over_grid`'s width and height): `step` lattices across,
@@ -96,16 +120,11 @@ pub fn load(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: &m
             coordinate(rx, fx, i % SIDE, s, w),
             coordinate(ry, fy, i / SIDE, s, h),
         );
-        if let (Some(x), Some(y)) = at {
-            let d = Decoded::at(x, y, z, p, (input, depth, normal_roughness));
-            tile.depth[t] = d.depth;
-            tile.value[t] = d.value;
-            tile.variance[t] = d.variance;
-            tile.nx[t] = d.direction.x;
-            tile.ny[t] = d.direction.y;
-            tile.nz[t] = d.direction.z;
-        } else {
-            tile.depth[t] = 0.0;
+        match at {
+            (Some(x), Some(y)) => {
+                tile.put(t, Decoded::at(x, y, z, p, (input, depth, normal_roughness)))
+            }
+            _ => tile.clear(t),
         }
         i += GROUP * GROUP;
     }
@@ -172,25 +191,38 @@ pub fn filter(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: 
         out[index] = input[index];
         return;
     }
-    let texels = &*tile;
-    let taps = TileTaps {
-        texels,
-        centre: centre as i32,
-        stride: 1,
-    };
-    let c = CentreTexels {
-        depth: Lanes([cd]),
-        normal: Lanes([normalize(texels.direction(centre))]),
-        value: Lanes([tile.value[centre]]),
-        variance: Lanes([tile.variance[centre]]),
-    };
     let extra = Extra {
         view: &view[0],
         guide,
         penumbra,
     };
     let variances = InputVariance::new(input, id, p);
-    out[index] = filter_at(id, p, (taps, variances), extra, Lanes([x]), &c).0[0];
+    out[index] = filter_texel(id, p, (&*tile, centre, 1), variances, extra);
+}
+
+/// [`filter_at`] of pixel `id`, which is texel `t` of `texels`, its taps `stride` texels apart
+/// and its 3×3-blurred variance from `variances`.
+#[inline(always)]
+pub(super) fn filter_texel<T: Texels>(
+    id: UVec3,
+    p: &AtrousParams,
+    (texels, t, stride): (T, usize, i32),
+    variances: impl VarianceRows<1>,
+    extra: Extra<'_>,
+) -> PackedFiltered {
+    let (value, variance) = texels.filtered(t);
+    let c = CentreTexels {
+        depth: Lanes([texels.depth(t)]),
+        normal: Lanes([normalize(texels.direction(t))]),
+        value: Lanes([value]),
+        variance: Lanes([variance]),
+    };
+    let taps = TileTaps {
+        texels,
+        centre: t as i32,
+        stride,
+    };
+    filter_at(id, p, (taps, variances), extra, Lanes([id.x]), &c).0[0]
 }
 
 /// A workgroup's texels, decoded, `SIDE` to a row: what [`TileTaps`] reads its taps from.
@@ -205,8 +237,8 @@ pub(super) trait Texels: Copy {
     fn direction(&self, t: usize) -> Vec3;
 }
 
-impl Texels for &Tile {
-    const SIDE: u32 = SIDE;
+impl<const S: u32, const L: usize> Texels for &TexelArrays<S, L> {
+    const SIDE: u32 = S;
 
     #[inline(always)]
     fn depth(&self, t: usize) -> f32 {
