@@ -170,10 +170,15 @@ impl Backend {
     /// The device it runs on, in words.
     pub fn device(&self) -> String {
         match self {
-            Backend::Cpu(_) => format!(
-                "native CPU, {} threads",
-                std::thread::available_parallelism().map_or(1, |n| n.get())
-            ),
+            Backend::Cpu(_) => {
+                let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+                match vrrt_core::executor::cpu_lanes() {
+                    vrrt_core::executor::CpuLanes::Avx512 => {
+                        format!("native CPU, {threads} threads")
+                    }
+                    lanes => format!("native CPU, {threads} threads, lanes limited to {lanes:?}"),
+                }
+            }
             Backend::Wgpu(e) => format!(
                 "{} ({:?})",
                 e.adapter_info().name,

@@ -285,8 +285,10 @@ macro_rules! kernel_table {
         unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
-                $crate::kernel_table!(@run_avx512 [$($wide)?] span b);
-                if std::is_x86_feature_detected!("avx2")
+                let limit = $crate::executor::cpu_lanes();
+                $crate::kernel_table!(@run_avx512 [$($wide)?] span b limit);
+                if limit >= $crate::executor::CpuLanes::Avx2
+                    && std::is_x86_feature_detected!("avx2")
                     && std::is_x86_feature_detected!("f16c")
                     && std::is_x86_feature_detected!("fma")
                 {
@@ -310,9 +312,10 @@ macro_rules! kernel_table {
             unsafe { lanes::<$wide>(span, b) }
         }
     };
-    (@run_avx512 [] $span:ident $b:ident) => {};
-    (@run_avx512 [$wide:tt] $span:ident $b:ident) => {
-        if std::is_x86_feature_detected!("avx512f")
+    (@run_avx512 [] $span:ident $b:ident $limit:ident) => {};
+    (@run_avx512 [$wide:tt] $span:ident $b:ident $limit:ident) => {
+        if $limit >= $crate::executor::CpuLanes::Avx512
+            && std::is_x86_feature_detected!("avx512f")
             && std::is_x86_feature_detected!("fma")
             && std::is_x86_feature_detected!("avx512bw")
             && std::is_x86_feature_detected!("avx512dq")

@@ -87,9 +87,26 @@ pub struct BenchArgs {
     /// in the frames after each event of the scene, every configuration side by side.
     #[arg(long)]
     pub no_page: bool,
+    /// The widest instructions the CPU backend's kernels may take: `native` (the widest the CPU
+    /// has: AVX-512, then AVX2), `avx2` (AVX2, F16C and FMA at most) or `baseline` (the target's
+    /// baseline, SSE2 on x86-64). Lowered, a machine with AVX-512 runs the code a machine without
+    /// it would.
+    #[arg(long, value_enum, default_value = "native")]
+    pub cpu_lanes: CpuLanesArg,
     /// Limits on a mesh file given as the scene.
     #[command(flatten, next_help_heading = "Limits on a mesh file")]
     pub limits: LimitArgs,
+}
+
+/// `--cpu-lanes`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum CpuLanesArg {
+    /// The widest the CPU has.
+    Native,
+    /// AVX2, F16C and FMA at most.
+    Avx2,
+    /// The target's baseline.
+    Baseline,
 }
 
 /// The scenes of the full matrix when `--scenes` is not given.
@@ -372,6 +389,12 @@ const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
+    use vrrt_core::executor::{set_cpu_lanes, CpuLanes};
+    set_cpu_lanes(match args.cpu_lanes {
+        CpuLanesArg::Native => CpuLanes::Avx512,
+        CpuLanesArg::Avx2 => CpuLanes::Avx2,
+        CpuLanesArg::Baseline => CpuLanes::Baseline,
+    });
     if args.passes {
         return crate::passes::run(args);
     }

@@ -58,6 +58,38 @@ pub struct Binding {
     pub access: Access,
 }
 
+/// The widest instructions the CPU runners of `lanes` kernels may take: each takes the widest
+/// the CPU has ([`CpuLanes::Avx512`], then AVX2 with F16C and FMA, then the baseline) up to
+/// this limit ([`set_cpu_lanes`]). Lowered, a machine with AVX-512 runs the code a machine
+/// without it would: how the CPU backend fares there, measured here.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum CpuLanes {
+    /// The target's baseline (SSE2 on x86-64).
+    Baseline = 0,
+    /// AVX2, F16C and FMA.
+    Avx2 = 1,
+    /// AVX-512 (and FMA): every runner the kernel table declares (the default).
+    Avx512 = 2,
+}
+
+static CPU_LANES: core::sync::atomic::AtomicU8 =
+    core::sync::atomic::AtomicU8::new(CpuLanes::Avx512 as u8);
+
+/// Limits the CPU runners to `lanes` from the next dispatch on, for the whole process.
+pub fn set_cpu_lanes(lanes: CpuLanes) {
+    CPU_LANES.store(lanes as u8, core::sync::atomic::Ordering::Relaxed);
+}
+
+/// The limit [`set_cpu_lanes`] set ([`CpuLanes::Avx512`] unless lowered).
+pub fn cpu_lanes() -> CpuLanes {
+    match CPU_LANES.load(core::sync::atomic::Ordering::Relaxed) {
+        0 => CpuLanes::Baseline,
+        1 => CpuLanes::Avx2,
+        _ => CpuLanes::Avx512,
+    }
+}
+
 /// Native entry of a kernel: runs every invocation of the workgroups of `span`.
 ///
 /// # Safety
