@@ -109,6 +109,16 @@ pub enum CpuLanesArg {
     Baseline,
 }
 
+impl From<CpuLanesArg> for vrrt_core::executor::CpuLanes {
+    fn from(arg: CpuLanesArg) -> Self {
+        match arg {
+            CpuLanesArg::Native => Self::Avx512,
+            CpuLanesArg::Avx2 => Self::Avx2,
+            CpuLanesArg::Baseline => Self::Baseline,
+        }
+    }
+}
+
 /// The scenes of the full matrix when `--scenes` is not given.
 pub const DEFAULT_SCENES: [&str; 3] = ["room", "bunny", "dragon"];
 
@@ -389,12 +399,7 @@ const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
-    use vrrt_core::executor::{set_cpu_lanes, CpuLanes};
-    set_cpu_lanes(match args.cpu_lanes {
-        CpuLanesArg::Native => CpuLanes::Avx512,
-        CpuLanesArg::Avx2 => CpuLanes::Avx2,
-        CpuLanesArg::Baseline => CpuLanes::Baseline,
-    });
+    vrrt_core::executor::set_cpu_lanes(args.cpu_lanes.into());
     if args.passes {
         return crate::passes::run(args);
     }
