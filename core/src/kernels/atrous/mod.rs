@@ -236,7 +236,7 @@ fn iterate<const N: usize>(
     let packed = Lanes::<PackedFiltered, N>::load_row(input, plane_row, x0, w);
     let cd = Lanes::<f32, N>::load_row(depth, row, x0, w);
     let needed = Lanes::<u32, N>::gather(tiles, xs.map(|x| tile_index(x, id.y, w) as u32));
-    let pass = cd.zip(needed, |d, t| !surface::has_surface(d) || p.iteration >= t);
+    let pass = cd.zip(needed, |d, t| passes_through(d, p.iteration, t));
     if pass.all() {
         return packed;
     }
@@ -261,6 +261,13 @@ fn iterate<const N: usize>(
     let variances = InputVariance::new(input, id, p);
     let filtered = filter_at(id, p, (rows, variances), extra, xs, &centre);
     filtered.select(pass.map(|p| !p), packed)
+}
+
+/// Whether a pixel at view depth `depth` passes iteration `iteration` through unfiltered: it has
+/// no surface, or its tile needs no more than `needed` iterations ([`super::classify`]).
+#[inline(always)]
+fn passes_through(depth: f32, iteration: u32, needed: u32) -> bool {
+    !surface::has_surface(depth) || iteration >= needed
 }
 
 /// What the centre pixels of a filter step bring: view depth, unit normal, value and variance,

@@ -15,10 +15,9 @@ use super::super::classify::tile_index;
 use super::super::{AtrousPairIo, WorkgroupIds};
 use super::tile::{filter_texel, Decoded, TexelArrays, Texels};
 use super::AtrousParams;
-use super::{Extra, InputVariance, VarianceRows};
+use super::{passes_through, Extra, InputVariance, VarianceRows};
 use crate::lanes::{self, Lanes};
 use crate::payload::PackedFiltered;
-use crate::surface;
 use bytemuck::Zeroable;
 use glam::{UVec3, Vec3};
 
@@ -106,6 +105,11 @@ pub fn first(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &m
     } = io;
     let (p1, _) = iterations(p);
     let (w, h) = (p.width, p.height);
+    let extra = Extra {
+        view: &view[0],
+        guide,
+        penumbra,
+    };
     let mut r = ids.local_index;
     while r < FIRST * FIRST {
         let (i, j) = (r % FIRST + 2, r / FIRST + 2);
@@ -119,15 +123,10 @@ pub fn first(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &m
         let index = ((id.z * h + y) * w + x) as usize;
         let texels = &pair.input;
         let cd = texels.depth(t);
-        if !surface::has_surface(cd) || p1.iteration >= tiles[tile_index(x, y, w)] {
+        if passes_through(cd, p1.iteration, tiles[tile_index(x, y, w)]) {
             pair.first[t] = input[index];
             continue;
         }
-        let extra = Extra {
-            view: &view[0],
-            guide,
-            penumbra,
-        };
         let variances = InputVariance::new(input, id, &p1);
         pair.first[t] = filter_texel(id, &p1, (texels, t, 1), variances, extra);
     }
@@ -159,7 +158,7 @@ pub fn second(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &
     let t = (i + j * SIDE) as usize;
     let texels = First(&*pair);
     let cd = texels.depth(t);
-    if !surface::has_surface(cd) || p2.iteration >= tiles[tile_index(x, y, w)] {
+    if passes_through(cd, p2.iteration, tiles[tile_index(x, y, w)]) {
         out[index] = pair.first[t];
         return;
     }

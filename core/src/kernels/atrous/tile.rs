@@ -13,7 +13,8 @@ use super::super::classify::tile_index;
 use super::super::{AtrousTiledIo, WorkgroupIds};
 use super::AtrousParams;
 use super::{
-    filter_at, Centre, CentreTexels, Extra, InputVariance, TapAt, TapSource, VarianceRows,
+    filter_at, passes_through, Centre, CentreTexels, Extra, InputVariance, TapAt, TapSource,
+    VarianceRows,
 };
 use crate::lanes::Lanes;
 use crate::packing;
@@ -187,7 +188,7 @@ pub fn filter(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: 
     let index = ((id.z * h + y) * w + x) as usize;
     let centre = (lx + 2 + (ly + 2) * SIDE) as usize;
     let cd = tile.depth[centre];
-    if !surface::has_surface(cd) || p.iteration >= tiles[tile_index(x, y, w)] {
+    if passes_through(cd, p.iteration, tiles[tile_index(x, y, w)]) {
         out[index] = input[index];
         return;
     }
