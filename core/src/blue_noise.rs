@@ -75,7 +75,19 @@ pub const LEN: usize = (SIZE * SIZE) as usize;
 // (a call is compiled for the baseline, where `floor` is a library call).
 #[inline(always)]
 pub fn blue_noise(mask: &[f32], x: u32, y: u32, frame: u32) -> f32 {
-    let v = mask[((y % SIZE) * SIZE + (x % SIZE)) as usize];
+    animate(mask[mask_index(x, y) as usize], frame)
+}
+
+/// Where pixel `(x, y)` reads the tiled mask. Apart from [`animate`] so that a row of lanes
+/// gathers first and computes after (a loop that indexes a slice is not vector code).
+#[inline(always)]
+pub fn mask_index(x: u32, y: u32) -> u32 {
+    (y % SIZE) * SIZE + (x % SIZE)
+}
+
+/// Mask threshold `v` in frame `frame`.
+#[inline(always)]
+pub fn animate(v: f32, frame: u32) -> f32 {
     // Frame offset in 2^-24 units of the golden ratio, so large frame numbers stay exact.
     let offset = ((frame.wrapping_mul(10_368_890) & 0x00ff_ffff) as f32) * (1.0 / 16_777_216.0);
     // `t − floor(t)` for `t` in `[0, 2)`, without a floor (a library call in the CPU's scalar

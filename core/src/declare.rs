@@ -24,6 +24,8 @@
 //! - `workgroup TYPE, phases [p1, p2, ..]`: phases separated by workgroup barriers, sharing
 //!   workgroup memory of `TYPE`; each phase is `p(WorkgroupIds, &params, bindings.., &mut local)`.
 //!   The CPU runs each phase over the whole workgroup before the next, as the barriers imply.
+//!   A phase written `p lanes(L)` is `p::<L>` over [`crate::lanes`] on the CPU (one call per `L`
+//!   invocations consecutive in x, `L` dividing the workgroup's width) and `p::<1>` on the GPU.
 
 /// Declares every kernel once; see the [module docs](crate::declare). Invoked only by
 /// `kernels::table`.
@@ -59,13 +61,14 @@ macro_rules! kernel_table {
     (@kernels [$($done:tt)*]
         $(#[$doc:meta])*
         $entry:ident => $desc:ident, $binds:ident, $io:ident: workgroup $wg:ty,
-        phases [$($($phase:ident)::+),+], threads($x:tt, $y:tt, $z:tt), params $params:ty
+        phases [$($($phase:ident)::+ $(lanes($pl:tt))?),+], threads($x:tt, $y:tt, $z:tt),
+        params $params:ty
         { $($bn:ident: $ba:ident $bt:ty),* $(,)? }
         $($rest:tt)*
     ) => {
         $crate::kernel_table!(@bind [$($done)*]
-            [[$(#[$doc])*] $entry $desc $binds $io [phases [$wg] $(($($phase)::+))+] ($x, $y, $z)
-                [$params]]
+            [[$(#[$doc])*] $entry $desc $binds $io [phases [$wg] $(([$($pl)?] $($phase)::+))+]
+                ($x, $y, $z) [$params]]
             [] [] [] [0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23] [$($bn: $ba $bt,)*] $($rest)*);
     };
     (@bind $done:tt $head:tt [$($z:tt)*] [$($f:tt)*] $t:tt [$n:tt $($ns:tt)*]
@@ -325,37 +328,85 @@ macro_rules! kernel_table {
             return unsafe { lanes_avx512($span, $b) };
         }
     };
-    (@cpu [phases [$wg:ty] $(($phase:path))+] $threads:tt $io:ident [$params:ty]
+    (@cpu [phases [$wg:ty] $($phase:tt)+] $threads:tt $io:ident [$params:ty]
         [$(($n:tt $bn:ident $method:ident [$($m:tt)?] $bk:ident $bt:ty))*]
         [$(($fname:ident [$($fm:tt)?]))*] []) => {{
-        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
+        #[inline(always)]
+        unsafe fn phases(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             let params: $params = b.params();
             // SAFETY: the executor laid the buffers out as declared (the caller's contract).
             $(let $bn = unsafe { b.$method::<$bt>($n) };)*
             for group in span.groups() {
                 let mut local: $wg = bytemuck::Zeroable::zeroed();
-                $crate::kernel_table!(@cpu_phases b group params local
-                    [$io { $($bn: &$($m)? *$bn),* }] $(($phase))+);
+                $crate::kernel_table!(@cpu_phases group $threads params local
+                    [$io { $($bn: &$($m)? *$bn),* }] $($phase)+);
             }
+        }
+        $crate::kernel_table!(@phases_runner [] $($phase)+)
+    }};
+    // A kernel with a `lanes` phase also gets a runner compiled for AVX-512 (vector conversions
+    // and gathers its lanes need), taken where the CPU has it; one without runs as compiled.
+    (@phases_runner [$($l:tt)*]) => {
+        $crate::kernel_table!(@phases_run [$($l)*])
+    };
+    (@phases_runner [$($l:tt)*] ([$($pl:tt)?] $($phase:ident)::+) $($rest:tt)*) => {
+        $crate::kernel_table!(@phases_runner [$($l)* $($pl)?] $($rest)*)
+    };
+    (@phases_run []) => {{
+        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
+            // SAFETY: the caller's contract.
+            unsafe { phases(span, b) }
+        }
+        run
+    }};
+    (@phases_run [$($l:tt)+]) => {{
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        #[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512dq,avx512vl")]
+        unsafe fn lanes_avx512(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
+            // SAFETY: as `phases`.
+            unsafe { phases(span, b) }
+        }
+        unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
+            #[cfg(all(feature = "std", target_arch = "x86_64"))]
+            {
+                let limit = $crate::executor::cpu_lanes();
+                $crate::kernel_table!(@run_avx512 [x] span b limit);
+            }
+            // SAFETY: the caller's contract.
+            unsafe { phases(span, b) }
         }
         run
     }};
 
-    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*]) => {};
-    (@cpu_phases $b:ident $group:ident $p:ident $local:ident [$($io:tt)*] ($phase:path)
-        $($rest:tt)*) => {
-        let mut local_index = 0;
-        $b.for_each_invocation($group, |id| {
-            let ids = $crate::kernels::WorkgroupIds {
-                global: id,
-                group: $group,
-                local_index,
-            };
-            $phase(ids, &$p, $($io)*, &mut $local);
-            local_index += 1;
-        });
-        $crate::kernel_table!(@cpu_phases $b $group $p $local [$($io)*] $($rest)*);
+    (@cpu_phases $group:ident $threads:tt $p:ident $local:ident [$($io:tt)*]) => {};
+    // Plain loops, no closure: a closure would not inherit the AVX-512 runner's target features
+    // and would be called, not inlined, from it. A `lanes(L)` phase is one call per `L`
+    // invocations consecutive in x (`crate::lanes`).
+    (@cpu_phases $group:ident ($x:tt, $y:tt, $z:tt) $p:ident $local:ident [$($io:tt)*]
+        ([$($pl:tt)?] $($phase:ident)::+) $($rest:tt)*) => {
+        let step: u32 = $crate::kernel_table!(@phase_step [$($pl)?]);
+        let base = $group * $crate::glam::UVec3::new($x, $y, $z);
+        for z in 0..$z {
+            for y in 0..$y {
+                let mut x = 0;
+                while x < $x {
+                    let ids = $crate::kernels::WorkgroupIds {
+                        global: base + $crate::glam::UVec3::new(x, y, z),
+                        group: $group,
+                        local_index: (z * $y + y) * $x + x,
+                    };
+                    $($phase)::+$(::<$pl>)?(ids, &$p, $($io)*, &mut $local);
+                    x += step;
+                }
+            }
+        }
+        $crate::kernel_table!(@cpu_phases $group ($x, $y, $z) $p $local [$($io)*] $($rest)*);
     };
+    (@phase_step []) => { 1 };
+    (@phase_step [$pl:tt]) => {{
+        const { assert!($pl > 0, "lanes of a phase") };
+        $pl
+    }};
 
     // ---- the SPIR-V entry point ----
     (@entry [fn ($kfn:path)] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt) [$params:ty]
@@ -399,7 +450,7 @@ macro_rules! kernel_table {
         $crate::kernel_table!(@fn_params [($($kfn)::+::<1>), $entry, $io, ($x, $y, $z), $params, $f, $t]
             [] $(($n $bn [$($m)?] $bk $bt))*);
     };
-    (@entry [phases [$wg:ty] $(($phase:path))+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
+    (@entry [phases [$wg:ty] $($phase:tt)+] $entry:ident $io:ident ($x:tt, $y:tt, $z:tt)
         [$params:ty] [$(($n:tt $bn:ident [$($m:tt)?] $bk:ident $bt:ty))*] $f:tt []) => {
         #[spirv(compute(threads($x, $y, $z)))]
         pub fn $entry(
@@ -416,19 +467,25 @@ macro_rules! kernel_table {
                 local_index,
             };
             $crate::kernel_table!(@phases ids params
-                [$crate::kernels::$io { $($bn: &$($m)? *$bn),* }] local $(($phase))+);
+                [$crate::kernels::$io { $($bn: &$($m)? *$bn),* }] local $($phase)+);
         }
     };
-    (@phases $ids:ident $p:ident [$($io:tt)*] $local:ident ($first:path) $($rest:tt)*) => {
-        $first($ids, $p, $($io)*, $local);
+    (@phases $ids:ident $p:ident [$($io:tt)*] $local:ident $first:tt $($rest:tt)*) => {
+        $crate::kernel_table!(@call_phase $ids $p [$($io)*] $local $first);
         $crate::kernel_table!(@barrier_phases $ids $p [$($io)*] $local $($rest)*);
     };
     (@barrier_phases $ids:ident $p:ident [$($io:tt)*] $local:ident) => {};
-    (@barrier_phases $ids:ident $p:ident [$($io:tt)*] $local:ident ($phase:path)
-        $($rest:tt)*) => {
+    (@barrier_phases $ids:ident $p:ident [$($io:tt)*] $local:ident $phase:tt $($rest:tt)*) => {
         $crate::atomic::workgroup_barrier();
-        $phase($ids, $p, $($io)*, $local);
+        $crate::kernel_table!(@call_phase $ids $p [$($io)*] $local $phase);
         $crate::kernel_table!(@barrier_phases $ids $p [$($io)*] $local $($rest)*);
+    };
+    // One invocation's call of a phase; a `lanes` phase runs one lane on the GPU.
+    (@call_phase $ids:ident $p:ident [$($io:tt)*] $local:ident ([] $($phase:ident)::+)) => {
+        $($phase)::+($ids, $p, $($io)*, $local);
+    };
+    (@call_phase $ids:ident $p:ident [$($io:tt)*] $local:ident ([$pl:tt] $($phase:ident)::+)) => {
+        $($phase)::+::<1>($ids, $p, $($io)*, $local);
     };
 
     // ---- the table itself ----

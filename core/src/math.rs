@@ -125,6 +125,14 @@ pub fn floor(x: f32) -> f32 {
     }
 }
 
+/// `floor(x)` as an integer, for `x` in `[0, 2^23)` (anything else gives an unspecified value):
+/// added to `2^23` the integer is the float's mantissa. Rust's `as u32` saturates, which LLVM
+/// converts one lane at a time on the CPU; this is vector code there.
+#[inline(always)]
+pub fn floor_small(x: f32) -> u32 {
+    (floor(x) + 8_388_608.0).to_bits() - 0x4b00_0000
+}
+
 /// `2^x`, relative error below 1e-6 over the normal range; 0 below -126 (and for NaN),
 /// `f32::MAX` from 128 up.
 ///

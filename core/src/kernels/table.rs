@@ -246,7 +246,7 @@ crate::kernel_table! {
     /// plane group (z) ([`trim::clear`], [`trim::count`], [`trim::flush`]); `hist` has
     /// `trim::HIST_LEN` words per group, added to (fill it first).
     trim_count => TRIM_COUNT, TrimCountBindings, TrimCountIo: workgroup trim::Local,
-    phases [trim::clear, trim::count, trim::flush],
+    phases [trim::clear, trim::count lanes(16), trim::flush],
     threads(16, 16, 1), params trim::TrimParams {
         requests: read Request,
         decision: read Balance,

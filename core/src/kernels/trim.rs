@@ -19,10 +19,11 @@
 //! same on every backend and every run.
 
 use super::balance::{granted_rate, Balance, POLICY_KEEP};
-use super::buckets::{ring_id, BUCKET_COUNT, GROUP};
-use super::{pixel_index, TrimCountIo, TrimCutIo, WorkgroupIds};
+use super::buckets::{ring_id, BUCKET_COUNT, GROUP, MAX_RATE};
+use super::{TrimCountIo, TrimCutIo, WorkgroupIds};
 use crate::atomic;
-use crate::blue_noise::blue_noise;
+use crate::blue_noise;
+use crate::lanes::{self, clamp_column, Lanes};
 use crate::math;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
@@ -91,11 +92,34 @@ pub fn last_ray(
 /// The blue-noise threshold of pixel `(x, y)` of plane group `group` this frame.
 #[inline(always)]
 pub fn pixel_noise(x: u32, y: u32, group: u32, p: &TrimParams, noise: &[f32]) -> f32 {
-    let (nx, ny) = (
+    blue_noise::animate(noise[noise_index(x, y, group) as usize], p.frame_index)
+}
+
+/// Where pixel `(x, y)` of plane group `group` reads the blue-noise mask.
+#[inline(always)]
+fn noise_index(x: u32, y: u32, group: u32) -> u32 {
+    blue_noise::mask_index(
         x + group * GROUP_NOISE_SHIFT[0],
         y + group * GROUP_NOISE_SHIFT[1],
-    );
-    blue_noise(noise, nx, ny, p.frame_index)
+    )
+}
+
+/// [`realise`] of `N` pixels of row `y` (columns `xs`, plane group `group`) at rates `rates`:
+/// their rays and last rays' bins. The noise is gathered first and the rest is vector code.
+#[inline(always)]
+pub fn realise_row<const N: usize>(
+    rates: Lanes<f32, N>,
+    xs: Lanes<u32, N>,
+    y: u32,
+    group: u32,
+    p: &TrimParams,
+    noise: &[f32],
+) -> (Lanes<u32, N>, Lanes<u32, N>) {
+    let frame = p.frame_index;
+    let u = Lanes::<f32, N>::gather(noise, xs.map(|x| noise_index(x, y, group)))
+        .map(|v| blue_noise::animate(v, frame));
+    let realised = rates.zip(u, realise);
+    (realised.map(|(n, _)| n), realised.map(|(_, b)| b))
 }
 
 /// The rays of `rate` at noise threshold `u` and the priority bin of the last one: the rate's
@@ -103,27 +127,22 @@ pub fn pixel_noise(x: u32, y: u32, group: u32, p: &TrimParams, noise: &[f32]) ->
 /// noise is below 1/2).
 #[inline(always)]
 pub fn realise(rate: f32, u: f32) -> (u32, u32) {
-    // `floor` of a rate, which is never negative: a truncation.
-    let whole = (rate as u32) as f32;
-    let frac = rate - whole;
+    // Rates are never negative and at most `MAX_RATE`.
+    let whole = math::floor_small(math::clamp(rate, 0.0, MAX_RATE as f32));
+    let frac = rate - whole as f32;
     let extra = frac > u;
-    let b = if extra {
-        bin((frac - u) / frac, FLIPPED_BINS)
+    let (v, n, first) = if extra {
+        ((frac - u) / frac, FLIPPED_BINS, 0)
     } else {
-        FLIPPED_BINS + bin(u, BINS - FLIPPED_BINS)
+        (u, BINS - FLIPPED_BINS, FLIPPED_BINS)
     };
-    (whole as u32 + extra as u32, b)
+    (whole + extra as u32, first + bin(v, n))
 }
 
 /// `floor(v · n)` within `0..n`, for `v` in `[0, 1]`.
 #[inline(always)]
 fn bin(v: f32, n: u32) -> u32 {
-    let b = (v * n as f32) as u32;
-    if b < n {
-        b
-    } else {
-        n - 1
-    }
+    math::floor_small(math::clamp(v * n as f32, 0.0, (n - 1) as f32))
 }
 
 /// Rays pixel `(x, y)` of plane group `group` traces: [`last_ray`]'s, less the last one where
@@ -139,7 +158,13 @@ pub fn trimmed_rays(
     noise: &[f32],
 ) -> u32 {
     let (rays, b) = last_ray(x, y, group, bucket, p, d, noise);
-    rays - (rays > 0 && b < d.cut) as u32
+    trim_last(rays, b, d.cut)
+}
+
+/// `rays` less the last one where its bin `b` fell below the group's cut `cut`.
+#[inline(always)]
+pub fn trim_last(rays: u32, b: u32, cut: u32) -> u32 {
+    rays - (rays > 0 && b < cut) as u32
 }
 
 /// Workgroup memory of [`count`].
@@ -158,7 +183,7 @@ const THREADS: u32 = GROUP * GROUP;
 
 /// Phase 1 of [`count`]: the workgroup's histogram starts at zero, and its ring's rates are
 /// resolved once.
-#[inline]
+#[inline(always)]
 pub fn clear(ids: WorkgroupIds, p: &TrimParams, io: TrimCountIo<'_>, local: &mut Local) {
     let mut i = ids.local_index;
     while i < HIST_LEN {
@@ -173,33 +198,50 @@ pub fn clear(ids: WorkgroupIds, p: &TrimParams, io: TrimCountIo<'_>, local: &mut
     }
 }
 
-/// Phase 2 of [`count`]: each tracing pixel adds its rays and its last ray's bin. The
-/// dispatch's z is the plane group.
-#[inline]
-pub fn count(ids: WorkgroupIds, p: &TrimParams, io: TrimCountIo<'_>, local: &mut Local) {
+/// Phase 2 of [`count`], one call per `N` pixels of a row ([`crate::lanes`]): each tracing
+/// pixel adds its rays and its last ray's bin. The dispatch's z is the plane group.
+#[inline(always)]
+pub fn count<const N: usize>(
+    ids: WorkgroupIds,
+    p: &TrimParams,
+    io: TrimCountIo<'_>,
+    local: &mut Local,
+) {
     let TrimCountIo {
         requests, noise, ..
     } = io;
     let id = ids.global;
-    if id.x >= p.width || id.y >= p.height {
+    let (w, h) = (p.width, p.height);
+    if id.x >= w || id.y >= h {
         return;
     }
-    let layer = (id.z * p.width * p.height) as usize;
-    let bucket = super::requests::bucket_of(requests[layer + pixel_index(id.x, id.y, p.width)]);
-    if bucket >= BUCKET_COUNT {
-        return;
-    }
-    let u = pixel_noise(id.x, id.y, id.z, p, noise);
-    let (rays, b) = realise(local.rates[bucket as usize], u);
-    if rays > 0 {
-        atomic::add_workgroup(&mut local.hist[b as usize], 1);
-        atomic::add_workgroup(&mut local.hist[BINS as usize], rays);
-    }
+    let row = id.z * w * h + id.y * w;
+    let x0 = id.x as i32;
+    let words = Lanes::<u32, N>::load_row(requests, row, x0, w);
+    let mut rates = Lanes::<f32, N>::splat(0.0);
+    lanes::each_lane!(l in N {
+        let bucket = super::requests::bucket_of(words.0[l]);
+        // Outside the image or without rays: rate 0, so no ray.
+        let last = BUCKET_COUNT - 1;
+        let rate = local.rates[if bucket < last { bucket } else { last } as usize];
+        if bucket < BUCKET_COUNT && id.x + (l as u32) < w {
+            rates.0[l] = rate;
+        }
+    });
+    let xs = Lanes::<u32, N>::from_index(|l| clamp_column(x0 + l as i32, w));
+    let (rays, bins) = realise_row(rates, xs, id.y, id.z, p, noise);
+    // The adds one lane after another: lanes may share a bin.
+    lanes::each_lane!(l in N {
+        if rays.0[l] > 0 {
+            atomic::add_workgroup(&mut local.hist[bins.0[l] as usize], 1);
+            atomic::add_workgroup(&mut local.hist[BINS as usize], rays.0[l]);
+        }
+    });
 }
 
 /// Phase 3 of [`count`]: the workgroup's non-zero words go to its group's histogram, one global
 /// atomic each.
-#[inline]
+#[inline(always)]
 pub fn flush(ids: WorkgroupIds, _p: &TrimParams, io: TrimCountIo<'_>, local: &mut Local) {
     let TrimCountIo { hist, .. } = io;
     let base = ids.group.z * HIST_LEN;
