@@ -476,6 +476,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn floor_small_is_the_saturating_conversion_in_its_range() {
+        // Steps of 1/1024 and each integer's neighbours below 64, then samples up to 2^23.
+        for i in 0..64 * 1024 {
+            let x = i as f32 / 1024.0;
+            for x in [x, x.next_down().max(0.0), x.next_up()] {
+                assert_eq!(floor_small(x), x as u32, "{x}");
+            }
+        }
+        for e in 6..23 {
+            let p = (1u32 << e) as f32;
+            for x in [p.next_down(), p, p.next_up(), p * 1.5] {
+                assert_eq!(floor_small(x), x as u32, "{x}");
+            }
+        }
+        assert_eq!(floor_small(8_388_607.5), 8_388_607);
+    }
+
+    #[test]
     fn exp2_matches_std() {
         let mut worst = 0.0f32;
         let mut x = -125.9f32;

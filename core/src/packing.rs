@@ -61,7 +61,7 @@ pub fn oct_direction(e: Vec2) -> Vec3 {
 fn to_code(v: f32, lo: f32, bits: u32) -> u32 {
     let max = ((1u32 << bits) - 1) as f32;
     let t = if v >= lo { math::min(v, 1.0) } else { lo };
-    math::floor((t - lo) / (1.0 - lo) * max + 0.5) as u32
+    math::floor_small((t - lo) / (1.0 - lo) * max + 0.5)
 }
 
 /// The value of a code of [`to_code`].

@@ -71,7 +71,7 @@ pub const STORAGE_NO_CORRECTION: u32 = 0x100;
 /// Unorm8 code of `x` in `[0, 1]` (clamped; NaN gives 0), rounded to nearest, ties to even.
 pub fn f32_to_unorm8(x: f32) -> u32 {
     let t = math::saturate(x) * 255.0;
-    let i = t as u32;
+    let i = math::floor_small(t);
     // Exact: `t` and `i` are within one unit of each other in [0, 255].
     let frac = t - i as f32;
     if frac > 0.5 || (frac == 0.5 && (i & 1) == 1) {

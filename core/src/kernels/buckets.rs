@@ -45,11 +45,11 @@ pub fn bucket_to_rate(b: u32) -> f32 {
 /// selected, so a row of lanes decides without a branch per pixel.
 #[inline]
 pub fn rate_to_bucket(rate: f32) -> u32 {
-    let whole = crate::math::min(crate::math::floor(rate + 0.5), MAX_RATE as f32) as u32;
-    let divisor = crate::math::min(
-        crate::math::floor(1.0 / rate + 0.5),
-        MIN_RATE_DIVISOR as f32,
-    ) as u32;
+    use crate::math::{clamp, floor_small};
+    // Clamped to where `floor_small` is exact (a rate of 0 or below is no rays whatever they
+    // give), so that lanes convert in vector registers.
+    let whole = floor_small(clamp(rate + 0.5, 0.0, MAX_RATE as f32));
+    let divisor = floor_small(clamp(1.0 / rate + 0.5, 0.0, MIN_RATE_DIVISOR as f32));
     // A divisor of 1 only for rates in [2/3, 1): one ray, bucket 64 (63 would mean the same).
     let fraction = if divisor <= 1 {
         MIN_RATE_DIVISOR

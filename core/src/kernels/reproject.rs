@@ -287,7 +287,9 @@ fn footprint<const N: usize>(
                 [0.0, 0.0]
             }
         });
-        let texel = t.map(|[x, y]| pixel_index(x as u32, y as u32, p.width) as u32);
+        // Whole, on-screen coordinates: `floor_small` converts them in vector registers.
+        let texel =
+            t.map(|[x, y]| pixel_index(math::floor_small(x), math::floor_small(y), p.width) as u32);
         let pd = Lanes::<f32, N>::gather(prev_depth, texel);
         let m =
             Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_direction);
