@@ -290,14 +290,7 @@ macro_rules! kernel_table {
             {
                 let limit = $crate::executor::cpu_lanes();
                 $crate::kernel_table!(@run_avx512 [$($wide)?] span b limit);
-                if limit >= $crate::executor::CpuLanes::Avx2
-                    && std::is_x86_feature_detected!("avx2")
-                    && std::is_x86_feature_detected!("f16c")
-                    && std::is_x86_feature_detected!("fma")
-                {
-                    // SAFETY: the CPU has AVX2, F16C and FMA; the rest is the caller's contract.
-                    return unsafe { lanes_avx2(span, b) };
-                }
+                $crate::kernel_table!(@run_avx2 span b limit);
             }
             // SAFETY: the caller's contract.
             unsafe { lanes::<$lanes>(span, b) }
@@ -313,6 +306,16 @@ macro_rules! kernel_table {
         unsafe fn lanes_avx512(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             // SAFETY: as `lanes`.
             unsafe { lanes::<$wide>(span, b) }
+        }
+    };
+    (@run_avx2 $span:ident $b:ident $limit:ident) => {
+        if $limit >= $crate::executor::CpuLanes::Avx2
+            && std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("f16c")
+            && std::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has AVX2, F16C and FMA; the rest is the caller's contract.
+            return unsafe { lanes_avx2($span, $b) };
         }
     };
     (@run_avx512 [] $span:ident $b:ident $limit:ident) => {};
@@ -344,8 +347,8 @@ macro_rules! kernel_table {
         }
         $crate::kernel_table!(@phases_runner [] $($phase)+)
     }};
-    // A kernel with a `lanes` phase also gets a runner compiled for AVX-512 (vector conversions
-    // and gathers its lanes need), taken where the CPU has it; one without runs as compiled.
+    // A kernel with a `lanes` phase also gets runners compiled for AVX2 and for AVX-512, as
+    // `lanes` kernels do, taken where the CPU has them; one without runs as compiled.
     (@phases_runner [$($l:tt)*]) => {
         $crate::kernel_table!(@phases_run [$($l)*])
     };
@@ -366,11 +369,18 @@ macro_rules! kernel_table {
             // SAFETY: as `phases`.
             unsafe { phases(span, b) }
         }
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        #[target_feature(enable = "avx2,f16c,fma")]
+        unsafe fn lanes_avx2(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
+            // SAFETY: as `phases`.
+            unsafe { phases(span, b) }
+        }
         unsafe fn run(span: $crate::executor::GroupSpan, b: &$crate::executor::CpuBindings<'_>) {
             #[cfg(all(feature = "std", target_arch = "x86_64"))]
             {
                 let limit = $crate::executor::cpu_lanes();
                 $crate::kernel_table!(@run_avx512 [x] span b limit);
+                $crate::kernel_table!(@run_avx2 span b limit);
             }
             // SAFETY: the caller's contract.
             unsafe { phases(span, b) }
