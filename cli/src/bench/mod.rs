@@ -172,6 +172,9 @@ pub struct Cell {
     pub moving_relmse: f64,
     /// relMSE over the pixels without history, pooled over the sequence.
     pub fresh_relmse: f64,
+    /// The references' noise over the same pixels, pooled the same way: `fresh_relmse` less
+    /// this estimates their error against the converged image.
+    pub fresh_reference_noise: f64,
     /// Rays the change detector traced per frame (per plane).
     pub detector_rays_per_frame: f64,
     /// Mean relMSE outside the moving region.
@@ -329,6 +332,7 @@ impl CellRun<'_> {
             temporal: s.temporal.unwrap_or(f64::NAN),
             moving_relmse: s.mean_masked_rel_mse.unwrap_or(f64::NAN),
             fresh_relmse: r.fresh_relmse(),
+            fresh_reference_noise: r.fresh_reference_noise(),
             detector_rays_per_frame: r.mean_of(|f| f.detector_rays as f64),
             static_relmse: r.mean_of(|f| f.static_relmse),
             detection: r.detection(),
@@ -395,7 +399,7 @@ fn write_results(
 /// nothing-skipped twin (all eight for reflections too would double the quick bench's time).
 const QUICK_OTHER_CONFIGS: [Config; 3] = [Config::Svgf, Config::Vrrt, Config::VrrtNoskip];
 
-const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse,max_overshoot,reference_noise,relmse_vs_truth";
+const HEADER: &str = "scene,signal,config,budget_rpp,backend,width,height,frames,relmse,psnr,ssim,flip,temporal_error,moving_relmse,rays_per_frame,ms_per_frame,ms_spread,detector_rays_per_px,fresh_relmse,moving_vs_oracle,static_relmse,detector_miss_rate,detector_false_positive_rate,raw_relmse,error_lowfreq_fraction,error_low_mse,raw_lowfreq_fraction,raw_low_mse,max_overshoot,reference_noise,relmse_vs_truth,fresh_reference_noise,fresh_vs_truth";
 
 /// Runs `vrrt bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -527,7 +531,7 @@ pub fn bench_csv(cells: &[Cell]) -> String {
     for c in cells {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{},{:.0},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{:.1},{:.3},{:.3},{:.4},{},{},{},{},{},{},{:.0},{},{},{},{}",
             c.key(","),
             c.size.0,
             c.size.1,
@@ -550,7 +554,9 @@ pub fn bench_csv(cells: &[Cell]) -> String {
             spectrum::columns(c),
             c.max_overshoot,
             fmt(c.reference_noise, 7),
-            fmt(c.relmse - c.reference_noise, 7)
+            fmt(c.relmse - c.reference_noise, 7),
+            fmt(c.fresh_reference_noise, 7),
+            fmt(c.fresh_relmse - c.fresh_reference_noise, 7)
         );
         session::pass_columns(&mut s, &c.passes, &names);
         s.push('\n');

@@ -98,6 +98,9 @@ pub struct FrameRecord {
     /// relMSE over the pixels without history: every pixel of a reset frame (the first, a camera
     /// cut), else the disoccluded ones (NaN when there are none).
     pub fresh_relmse: f64,
+    /// The relMSE the reference's own noise adds to [`Self::fresh_relmse`] (NaN where its
+    /// standard error is unknown or there are no fresh pixels).
+    pub fresh_reference_noise: f64,
     /// Pixels [`Self::fresh_relmse`] is over.
     pub fresh_pixels: usize,
     /// Rays the change detector traced (per plane; 0 when it did not run or re-traces nothing).
@@ -240,9 +243,20 @@ impl SequenceResult {
     /// once, so the first frame, the cut and a disoccluded sliver weigh by their pixels); NaN
     /// when there are none.
     pub fn fresh_relmse(&self) -> f64 {
+        self.pooled_over_fresh(|r| r.fresh_relmse)
+    }
+
+    /// The relMSE the references' noise adds to [`Self::fresh_relmse`], pooled the same way
+    /// (NaN where a frame with fresh pixels lacks it).
+    pub fn fresh_reference_noise(&self) -> f64 {
+        self.pooled_over_fresh(|r| r.fresh_reference_noise)
+    }
+
+    /// `f` of every frame with fresh pixels, weighted by their number.
+    fn pooled_over_fresh(&self, f: impl Fn(&FrameRecord) -> f64) -> f64 {
         let (mut sum, mut n) = (0.0, 0usize);
         for r in self.records.iter().filter(|r| !r.fresh_relmse.is_nan()) {
-            sum += r.fresh_relmse * r.fresh_pixels as f64;
+            sum += f(r) * r.fresh_pixels as f64;
             n += r.fresh_pixels;
         }
         if n == 0 {

@@ -299,6 +299,7 @@ fn new_record(
         raw_relmse: f64::NAN,
         reference_noise: f64::NAN,
         fresh_relmse: f64::NAN,
+        fresh_reference_noise: f64::NAN,
         fresh_pixels: 0,
         static_relmse: f64::NAN,
         detection: None,
@@ -326,6 +327,12 @@ impl FrameRecord {
         self.raw_relmse = avg(|e| e.raw_relmse);
         self.reference_noise = avg(|e| e.reference_noise);
         self.fresh_relmse = mean_finite(measured.iter().filter_map(|e| e.fresh.map(|f| f.0)));
+        self.fresh_reference_noise = mean_finite(
+            measured
+                .iter()
+                .filter(|e| e.fresh.is_some())
+                .map(|e| e.fresh_reference_noise),
+        );
         self.fresh_pixels = measured.iter().find_map(|e| e.fresh).map_or(0, |f| f.1);
         self.static_relmse = avg(|e| e.static_relmse);
         self.part_relmse = measured.iter().map(|e| e.relmse).collect();
@@ -373,10 +380,9 @@ fn measure_part(
         temporal: fm.temporal.unwrap_or(f64::NAN),
         moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
         raw_relmse: rm.metrics.rel_mse,
-        reference_noise: match &r.stderr {
-            Some(se) => {
-                metrics::reference_rel_noise(r.image.view(), se.view()).context("metrics")?
-            }
+        reference_noise: reference_noise(r, None)?,
+        fresh_reference_noise: match fresh_error {
+            Some(_) => reference_noise(r, Some(fresh))?,
             None => f64::NAN,
         },
         fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
@@ -384,6 +390,17 @@ fn measure_part(
         spectra,
     };
     Ok((error, mask))
+}
+
+/// The relMSE reference `r`'s own noise adds over `mask`'s pixels, or all
+/// ([`metrics::reference_rel_noise`]); NaN without its standard error.
+fn reference_noise(r: &FrameReference, mask: Option<&[bool]>) -> Result<f64> {
+    match &r.stderr {
+        Some(se) => {
+            metrics::reference_rel_noise(r.image.view(), se.view(), mask).context("metrics")
+        }
+        None => Ok(f64::NAN),
+    }
 }
 
 /// One part's error in one frame, before the means over parts of [`FrameRecord`].
@@ -398,6 +415,8 @@ struct PartError {
     raw_relmse: f64,
     /// The relMSE the reference's own noise adds ([`metrics::reference_rel_noise`]).
     reference_noise: f64,
+    /// The same over the fresh pixels (NaN when there are none).
+    fresh_reference_noise: f64,
     /// relMSE and pixel count over the fresh pixels, when there are any.
     fresh: Option<(f64, usize)>,
     /// relMSE outside the moving mask.

@@ -74,10 +74,12 @@ pub fn standard_error<T: Copy + Into<f64>>(
 /// many as the reference). For a test image `x` whose noise is independent of the reference's,
 /// `E[(x − y)²] = E[(x − t)²] + se²` against the converged image `t`, so a relMSE less this
 /// estimates the error against `t`: at a few hundred samples per pixel the reference's noise is
-/// a sizeable part of a good denoiser's relMSE.
+/// a sizeable part of a good denoiser's relMSE. With `mask` (one flag per pixel) only the
+/// pixels it sets count, as [`masked_error`](super::masked_error)'s relMSE.
 pub fn reference_rel_noise(
     reference: ImageRef<'_>,
     stderr: ImageRef<'_>,
+    mask: Option<&[bool]>,
 ) -> Result<f64, MetricsError> {
     let c = reference.channels();
     let sc = stderr.channels();
@@ -89,8 +91,19 @@ pub fn reference_rel_noise(
             reference: (reference.width(), reference.height(), c),
         });
     }
+    if let Some(m) = mask {
+        if m.len() != reference.pixel_count() {
+            return Err(MetricsError::LengthMismatch {
+                expected: reference.pixel_count(),
+                actual: m.len(),
+            });
+        }
+    }
     let (mut sum, mut n) = (0.0f64, 0usize);
     for i in 0..reference.pixel_count() {
+        if mask.is_some_and(|m| !m[i]) {
+            continue;
+        }
         let (y, se) = (reference.pixel_at(i), stderr.pixel_at(i));
         for (k, &y) in y.iter().enumerate() {
             let (y, se) = (f64::from(y), f64::from(se[k.min(sc - 1)]));

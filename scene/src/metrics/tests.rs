@@ -432,7 +432,7 @@ fn reference_noise_leaves_the_error_against_the_truth() {
     let (test, stderr) = (img(w, h, 1, test), img(w, h, 1, stderr));
     let against_truth = compare(test.view(), truth.view()).unwrap().rel_mse;
     let measured = compare(test.view(), reference.view()).unwrap().rel_mse;
-    let floor = reference_rel_noise(reference.view(), stderr.view()).unwrap();
+    let floor = reference_rel_noise(reference.view(), stderr.view(), None).unwrap();
     // The floor is a real part of the measured error here (0.05² of 0.05² + 0.08²: 28%)...
     assert!(floor > 0.2 * measured, "floor {floor}, measured {measured}");
     // ...and taking it out leaves the error against the truth, to within 3%.
@@ -441,7 +441,24 @@ fn reference_noise_leaves_the_error_against_the_truth() {
         (debiased / against_truth - 1.0).abs() < 0.03,
         "debiased {debiased}, against the truth {against_truth}"
     );
-    // A standard error of another shape is an error, not a number.
+    // Over a mask (the left half of every row), the same against the masked error.
+    let mask: Vec<bool> = (0..w * h).map(|i| i % w < w / 2).collect();
+    let masked = |r: &Image| {
+        masked_error(test.view(), r.view(), &mask)
+            .unwrap()
+            .unwrap()
+            .rel_mse
+    };
+    let floor = reference_rel_noise(reference.view(), stderr.view(), Some(&mask)).unwrap();
+    let debiased = masked(&reference) - floor;
+    assert!(
+        (debiased / masked(&truth) - 1.0).abs() < 0.03,
+        "masked: debiased {debiased}, against the truth {}",
+        masked(&truth)
+    );
+    // A standard error or a mask of another shape is an error, not a number.
     let wrong = img(w, h / 2, 1, vec![0.0; w * h / 2]);
-    assert!(reference_rel_noise(reference.view(), wrong.view()).is_err());
+    assert!(reference_rel_noise(reference.view(), wrong.view(), None).is_err());
+    let short = vec![true; w];
+    assert!(reference_rel_noise(reference.view(), stderr.view(), Some(&short)).is_err());
 }
