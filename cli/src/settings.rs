@@ -195,6 +195,7 @@ mod tests {
                 spatial_radius: 0,
                 spatial_until: 0.0,
                 ao_spatial_until: 2.5,
+                ao_spatial_rows: 45,
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
                 ao_symmetric_taps: false,

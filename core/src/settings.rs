@@ -370,6 +370,13 @@ pub struct FilterSettings {
     /// Shadows keep 4: at 8 their whole sequences got worse (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub ao_spatial_until: f32,
+    /// Image height (rows) at which `ao_spatial_until` applies as written; a taller image
+    /// scales it by `height / ao_spatial_rows`, at most 3x (`kernels::variance::spatial_until_at`;
+    /// default 120; 0 = never scaled, as SVGF). The 3×3 window covers less of the scene as
+    /// the resolution grows, so its mean costs less detail and is worth more rays: the best
+    /// whole-sequence AO was at 8 rays at 160x90, 16 at 320x180 and 24–32 at 640x360 (see
+    /// `docs/algorithms/fresh-pixels.md`).
+    pub ao_spatial_rows: u32,
     /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
     /// largest standard deviation of the estimate (signal units) below this (each iteration
     /// counted as halving it, `kernels::classify`); 0 = every tile runs every iteration (>= 0;
@@ -445,6 +452,7 @@ impl Settings {
                 cap_variance: false,
                 ao_normal_power: self.filter.normal_power,
                 ao_spatial_until: self.filter.spatial_until,
+                ao_spatial_rows: 0,
                 ao_symmetric_taps: false,
                 guide_sigma: 0.0,
                 penumbra_reach: 0.0,

@@ -281,7 +281,11 @@ impl Denoiser {
             normal_power: s.filter.normal_power,
             ao_planes: l.ao_planes,
             ao_normal_power: s.filter.ao_normal_power,
-            ao_spatial_until: s.filter.ao_spatial_until,
+            ao_spatial_until: variance::spatial_until_at(
+                s.filter.ao_spatial_until,
+                s.filter.ao_spatial_rows,
+                h,
+            ),
             guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
         };

@@ -132,6 +132,19 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
 }
 
 /// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
+/// Largest factor [`spatial_until_at`] scales by: the largest image it was measured at
+/// (640x360) is 3x the default rows.
+pub const MAX_SPATIAL_SCALE: f32 = 3.0;
+
+/// `until` rays of spatial estimate (`filter.ao_spatial_until`) for an image `height` rows
+/// tall: scaled by `height / rows`, between 1x and [`MAX_SPATIAL_SCALE`]; `rows` 0 keeps it.
+pub fn spatial_until_at(until: f32, rows: u32, height: u32) -> f32 {
+    if rows == 0 {
+        return until;
+    }
+    until * math::clamp(height as f32 / rows as f32, 1.0, MAX_SPATIAL_SCALE)
+}
+
 #[inline(always)]
 fn estimate<const N: usize>(
     id: UVec3,
@@ -279,4 +292,21 @@ fn window_sums<const N: usize>(
         dy += 1;
     }
     [s1, s2, sw]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spatial_estimate_lasts_longer_on_taller_images() {
+        // As written up to `rows`, then with the height, up to the largest scale.
+        assert_eq!(spatial_until_at(8.0, 120, 90), 8.0);
+        assert_eq!(spatial_until_at(8.0, 120, 120), 8.0);
+        assert_eq!(spatial_until_at(8.0, 120, 180), 12.0);
+        assert_eq!(spatial_until_at(8.0, 120, 360), 24.0);
+        assert_eq!(spatial_until_at(8.0, 120, 2160), 8.0 * MAX_SPATIAL_SCALE);
+        // Rows 0: never scaled (SVGF's).
+        assert_eq!(spatial_until_at(4.0, 0, 2160), 4.0);
+    }
 }

@@ -91,6 +91,7 @@ impl Default for FilterSettings {
             spatial_radius: 1,
             spatial_until: 4.0,
             ao_spatial_until: 8.0,
+            ao_spatial_rows: 120,
             skip_sigma: 0.004,
             cap_variance: true,
             ao_symmetric_taps: true,

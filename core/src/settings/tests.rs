@@ -35,6 +35,10 @@ fn svgf_is_the_default_with_rates_off() {
         "SVGF's AO takes the published normal weight"
     );
     assert_eq!(s.filter.ao_spatial_until, d.filter.spatial_until);
+    assert_eq!(
+        s.filter.ao_spatial_rows, 0,
+        "SVGF's window does not grow with the image"
+    );
     assert!(
         !s.filter.ao_symmetric_taps,
         "SVGF's taps are the published ones"
@@ -64,6 +68,7 @@ fn svgf_is_the_default_with_rates_off() {
             cap_variance: d.filter.cap_variance,
             ao_normal_power: d.filter.ao_normal_power,
             ao_spatial_until: d.filter.ao_spatial_until,
+            ao_spatial_rows: d.filter.ao_spatial_rows,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
             guide_sigma: d.filter.guide_sigma,
             penumbra_reach: d.filter.penumbra_reach,
