@@ -45,7 +45,13 @@ macro_rules! each_lane {
 pub(crate) use each_lane;
 
 /// One value per lane.
+///
+/// 64-byte aligned on the CPU: rows of lanes live in the runner's stack frame, and at their
+/// elements' alignment an AVX-512 register's load or store of one straddled two cache lines
+/// wherever the caller's stack depth put the frame, so a kernel's time moved with unrelated
+/// changes elsewhere in the binary (`docs/results/per-pass.md`, 2026-11-27, evening).
 #[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), repr(align(64)))]
 pub struct Lanes<T, const N: usize>(pub [T; N]);
 
 impl<T: Copy + Default, const N: usize> Lanes<T, N> {
