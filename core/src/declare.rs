@@ -394,7 +394,7 @@ macro_rules! kernel_table {
     // invocations consecutive in x (`crate::lanes`).
     (@cpu_phases $group:ident ($x:tt, $y:tt, $z:tt) $p:ident $local:ident [$($io:tt)*]
         ([$($pl:tt)?] $($phase:ident)::+) $($rest:tt)*) => {
-        let step: u32 = $crate::kernel_table!(@phase_step [$($pl)?]);
+        let step: u32 = $crate::kernel_table!(@phase_step [$($pl)?] $x);
         let base = $group * $crate::glam::UVec3::new($x, $y, $z);
         for z in 0..$z {
             for y in 0..$y {
@@ -412,9 +412,9 @@ macro_rules! kernel_table {
         }
         $crate::kernel_table!(@cpu_phases $group ($x, $y, $z) $p $local [$($io)*] $($rest)*);
     };
-    (@phase_step []) => { 1 };
-    (@phase_step [$pl:tt]) => {{
-        const { assert!($pl > 0, "lanes of a phase") };
+    (@phase_step [] $x:tt) => { 1 };
+    (@phase_step [$pl:tt] $x:tt) => {{
+        const { assert!($pl > 0 && $x % $pl == 0, "a phase's lanes divide the workgroup's width") };
         $pl
     }};
 
