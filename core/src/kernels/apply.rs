@@ -9,8 +9,7 @@
 //! "no ray" instead of last frame's sample. The realised rays are trimmed to the budget
 //! ([`super::trim`], which runs first and decides which last rays go).
 
-use super::balance::{granted_rate, Balance};
-use super::buckets::{ring_id, BUCKET_COUNT};
+use super::balance::Balance;
 use super::trim;
 use super::work_list::append;
 use super::ApplyIo;
@@ -92,14 +91,13 @@ pub fn apply<const N: usize>(id: UVec3, p: &ApplyParams, io: ApplyIo<'_>) {
     let d = &decision[group as usize];
     let xs = Lanes::<u32, N>::from_index(|l| clamp_column(x0 + l as i32, w));
     // `resolve_rays` of each pixel, the noise gathered apart so that the rest is vector code.
+    let tp = p.trim();
     let mut rates = Lanes::<f32, N>::splat(0.0);
     lanes::each_lane!(l in N {
         let bucket = super::requests::bucket_of(requests.0[l]);
-        if bucket < BUCKET_COUNT {
-            rates.0[l] = granted_rate(bucket, ring_id(xs.0[l], id.y, w, h), d);
-        }
+        rates.0[l] = trim::bucket_rate(xs.0[l], id.y, bucket, &tp, d);
     });
-    let (whole, bins) = trim::realise_row(rates, xs, id.y, group, &p.trim(), noise);
+    let (whole, bins) = trim::realise_row(rates, xs, id.y, group, &tp, noise);
     let cut = d.cut;
     let rays = whole.zip(bins, |n, b| trim::trim_last(n, b, cut));
     let traces = live.zip(rays, |live, n| live && n > 0);

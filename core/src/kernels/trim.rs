@@ -82,11 +82,18 @@ pub fn last_ray(
     d: &Balance,
     noise: &[f32],
 ) -> (u32, u32) {
-    if bucket >= BUCKET_COUNT {
-        return (0, 0);
-    }
-    let rate = granted_rate(bucket, ring_id(x, y, p.width, p.height), d);
+    let rate = bucket_rate(x, y, bucket, p, d);
     realise(rate, pixel_noise(x, y, group, p, noise))
+}
+
+/// The rate the balancer grants pixel `(x, y)`'s request `bucket`: 0 without one (no rays).
+#[inline(always)]
+pub fn bucket_rate(x: u32, y: u32, bucket: u32, p: &TrimParams, d: &Balance) -> f32 {
+    if bucket < BUCKET_COUNT {
+        granted_rate(bucket, ring_id(x, y, p.width, p.height), d)
+    } else {
+        0.0
+    }
 }
 
 /// The blue-noise threshold of pixel `(x, y)` of plane group `group` this frame.

@@ -131,7 +131,6 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     }
 }
 
-/// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
 /// Largest factor [`spatial_until_at`] scales by: the largest image it was measured at
 /// (640x360) is 3x the default rows.
 pub const MAX_SPATIAL_SCALE: f32 = 3.0;
@@ -145,6 +144,7 @@ pub fn spatial_until_at(until: f32, rows: u32, height: u32) -> f32 {
     until * math::clamp(height as f32 / rows as f32, 1.0, MAX_SPATIAL_SCALE)
 }
 
+/// The `(value, variance)` of each lane's pixel and plane `id.z` (module rule).
 #[inline(always)]
 fn estimate<const N: usize>(
     id: UVec3,
