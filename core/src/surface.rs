@@ -322,17 +322,32 @@ pub fn normal_weight(n: Vec3, m: Vec3, power: f32) -> f32 {
     math::pow(normal_cosine(n, m), power)
 }
 
-/// [`normal_weight`] of `N` pixels' unit normals `n` and neighbours' unnormalised directions `u`
-/// ([`packing::unpack_direction`], [`crate::lanes`]): `(max(0, n·u)² / (u·u))^(power/2)`, the
+/// [`normal_weight`] of `N` pixels' unit normals `n` and neighbours' packed normal + roughness
+/// `words` ([`packed_squared_cosines`], [`crate::lanes`]): `(max(0, n·u)² / (u·u))^(power/2)`, the
 /// squared cosine clamped to 1 so the power keeps its square-and-multiply path. No square root
 /// per direction.
 #[inline(always)]
 pub fn normal_weights<const N: usize>(
     n: Lanes<Vec3, N>,
-    u: Lanes<Vec3, N>,
+    words: Lanes<u32, N>,
     power: f32,
 ) -> Lanes<f32, N> {
-    squared_cosines(n, u).pow(0.5 * power)
+    packed_squared_cosines(n, words).pow(0.5 * power)
+}
+
+/// [`squared_cosines`] of unit `n` and the directions of packed normal + roughness words
+/// ([`packing::unpack_direction`]), decoded lane by lane inside: on the CPU a row of decoded
+/// directions in between is an array of 3-vectors that the vector code re-gathers field by field.
+#[inline(always)]
+pub fn packed_squared_cosines<const N: usize>(
+    n: Lanes<Vec3, N>,
+    words: Lanes<u32, N>,
+) -> Lanes<f32, N> {
+    n.zip(words, |n, w| {
+        let u = packing::unpack_direction(w);
+        let d = math::max(math::dot(n, u), 0.0);
+        math::min(d * d / math::dot(u, u), 1.0)
+    })
 }
 
 /// `min(max(0, n·u)² / (u·u), 1)`: the squared cosine between unit `n` and direction `u`.

@@ -31,7 +31,7 @@ use crate::camera::{PixelRays, View};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
-use crate::payload::{pack_filtered, unpack_filtered, Filtered, PackedPayload};
+use crate::payload::{pack_filtered, unpack_filtered, Filtered, PackedPayload, PayloadLanes};
 use crate::surface::{self, TangentPlane};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
@@ -108,24 +108,30 @@ pub fn variance<const N: usize>(id: UVec3, p: &VarianceParams, io: VarianceIo<'_
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
     f.store(out, plane_index(id, w, h), live);
     let cd = Lanes::<f32, N>::load_row(depth, id.y * w, id.x as i32, w);
-    // One atomic per tile the row of lanes crosses, with the largest key of its lanes, not one
-    // per pixel: on the CPU each is a locked compare-and-swap loop.
-    let (mut tile, mut key) = (0, 0);
-    lanes::each_lane!(l in N {
+    // Keys first, as vector code; 0 is no key ([`classify::tile_key`] is never 0).
+    let keys = Lanes::<u32, N>::from_index(|l| {
+        let l = l as usize;
         if live.0[l] && surface::has_surface(cd.0[l]) {
-            let t = classify::tile_index(id.x + l as u32, id.y, w);
-            if key != 0 && t != tile {
-                atomic::max(&mut tiles[tile], key);
-                key = 0;
-            }
-            tile = t;
-            let k = classify::tile_key(stored_variance.0[l]);
-            if k > key {
-                key = k;
-            }
+            classify::tile_key(stored_variance.0[l])
+        } else {
+            0
         }
     });
-    // Keys are never 0 (`tile_key`): 0 is no lane with a surface.
+    // One atomic per tile the row of lanes crosses, with the largest key of its lanes, not one
+    // per pixel: on the CPU each is a locked compare-and-swap loop.
+    let (mut tile, mut key) = (classify::tile_index(id.x, id.y, w), 0);
+    lanes::each_lane!(l in N {
+        let t = classify::tile_index(id.x + l as u32, id.y, w);
+        if t != tile {
+            if key != 0 {
+                atomic::max(&mut tiles[tile], key);
+            }
+            (tile, key) = (t, 0);
+        }
+        if keys.0[l] > key {
+            key = keys.0[l];
+        }
+    });
     if key != 0 {
         atomic::max(&mut tiles[tile], key);
     }
@@ -251,11 +257,9 @@ fn window_sums<const N: usize>(
             let mut dx = -r;
             while dx <= r {
                 let qx0 = x0 + dx;
-                let q = Lanes::<PackedPayload, N>::load_row(payload, plane_row, qx0, w)
-                    .map(|q| q.unpack());
+                let q = PayloadLanes::unpack(Lanes::load_row(payload, plane_row, qx0, w));
                 let qd = Lanes::<f32, N>::load_row(depth, row, qx0, w);
-                let u = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w)
-                    .map(packing::unpack_direction);
+                let u = Lanes::<u32, N>::load_row(normal_roughness, row, qx0, w);
                 // The centre lies on its own plane: no plane term (its distance is 0 only
                 // without fused multiply-adds, and its offset is 0).
                 let per_offset = if dx == 0 && dy == 0 {
@@ -275,16 +279,13 @@ fn window_sums<const N: usize>(
                     w_n.0[l] * math::exp(-e)
                 });
                 let valid = Lanes::<bool, N>::from_index(|l| {
-                    let (q, qx) = (q.0[l as usize], qx0 + l as i32);
-                    qx >= 0
-                        && qx < w as i32
-                        && q.count > 0.0
-                        && surface::has_surface(qd.0[l as usize])
+                    let (l, qx) = (l as usize, qx0 + l as i32);
+                    qx >= 0 && qx < w as i32 && q.count.0[l] > 0.0 && surface::has_surface(qd.0[l])
                 });
                 // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
-                let wq = wt.zip(q, |w, q| w * q.count);
-                s1 = s1.add_where(valid, wq.zip(q, |w, q| w * q.m1));
-                s2 = s2.add_where(valid, wq.zip(q, |w, q| w * q.m2));
+                let wq = wt.zip(q.count, |w, c| w * c);
+                s1 = s1.add_where(valid, wq.zip(q.m1, |w, m| w * m));
+                s2 = s2.add_where(valid, wq.zip(q.m2, |w, m| w * m));
                 sw = sw.add_where(valid, wq);
                 dx += 1;
             }

@@ -506,9 +506,8 @@ impl<const N: usize> TapSource<N> for Rows<'_> {
     #[inline(always)]
     fn cosine2(&self, c: &Centre<N>, t: TapAt) -> Lanes<f32, N> {
         let w = c.p.width;
-        let m = Lanes::<u32, N>::load_row(self.normal_roughness, t.qy * w, t.qx0, w)
-            .map(packing::unpack_direction);
-        surface::squared_cosines(c.normal, m)
+        let m = Lanes::<u32, N>::load_row(self.normal_roughness, t.qy * w, t.qx0, w);
+        surface::packed_squared_cosines(c.normal, m)
     }
 }
 
