@@ -333,6 +333,40 @@ impl<const N: usize> PayloadLanes<N> {
     }
 }
 
+/// `N` samples field by field ([`crate::lanes`]), without the 0th ray (accumulation does not
+/// read it): a row of [`Sample`]s is an array of structs that the CPU's vector code would
+/// re-gather field by field at every use.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct SampleLanes<const N: usize> {
+    /// Means of the ray results.
+    pub m1: Lanes<f32, N>,
+    /// Means of the squared ray results.
+    pub m2: Lanes<f32, N>,
+    /// Rays traced.
+    pub rays: Lanes<u32, N>,
+}
+
+impl<const N: usize> SampleLanes<N> {
+    /// Lane `l` (`first` 0).
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Sample {
+        Sample {
+            m1: self.m1.0[l],
+            m2: self.m2.0[l],
+            rays: self.rays.0[l],
+            first: 0.0,
+        }
+    }
+
+    /// Sets lane `l` to `s` (its `first` is not kept).
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, s: Sample) {
+        self.m1.0[l] = s.m1;
+        self.m2.0[l] = s.m2;
+        self.rays.0[l] = s.rays;
+    }
+}
+
 /// The two moments of `N` pixels, field by field ([`crate::lanes`]).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct MomentLanes<const N: usize> {

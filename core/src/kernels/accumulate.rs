@@ -15,7 +15,7 @@ use super::AccumulateIo;
 use super::{detect, plane_index};
 use crate::lanes::{self, clamp_column, Lanes};
 use crate::payload::{
-    self, MomentLanes, PackedPayload, PackedSample, Payload, PayloadLanes, Sample,
+    self, MomentLanes, PackedPayload, PackedSample, Payload, PayloadLanes, Sample, SampleLanes,
 };
 use crate::{atomic, math, packing, quantize};
 use bytemuck::{Pod, Zeroable};
@@ -147,7 +147,7 @@ fn clamp_history(
 fn second_opinions<const N: usize>(
     p: &AccumulateParams,
     z: u32,
-    curr: &[Sample; N],
+    curr: &SampleLanes<N>,
     stored: &PayloadLanes<N>,
     lambda: Lanes<f32, N>,
     threshold: f32,
@@ -159,7 +159,7 @@ fn second_opinions<const N: usize>(
     // A uniform branch, like the one below.
     if p.confirm_sigma > 0.0 && super::plane_in(p.confirm_planes, z) {
         lanes::each_lane!(l in N {
-            let (c, m) = (curr[l], stored.lane(l));
+            let (c, m) = (curr.lane(l), stored.lane(l));
             if lambda.0[l] > threshold
                 && c.rays > 0
                 && detect::pixel_z(c, m, p.min_variance) < p.confirm_sigma
@@ -172,7 +172,7 @@ fn second_opinions<const N: usize>(
     // pay nothing for the test.
     if p.drop_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
         lanes::each_lane!(l in N {
-            let c = curr[l];
+            let c = curr.lane(l);
             if c.rays >= 2 && detect::pixel_z(c, stored.lane(l), p.min_variance) >= p.drop_sigma {
                 prev.count.0[l] = 0.0;
             }
@@ -213,7 +213,11 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         p.shadow_planes,
         id.z,
     );
-    let mut curr = [Sample::default(); N];
+    let mut curr = SampleLanes::<N> {
+        m1: Lanes::splat(0.0),
+        m2: Lanes::splat(0.0),
+        rays: Lanes::splat(0),
+    };
     let mut prev = stored;
     let (mut dropped, mut clamped) = (0u32, 0u32);
     lanes::each_lane!(l in N {
@@ -230,7 +234,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
             c.m1 = math::min(c.m1, p.firefly_max);
             c.m2 = math::min(c.m2, p.firefly_max * p.firefly_max);
         }
-        curr[l] = c;
+        curr.set(l, c);
         // Not `max(…, 0)`-guarded: λ is in [0, 1] by construction.
         let shortened = if lambda.0[l] > threshold {
             0.0
@@ -259,12 +263,12 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
     }
     let mut merged = prev;
     lanes::each_lane!(l in N {
-        let m = payload::accumulate(prev.lane(l), curr[l], p.max_history, p.rng_wrap);
+        let m = payload::accumulate(prev.lane(l), curr.lane(l), p.max_history, p.rng_wrap);
         merged.set(l, m);
     });
     let curr_moments = MomentLanes {
-        m1: Lanes::from_index(|l| curr[l as usize].m1),
-        m2: Lanes::from_index(|l| curr[l as usize].m2),
+        m1: curr.m1,
+        m2: curr.m2,
     };
     let m = payload::store_lanes(prev.moments(), curr_moments, merged.moments(), p.storage);
     let out = PayloadLanes {

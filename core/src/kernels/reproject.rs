@@ -291,13 +291,15 @@ fn footprint<const N: usize>(
         let texel =
             t.map(|[x, y]| pixel_index(math::floor_small(x), math::floor_small(y), p.width) as u32);
         let pd = Lanes::<f32, N>::gather(prev_depth, texel);
-        let m =
-            Lanes::<u32, N>::gather(prev_normal_roughness, texel).map(packing::unpack_direction);
+        // Decoded inside the test, lane by lane: a row of decoded directions in between would
+        // be an array of 3-vectors that the CPU's vector code re-gathers field by field.
+        let words = Lanes::<u32, N>::gather(prev_normal_roughness, texel);
         let same = Lanes::<bool, N>::from_index(|l| {
             let l = l as usize;
             let [x, y] = t.0[l];
             let q = math::mul_add3(rays.dir(x, y), pd.0[l], origin);
-            used.0[l] & same_surface(n.0[l], prev.0[l], pd.0[l], q, m.0[l], p)
+            let m = packing::unpack_direction(words.0[l]);
+            used.0[l] & same_surface(n.0[l], prev.0[l], pd.0[l], q, m, p)
         });
         f.texel[k] = texel;
         f.bilinear[k] = f.bilinear[k].select(same, Lanes::splat(0.0));
