@@ -217,7 +217,7 @@ crate::kernel_table! {
 
     /// [`variance::variance`]: temporal variance, or the spatial estimate for young history; folds
     /// each tile's worst variance into `tiles` (zeroed before) for `classify`.
-    variance => VARIANCE, VarianceBindings, VarianceIo: lanes(16, avx512 32) variance::variance,
+    variance => VARIANCE, VarianceBindings, VarianceIo: lanes(16, avx512 64) variance::variance,
     threads(8, 8, 1), params variance::VarianceParams {
         payload: read PackedPayload,
         depth: read Depth,
