@@ -174,7 +174,7 @@ crate::kernel_table! {
 
     /// [`reproject::reproject`]: history reprojection and ray-rate requests; one invocation per
     /// pixel (planes are looped inside).
-    reproject => REPROJECT, ReprojectBindings, ReprojectIo: lanes(16, avx512 16) reproject::reproject,
+    reproject => REPROJECT, ReprojectBindings, ReprojectIo: lanes(16, avx512 64) reproject::reproject,
     threads(8, 8, 1), params reproject::ReprojectParams {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
@@ -194,7 +194,7 @@ crate::kernel_table! {
     /// [`reproject::reproject_engine`]: [`reproject::reproject`] reading this frame's inputs from
     /// the engine's textures in its conventions (`conventions`: one element) and writing them,
     /// decoded, to the denoiser's input buffers.
-    reproject_engine => REPROJECT_ENGINE, ReprojectEngineBindings, ReprojectEngineIo: lanes(16, avx512 16) reproject::reproject_engine,
+    reproject_engine => REPROJECT_ENGINE, ReprojectEngineBindings, ReprojectEngineIo: lanes(16, avx512 64) reproject::reproject_engine,
     threads(8, 8, 1), params reproject::ReprojectParams {
         engine_depth: sampled Texel,
         engine_normal: sampled Texel,
