@@ -456,6 +456,27 @@ mod tests {
     use crate::camera::Camera;
 
     #[test]
+    fn packed_cosines_are_the_decoded_ones_bit_for_bit() {
+        // The buffer taps decode inside the cosine, the tile taps before it: the same words.
+        let n = Lanes::<Vec3, 8>::from_index(|l| {
+            Vec3::new(0.2 * l as f32 - 0.7, 0.5, 0.3 - 0.05 * l as f32).normalize()
+        });
+        // Even lanes near the centre's normal, odd lanes facing away from it.
+        let words = Lanes::<u32, 8>::from_index(|l| {
+            let tilt = Vec3::new(0.1, -0.05 * l as f32, 0.02);
+            let m = n.0[l as usize] + tilt;
+            let m = if l % 2 == 0 { m } else { -m };
+            packing::pack_normal_roughness(m.normalize(), 0.1 * l as f32)
+        });
+        let decoded = squared_cosines(n, words.map(packing::unpack_direction));
+        let packed = packed_squared_cosines(n, words);
+        assert_eq!(packed.0.map(f32::to_bits), decoded.0.map(f32::to_bits));
+        // Both ends are held: facing away (0) and nearly along (close to 1).
+        assert!(packed.0.contains(&0.0));
+        assert!(packed.0.iter().any(|&c| c > 0.9));
+    }
+
+    #[test]
     fn moved_lanes_are_surface_current_bit_for_bit() {
         let camera = Camera::look_at(Vec3::new(0.0, 1.0, -4.0), Vec3::ZERO, Vec3::Y, 0.9);
         let prev_camera = Camera::look_at(Vec3::new(0.2, 1.1, -4.1), Vec3::ZERO, Vec3::Y, 0.9);
