@@ -365,6 +365,15 @@ impl<const N: usize> SampleLanes<N> {
         self.m2.0[l] = s.m2;
         self.rays.0[l] = s.rays;
     }
+
+    /// The moments alone.
+    #[inline(always)]
+    pub fn moments(&self) -> MomentLanes<N> {
+        MomentLanes {
+            m1: self.m1,
+            m2: self.m2,
+        }
+    }
 }
 
 /// The two moments of `N` pixels, field by field ([`crate::lanes`]).

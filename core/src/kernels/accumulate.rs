@@ -15,7 +15,7 @@ use super::AccumulateIo;
 use super::{detect, plane_index};
 use crate::lanes::{self, clamp_column, Lanes};
 use crate::payload::{
-    self, MomentLanes, PackedPayload, PackedSample, Payload, PayloadLanes, Sample, SampleLanes,
+    self, PackedPayload, PackedSample, Payload, PayloadLanes, Sample, SampleLanes,
 };
 use crate::{atomic, math, packing, quantize};
 use bytemuck::{Pod, Zeroable};
@@ -266,11 +266,7 @@ pub fn accumulate<const N: usize>(id: UVec3, p: &AccumulateParams, io: Accumulat
         let m = payload::accumulate(prev.lane(l), curr.lane(l), p.max_history, p.rng_wrap);
         merged.set(l, m);
     });
-    let curr_moments = MomentLanes {
-        m1: curr.m1,
-        m2: curr.m2,
-    };
-    let m = payload::store_lanes(prev.moments(), curr_moments, merged.moments(), p.storage);
+    let m = payload::store_lanes(prev.moments(), curr.moments(), merged.moments(), p.storage);
     let out = PayloadLanes {
         m1: m.m1,
         m2: m.m2,
