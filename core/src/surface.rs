@@ -344,19 +344,22 @@ pub fn packed_squared_cosines<const N: usize>(
     words: Lanes<u32, N>,
 ) -> Lanes<f32, N> {
     n.zip(words, |n, w| {
-        let u = packing::unpack_direction(w);
-        let d = math::max(math::dot(n, u), 0.0);
-        math::min(d * d / math::dot(u, u), 1.0)
+        squared_cosine(n, packing::unpack_direction(w))
     })
 }
 
-/// `min(max(0, n·u)² / (u·u), 1)`: the squared cosine between unit `n` and direction `u`.
+/// `min(max(0, n·u)² / (u·u), 1)` of every lane: the squared cosine between unit `n` and
+/// direction `u`.
 #[inline(always)]
 pub fn squared_cosines<const N: usize>(n: Lanes<Vec3, N>, u: Lanes<Vec3, N>) -> Lanes<f32, N> {
-    n.zip(u, |n, u| {
-        let d = math::max(math::dot(n, u), 0.0);
-        math::min(d * d / math::dot(u, u), 1.0)
-    })
+    n.zip(u, squared_cosine)
+}
+
+/// One lane of [`squared_cosines`] (and of [`packed_squared_cosines`], after its decode).
+#[inline(always)]
+fn squared_cosine(n: Vec3, u: Vec3) -> f32 {
+    let d = math::max(math::dot(n, u), 0.0);
+    math::min(d * d / math::dot(u, u), 1.0)
 }
 
 /// What [`normal_weight`] raises to its power: `max(0, n·m)`.
