@@ -83,7 +83,7 @@ impl Default for DetectorSettings {
 impl Default for FilterSettings {
     fn default() -> Self {
         FilterSettings {
-            atrous_iterations: 5,
+            atrous_iterations: 4,
             sigma_luminance: 1.0,
             normal_power: 128.0,
             ao_normal_power: 8.0,
