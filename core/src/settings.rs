@@ -343,8 +343,8 @@ pub struct ReflectionSettings {
 #[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct FilterSettings {
     /// À-trous iterations, strides 1, 2, 4, … pixels (0..=5; default 4, as the seed's engine
-    /// runs: SVGF's fifth, 16-pixel stride made no sequence better in the quality benches and
-    /// costs a pass over the image, `docs/results/per-pass.md`).
+    /// runs: SVGF's fifth, 16-pixel stride made only one quality-bench sequence better, and by
+    /// little, for a pass over the image; `docs/results/per-pass.md`).
     pub atrous_iterations: u32,
     /// Luminance edge-stopping σ_l, in standard deviations of the estimate (> 0; default 1: with
     /// the variance of the estimate, not of a single ray, SVGF's 4 over-blurs contact shadows and
