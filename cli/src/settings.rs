@@ -196,6 +196,8 @@ mod tests {
                 spatial_until: 0.0,
                 ao_spatial_until: 2.5,
                 ao_spatial_rows: 45,
+                wide_until: 1.5,
+                wide_rows: 77,
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
                 ao_symmetric_taps: false,

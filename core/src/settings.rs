@@ -379,6 +379,16 @@ pub struct FilterSettings {
     /// whole-sequence AO was at 8 rays at 160x90, 16 at 320x180 and 24–32 at 640x360 (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub ao_spatial_rows: u32,
+    /// Pixels holding fewer rays than this take a spatial variance window one pixel wider
+    /// (`spatial_radius + 1`, 5×5 by default) on the AO and reflections planes of an image at
+    /// least `wide_rows` tall (>= 0; default 3: a cut's pixels, which hold the reset boost's two
+    /// rays; 0 = off, as SVGF). Two rays leave a pixel's own estimate, and a 3×3 window's,
+    /// noisiest. Pixels with more rays, the shadows' penumbrae (whose edges are in the signal)
+    /// and smaller images, where 5×5 covers more of the scene, were worse with it (see
+    /// `docs/algorithms/fresh-pixels.md`).
+    pub wide_until: f32,
+    /// Image height (rows) from which `wide_until` applies (default 360; 0 = every size).
+    pub wide_rows: u32,
     /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
     /// largest standard deviation of the estimate (signal units) below this (each iteration
     /// counted as halving it, `kernels::classify`); 0 = every tile runs every iteration (>= 0;
@@ -455,6 +465,7 @@ impl Settings {
                 ao_normal_power: self.filter.normal_power,
                 ao_spatial_until: self.filter.spatial_until,
                 ao_spatial_rows: 0,
+                wide_until: 0.0,
                 ao_symmetric_taps: false,
                 guide_sigma: 0.0,
                 penumbra_reach: 0.0,

@@ -21,6 +21,9 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         ao_spatial_until: 8.0,
         guide_plane: guide_plane(rng),
         guide_scale: 0.44,
+        // Some planes widen the window of their fewest-ray pixels: both windows are exercised.
+        wide_until: 3.0,
+        wide_planes: rng.random_range(0..1 << PLANES),
         ..Default::default()
     };
     let view = inputs::test_view();
@@ -35,8 +38,8 @@ pub(crate) fn variance_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         .collect();
     Case {
         name: format!(
-            "variance {w}x{h}x{PLANES} ao {:b} guide {}",
-            params.ao_planes, params.guide_plane as i32
+            "variance {w}x{h}x{PLANES} ao {:b} wide {:b} guide {}",
+            params.ao_planes, params.wide_planes, params.guide_plane as i32
         ),
         kernel: &vrrt_core::kernels::VARIANCE,
         buffers: vec![

@@ -288,6 +288,12 @@ impl Denoiser {
             ),
             guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
+            wide_until: if h >= s.filter.wide_rows {
+                s.filter.wide_until
+            } else {
+                0.0
+            },
+            wide_planes: !l.shadow_planes,
         };
         let variance = kernels::VarianceBindings {
             payload: self.history[self.cur],

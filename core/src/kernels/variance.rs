@@ -16,6 +16,10 @@
 //! (`count = 0`) therefore takes the spatial estimate entirely — this is also how undersampled
 //! pixels get a value without feeding it back into history.
 //!
+//! A pixel holding fewer than `wide_until` rays (a cut's two) on the AO and reflections planes
+//! takes the window one pixel wider: its own estimate, and a 3×3 window's, are then at their
+//! noisiest (the host sets `wide_until` only on images tall enough, `filter.wide_rows`).
+//!
 //! The pass also gathers what tile classification needs: each pixel with a surface folds the
 //! variance it stored into its tile's word with an atomic max ([`classify::tile_key`]), so the
 //! classification reads one word per tile instead of the whole image again.
@@ -63,6 +67,11 @@ pub struct VarianceParams {
     pub guide_plane: u32,
     /// As [`crate::kernels::atrous::AtrousParams::guide_scale`].
     pub guide_scale: f32,
+    /// Pixels of the planes in `wide_planes` holding fewer rays than this take a window one
+    /// pixel wider (`radius + 1`).
+    pub wide_until: f32,
+    /// Planes (bit per plane) whose fewest-ray pixels widen the window (`wide_until`).
+    pub wide_planes: u32,
 }
 
 impl Default for VarianceParams {
@@ -79,6 +88,8 @@ impl Default for VarianceParams {
             ao_spatial_until: 4.0,
             guide_plane: NO_PLANE,
             guide_scale: 0.0,
+            wide_until: 0.0,
+            wide_planes: 0,
         }
     }
 }
@@ -189,7 +200,9 @@ fn estimate<const N: usize>(
             .scaled(1.0 / math::max(p.plane_scale * d, 1e-12))
     });
     let guided = id.z == p.guide_plane;
+    let wide_until = per_plane(0.0, p.wide_until, p.wide_planes, id.z);
     let c = WindowCentre {
+        wide: hist.map(|h| h.count < wide_until),
         normal: n,
         plane,
         normal_power: per_plane(p.normal_power, p.ao_normal_power, p.ao_planes, id.z),
@@ -217,7 +230,8 @@ fn estimate<const N: usize>(
 }
 
 /// What the window's neighbours of `N` pixels are weighed against: the centres' unit normals,
-/// tangent planes (distances in units of the plane tolerance), normal exponent and guides.
+/// tangent planes (distances in units of the plane tolerance), normal exponent and guides; and
+/// which centres take the window one pixel wider (`wide_until`).
 #[derive(Copy, Clone)]
 struct WindowCentre<const N: usize> {
     normal: Lanes<Vec3, N>,
@@ -225,10 +239,11 @@ struct WindowCentre<const N: usize> {
     normal_power: f32,
     guided: bool,
     guide: Lanes<f32, N>,
+    wide: Lanes<bool, N>,
 }
 
-/// The spatial estimate's weighted sums over each lane's `(2r+1)²` window: first and second
-/// moments and weights, each neighbour counted by the rays it holds.
+/// The spatial estimate's weighted sums over each lane's `(2r+1)²` window (`r + 1` for the lanes
+/// in `wide`): first and second moments and weights, each neighbour counted by the rays it holds.
 #[inline(always)]
 fn window_sums<const N: usize>(
     id: UVec3,
@@ -242,10 +257,12 @@ fn window_sums<const N: usize>(
         normal_power,
         guided,
         guide: cg,
+        wide,
     } = *c;
     let (w, h) = (p.width, p.height);
     let x0 = id.x as i32;
-    let r = p.radius as i32;
+    let inner = p.radius as i32;
+    let r = if wide.any() { inner + 1 } else { inner };
     let mut s1 = Lanes::<f32, N>::splat(0.0);
     let mut s2 = s1;
     let mut sw = s1;
@@ -283,6 +300,11 @@ fn window_sums<const N: usize>(
                     qx >= 0 && qx < w as i32 && q.count.0[l] > 0.0 && surface::has_surface(qd.0[l])
                 });
                 // Each neighbour counts by the rays it holds: a 1-ray pixel is one sample.
+                let wt = if dx.abs() > inner || dy.abs() > inner {
+                    wt.select(wide, Lanes::splat(0.0))
+                } else {
+                    wt
+                };
                 let wq = wt.zip(q.count, |w, c| w * c);
                 s1 = s1.add_where(valid, wq.zip(q.m1, |w, m| w * m));
                 s2 = s2.add_where(valid, wq.zip(q.m2, |w, m| w * m));
@@ -298,6 +320,80 @@ fn window_sums<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::Camera;
+    use crate::payload::{PackedFiltered, Payload};
+
+    /// The estimate at the middle of a 5×5 wall facing the camera whose centre holds `count`
+    /// rays of 0.5 and every other pixel one ray: 0.5 on the 3×3 ring, 1.0 on the outer one.
+    fn middle_of_rings(count: f32, p: VarianceParams) -> Filtered {
+        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.9);
+        let view = [View {
+            camera,
+            prev_camera: camera,
+        }];
+        let payload: std::vec::Vec<PackedPayload> = (0..25)
+            .map(|i: i32| {
+                let (x, y) = (i % 5 - 2, i / 5 - 2);
+                let (m1, count) = match x.abs().max(y.abs()) {
+                    0 => (0.5, count),
+                    1 => (0.5, 1.0),
+                    _ => (1.0, 1.0),
+                };
+                Payload {
+                    m1,
+                    m2: m1 * m1,
+                    count,
+                    rng_index: 0,
+                }
+                .pack()
+            })
+            .collect();
+        let normals = std::vec![packing::pack_normal_roughness(Vec3::Z, 0.0); 25];
+        let mut out = std::vec![PackedFiltered::default(); 25];
+        let mut tiles = std::vec![0; 4];
+        let io = VarianceIo {
+            payload: &payload,
+            depth: &[5.0; 25],
+            normal_roughness: &normals,
+            view: &view,
+            guide: &[0.0],
+            out: &mut out,
+            tiles: &mut tiles,
+        };
+        let p = VarianceParams {
+            width: 5,
+            height: 5,
+            spatial_until: 24.0,
+            ..p
+        };
+        variance::<1>(UVec3::new(2, 2, 0), &p, io);
+        out[12].unpack()
+    }
+
+    #[test]
+    fn the_fewest_ray_pixels_take_the_wider_window() {
+        let wide = VarianceParams {
+            wide_until: 3.0,
+            wide_planes: 1,
+            ..Default::default()
+        };
+        // Two rays: the outer ring's 1.0 comes in.
+        assert!(middle_of_rings(2.0, wide).value > 0.6);
+        // Three rays, or a plane not in `wide_planes`: the 3×3 window alone, all 0.5.
+        for (count, p) in [
+            (3.0, wide),
+            (
+                2.0,
+                VarianceParams {
+                    wide_planes: 0b10,
+                    ..wide
+                },
+            ),
+        ] {
+            let f = middle_of_rings(count, p);
+            assert!((f.value - 0.5).abs() < 1e-3, "{count}: {}", f.value);
+        }
+    }
 
     #[test]
     fn the_spatial_estimate_lasts_longer_on_taller_images() {

@@ -92,6 +92,8 @@ impl Default for FilterSettings {
             spatial_until: 4.0,
             ao_spatial_until: 8.0,
             ao_spatial_rows: 120,
+            wide_until: 3.0,
+            wide_rows: 360,
             skip_sigma: 0.004,
             cap_variance: true,
             ao_symmetric_taps: true,

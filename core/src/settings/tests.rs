@@ -43,6 +43,7 @@ fn svgf_is_the_default_with_rates_off() {
         !s.filter.ao_symmetric_taps,
         "SVGF's taps are the published ones"
     );
+    assert_eq!(s.filter.wide_until, 0.0, "SVGF's window has one size");
     assert_eq!(s.filter.guide_sigma, 0.0, "SVGF has no hit-distance guide");
     assert_eq!(s.filter.penumbra_reach, 0.0, "SVGF has no penumbra guide");
     assert_eq!(s.detector.radius, 0, "SVGF has no change detector");
@@ -70,6 +71,7 @@ fn svgf_is_the_default_with_rates_off() {
             ao_spatial_until: d.filter.ao_spatial_until,
             ao_spatial_rows: d.filter.ao_spatial_rows,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
+            wide_until: d.filter.wide_until,
             guide_sigma: d.filter.guide_sigma,
             penumbra_reach: d.filter.penumbra_reach,
             ..s.filter
@@ -108,6 +110,16 @@ fn out_of_range_filter_and_temporal_name_their_field() {
                 ..d
             },
             "filter.atrous_iterations",
+        ),
+        (
+            Settings {
+                filter: FilterSettings {
+                    wide_until: f32::NAN,
+                    ..d.filter
+                },
+                ..d
+            },
+            "filter.wide_until",
         ),
         (
             Settings {

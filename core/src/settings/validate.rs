@@ -350,6 +350,12 @@ impl FilterSettings {
             ">= 0",
         )?;
         check(
+            finite(self.wide_until) && self.wide_until >= 0.0,
+            "filter.wide_until",
+            self.wide_until,
+            ">= 0",
+        )?;
+        check(
             finite(self.skip_sigma) && self.skip_sigma >= 0.0,
             "filter.skip_sigma",
             self.skip_sigma,
