@@ -343,7 +343,8 @@ impl FrameRecord {
 
 /// Part `p`'s errors in this frame (its denoised `test` and `raw` samples against the reference
 /// `r`, last frame's `prev` for the moving mask), pushed to its sequence metrics, and the moving
-/// mask.
+/// mask. The metrics are independent of each other and single-threaded each (at 1080p SSIM and
+/// FLIP take most of a frame's time on the GPU backends), so they run side by side.
 fn measure_part(
     p: &mut PartMetrics,
     test: &Image,
@@ -354,14 +355,71 @@ fn measure_part(
     fresh: &[bool],
 ) -> Result<(PartError, Vec<bool>)> {
     let mask = moving_mask(&out.flags, &r.image, prev.map(|p| &p.image));
-    let fm = p
-        .metrics
-        .push(test.view(), r.image.view(), Some(&mask))
-        .context("metrics")?;
-    let rm = p
-        .raw_metrics
-        .push(raw.view(), r.image.view(), None)
-        .context("metrics")?;
+    let (metrics, raw_metrics) = (&mut p.metrics, &mut p.raw_metrics);
+    let ((fm, raw_relmse), (flip, rest)) = rayon::join(
+        || {
+            rayon::join(
+                || {
+                    metrics
+                        .push(test.view(), r.image.view(), Some(&mask))
+                        .cloned()
+                },
+                || {
+                    raw_metrics
+                        .push(raw.view(), r.image.view(), None)
+                        .map(|m| m.metrics.rel_mse)
+                },
+            )
+        },
+        || {
+            rayon::join(
+                || flip(test.view(), r.image.view()),
+                || masked_errors(test, raw, r, &mask, fresh),
+            )
+        },
+    );
+    let fm = fm.context("metrics")?;
+    let MaskedErrors {
+        spectra,
+        fresh: fresh_error,
+        fresh_reference_noise,
+        static_relmse,
+    } = rest?;
+    let error = PartError {
+        relmse: fm.metrics.rel_mse,
+        rmse: fm.metrics.rmse,
+        mse: fm.metrics.mse,
+        ssim: fm.metrics.ssim,
+        flip,
+        temporal: fm.temporal.unwrap_or(f64::NAN),
+        moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
+        raw_relmse: raw_relmse.context("metrics")?,
+        reference_noise: reference_noise(r, None)?,
+        fresh_reference_noise,
+        fresh: fresh_error,
+        static_relmse,
+        spectra,
+    };
+    Ok((error, mask))
+}
+
+/// The errors of [`measure_part`] that keep no state from frame to frame.
+struct MaskedErrors {
+    spectra: [metrics::ErrorSpectrum; 2],
+    fresh: Option<(f64, usize)>,
+    fresh_reference_noise: f64,
+    static_relmse: f64,
+}
+
+/// The error spectra of `test` and `raw`, and `test`'s errors over the `fresh` pixels and
+/// outside the moving `mask`.
+fn masked_errors(
+    test: &Image,
+    raw: &Image,
+    r: &FrameReference,
+    mask: &[bool],
+    fresh: &[bool],
+) -> Result<MaskedErrors> {
     let spectra = [
         metrics::error_spectrum(test.view(), r.image.view()).context("metrics")?,
         metrics::error_spectrum(raw.view(), r.image.view()).context("metrics")?,
@@ -371,25 +429,15 @@ fn measure_part(
     let still: Vec<bool> = mask.iter().map(|m| !m).collect();
     let static_error =
         metrics::masked_error(test.view(), r.image.view(), &still).context("metrics")?;
-    let error = PartError {
-        relmse: fm.metrics.rel_mse,
-        rmse: fm.metrics.rmse,
-        mse: fm.metrics.mse,
-        ssim: fm.metrics.ssim,
-        flip: flip(test.view(), r.image.view()),
-        temporal: fm.temporal.unwrap_or(f64::NAN),
-        moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
-        raw_relmse: rm.metrics.rel_mse,
-        reference_noise: reference_noise(r, None)?,
+    Ok(MaskedErrors {
+        spectra,
+        fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
         fresh_reference_noise: match fresh_error {
             Some(_) => reference_noise(r, Some(fresh))?,
             None => f64::NAN,
         },
-        fresh: fresh_error.map(|m| (m.rel_mse, m.pixels)),
         static_relmse: static_error.map_or(f64::NAN, |m| m.rel_mse),
-        spectra,
-    };
-    Ok((error, mask))
+    })
 }
 
 /// The relMSE reference `r`'s own noise adds over `mask`'s pixels, or all
