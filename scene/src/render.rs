@@ -3,6 +3,7 @@
 //! each frame's outputs, and converged references traced with the very same estimator.
 
 use crate::scene::FrameGeometry;
+use rayon::prelude::*;
 use std::sync::Arc;
 use vrrt_core::budget::MsBudget;
 use vrrt_core::camera::View;
@@ -573,6 +574,25 @@ fn unpack_samples(packed: &[PackedSample]) -> Vec<Sample> {
     packed.iter().map(|s| s.unpack()).collect()
 }
 
+/// Adds a batch's samples, weighted by their rays, to the per-cell sums of the ray results and
+/// of their squares. On a GPU backend this host-side loop over every pixel of every batch is
+/// most of a reference's time, so it runs on all cores.
+fn accumulate(samples: &[PackedSample], sum: &mut [f64], sum_sq: &mut [f64]) {
+    const CHUNK: usize = 1 << 14;
+    samples
+        .par_chunks(CHUNK)
+        .zip(sum.par_chunks_mut(CHUNK))
+        .zip(sum_sq.par_chunks_mut(CHUNK))
+        .for_each(|((samples, sum), sum_sq)| {
+            for ((packed, s), q) in samples.iter().zip(sum).zip(sum_sq) {
+                let sample = packed.unpack();
+                let rays = f64::from(sample.rays);
+                *s += f64::from(sample.m1) * rays;
+                *q += f64::from(sample.m2) * rays;
+            }
+        });
+}
+
 /// A converged reference and its own Monte Carlo error.
 #[derive(Clone, Debug)]
 pub struct Reference {
@@ -710,11 +730,16 @@ pub fn reference_with<E: Executor>(
     let layout = signal.layout(f.lights.len());
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
     let mut done = 0u32;
+    // The work list changes only with the batch's size (the last batch may be smaller).
+    let mut listed = 0;
     while done < spp {
         // A work-list entry carries at most `MAX_RATE` rays.
         let batch = (spp - done).min(MAX_RATE);
-        let entries: Vec<u32> = (0..pixels as u32).map(|i| work_entry(i, batch)).collect();
-        exec.write_buffer(work, bytes(&entries))?;
+        if batch != listed {
+            let entries: Vec<u32> = (0..pixels as u32).map(|i| work_entry(i, batch)).collect();
+            exec.write_buffer(work, bytes(&entries))?;
+            listed = batch;
+        }
         let start = REFERENCE_RNG_BASE + done;
         let hist: Vec<PackedPayload> = vec![
             Payload {
@@ -741,11 +766,7 @@ pub fn reference_with<E: Executor>(
         };
         let scene = gpu.frame_scene(f);
         trace_planes(exec, signal, &layout, &scene, reflections, &target)?;
-        let samples = unpack_samples(&read(exec, out, n)?);
-        for (i, s) in samples.iter().enumerate() {
-            sum[i] += s.m1 as f64 * s.rays as f64;
-            sum_sq[i] += s.m2 as f64 * s.rays as f64;
-        }
+        accumulate(&read(exec, out, n)?, &mut sum, &mut sum_sq);
         done += batch;
         progress(done, spp);
     }
