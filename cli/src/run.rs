@@ -303,7 +303,7 @@ fn quality_rows(t: &mut Table, rs: &SequenceResult) {
                     "relMSE {}, moving relMSE {}, raw relMSE {}",
                     fmt(ps.mean_rel_mse, 6),
                     fmt(ps.mean_masked_rel_mse.unwrap_or(f64::NAN), 6),
-                    fmt(p.raw_metrics.summary().mean_rel_mse, 6)
+                    fmt(mean_finite(p.raw_relmse.iter().copied()), 6)
                 ),
             );
         }

@@ -176,8 +176,8 @@ pub struct PartMetrics {
     pub part: Part,
     /// Metrics of the reported image (masked by the moving mask).
     pub metrics: SequenceMetrics,
-    /// Metrics of the raw input.
-    pub raw_metrics: SequenceMetrics,
+    /// relMSE of the raw input, per frame measured.
+    pub raw_relmse: Vec<f64>,
 }
 
 /// Sequence-wide results.

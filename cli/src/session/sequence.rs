@@ -74,7 +74,7 @@ pub fn run_sequence(
         .map(|part| PartMetrics {
             part,
             metrics: SequenceMetrics::new(),
-            raw_metrics: SequenceMetrics::new(),
+            raw_relmse: Vec::new(),
         })
         .collect();
     let mut records = Vec::new();
@@ -355,7 +355,7 @@ fn measure_part(
     fresh: &[bool],
 ) -> Result<(PartError, Vec<bool>)> {
     let mask = moving_mask(&out.flags, &r.image, prev.map(|p| &p.image));
-    let (metrics, raw_metrics) = (&mut p.metrics, &mut p.raw_metrics);
+    let metrics = &mut p.metrics;
     let ((fm, raw_relmse), (flip, rest)) = rayon::join(
         || {
             rayon::join(
@@ -364,11 +364,7 @@ fn measure_part(
                         .push(test.view(), r.image.view(), Some(&mask))
                         .cloned()
                 },
-                || {
-                    raw_metrics
-                        .push(raw.view(), r.image.view(), None)
-                        .map(|m| m.metrics.rel_mse)
-                },
+                || metrics::rel_mse(raw.view(), r.image.view()),
             )
         },
         || {
@@ -379,6 +375,8 @@ fn measure_part(
         },
     );
     let fm = fm.context("metrics")?;
+    let raw_relmse = raw_relmse.context("metrics")?;
+    p.raw_relmse.push(raw_relmse);
     let MaskedErrors {
         spectra,
         fresh: fresh_error,
@@ -393,7 +391,7 @@ fn measure_part(
         flip,
         temporal: fm.temporal.unwrap_or(f64::NAN),
         moving_relmse: fm.masked.map_or(f64::NAN, |m| m.rel_mse),
-        raw_relmse: raw_relmse.context("metrics")?,
+        raw_relmse,
         reference_noise: reference_noise(r, None)?,
         fresh_reference_noise,
         fresh: fresh_error,

@@ -41,7 +41,7 @@ mod tests;
 pub use noise::{reference_rel_noise, standard_error, StandardError};
 #[cfg(feature = "flip")]
 pub use perceptual::{flip, flip_map};
-pub use pixelwise::{compare, masked_error, psnr_from_mse, ErrorMetrics, MaskedError};
+pub use pixelwise::{compare, masked_error, psnr_from_mse, rel_mse, ErrorMetrics, MaskedError};
 pub use sequence::{FrameMetrics, SequenceMetrics, SequenceSummary};
 pub use spectrum::{error_spectrum, ErrorSpectrum, LOW_BAND, RADIAL_BINS};
 pub use structural::{luminance, ssim};

@@ -108,6 +108,13 @@ pub fn compare(test: ImageRef<'_>, reference: ImageRef<'_>) -> Result<ErrorMetri
     })
 }
 
+/// relMSE of `test` against `reference` alone: [`compare`]'s without its SSIM, for images whose
+/// other errors nobody reads (a denoiser's raw input).
+pub fn rel_mse(test: ImageRef<'_>, reference: ImageRef<'_>) -> Result<f64, MetricsError> {
+    check_same_shape(test, reference)?;
+    Ok(ErrorSums::accumulate(test, reference, |_| true).rel_mse())
+}
+
 /// Error restricted to the pixels of a mask (moving or disoccluded regions).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MaskedError {
