@@ -251,11 +251,11 @@ pub struct DetectorSettings {
     pub shadow_radius: u32,
     /// `threshold` of the shadow planes (0..=1; default 0.3).
     pub shadow_threshold: f32,
-    /// `sigma` of the AO planes (`Layout::ao_planes`; >= 1; default 1.5). AO changes only where
-    /// geometry moves, and at 1σ the detector shortens converged history by chance where a
-    /// frame holds few rays (at half a ray per pixel 1σ was worse than 2σ on two scenes of
-    /// three); at 1 ray per pixel 1.5σ lets the contact shadows of moving objects lag less than
-    /// 2σ did, on every scene and size measured (see `docs/algorithms/change-detector.md`).
+    /// `sigma` of the AO planes (`Layout::ao_planes`; >= 1; default 1) at one ray per pixel and
+    /// more; below, it rises as `1/√rays_per_pixel` (`kernels::detect::ao_significance`): AO
+    /// changes only where geometry moves, and where a frame holds few rays a low significance
+    /// shortens converged history by chance, while at one ray per pixel 1σ lets the contact
+    /// shadows of moving objects lag least (see `docs/algorithms/change-detector.md`).
     pub ao_sigma: f32,
     /// Verification of the shadow planes (>= 0, 0 = off; default 1.5): a pixel that traced fewer
     /// than `refill_rays` and whose own rays lie this many standard deviations from its history

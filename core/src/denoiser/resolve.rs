@@ -34,7 +34,7 @@ impl Denoiser {
             shadow_planes: l.shadow_planes,
             z_full: s.detector.sigma,
             ao_planes: l.ao_planes,
-            ao_z_full: s.detector.ao_sigma,
+            ao_z_full: detect::ao_significance(s.detector.ao_sigma, self.rays_per_pixel),
             min_variance: s.detector.min_variance,
         };
         if !refill {

@@ -152,6 +152,16 @@ pub fn lambda_of([sum_s, sum_m, var]: [f32; 3], z_full: f32) -> f32 {
     }
 }
 
+/// `z_full` of the AO planes at this frame's budget of `rays_per_pixel`: `ao_sigma` from one ray
+/// per pixel up, raised as `1/√rpp` below it. The window's variance of the change rests on the
+/// rays it holds: with half as many, chance differences reach a given z more often and
+/// converged history is shortened by chance, while at one ray per pixel and more the lowest
+/// significance let the contact shadows of moving objects lag least
+/// (`docs/algorithms/change-detector.md`). Host-side, once a frame.
+pub fn ao_significance(ao_sigma: f32, rays_per_pixel: f32) -> f32 {
+    ao_sigma / math::sqrt(math::clamp(rays_per_pixel, 1.0 / 64.0, 1.0))
+}
+
 /// The window radius and `z_full` of plane `z` (`p.radius` and `p.z_full`, or the shadow and
 /// AO planes' own).
 #[inline(always)]
@@ -274,6 +284,16 @@ mod tests {
             rng_index: 0,
         };
         pixel_z(rays, history, min_variance)
+    }
+
+    #[test]
+    fn ao_significance_rises_only_below_one_ray_per_pixel() {
+        assert_eq!(ao_significance(1.0, 1.0), 1.0);
+        assert_eq!(ao_significance(1.0, 4.0), 1.0);
+        assert!((ao_significance(1.0, 0.5) - 2f32.sqrt()).abs() < 1e-6);
+        assert!((ao_significance(1.5, 0.25) - 3.0).abs() < 1e-6);
+        // A vanishing budget gives a finite significance.
+        assert!((ao_significance(1.0, 1e-6) - 8.0).abs() < 1e-5);
     }
 
     #[test]

@@ -65,7 +65,7 @@ impl Default for DetectorSettings {
             radius: 2,
             threshold: 0.5,
             sigma: 1.0,
-            ao_sigma: 1.5,
+            ao_sigma: 1.0,
             min_variance: 1e-4,
             refill: true,
             refill_rays: 4,
