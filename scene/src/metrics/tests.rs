@@ -53,6 +53,7 @@ fn hand_computed_small_case() {
     assert!(close(m.rmse, mse.sqrt(), 1e-7));
     let rel = (0.01 / (0.25 + 0.01) + 0.04 / 0.01 + 0.0 + 0.09 / (0.01 + 0.01)) / 4.0;
     assert!(close(m.rel_mse, rel, 1e-6), "{} vs {rel}", m.rel_mse);
+    assert_eq!(rel_mse(x.view(), y.view()).unwrap(), m.rel_mse);
     assert!(close(m.psnr, 10.0 * (1.0 / mse).log10(), 1e-5));
     assert!(close(psnr_from_mse(0.01), 20.0, 1e-12));
 }
