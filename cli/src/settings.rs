@@ -152,6 +152,7 @@ mod tests {
                 load_balance: false,
                 spend_saved_rays: false,
                 reset_boost: 0.375,
+                ao_reset_boost: 1.25,
                 reset_payback: 3,
                 reset_refill: 0.1 + 0.2,
                 undersample: false,

@@ -74,12 +74,13 @@ impl Layout {
     /// `rates.reset_refill` of their boost on the penumbrae (a reserve of the whole frame's
     /// boost, which in a shared frame the other signals would pay for).
     pub fn shadows_alone(&self) -> bool {
-        let all = if self.planes >= 32 {
-            u32::MAX
-        } else {
-            (1u32 << self.planes) - 1
-        };
-        self.shadow_planes == all
+        self.shadow_planes == all_planes(self.planes)
+    }
+
+    /// Every plane is AO ([`Self::ao_planes`] holds them all): a reset spends
+    /// `rates.ao_reset_boost` ahead instead of `rates.reset_boost`.
+    pub fn ao_alone(&self) -> bool {
+        self.ao_planes == all_planes(self.planes)
     }
 
     /// Plane groups ([`Self::plane_groups`]): each has its own requests and work list.
@@ -124,6 +125,15 @@ impl Layout {
             }
         }
         Ok(())
+    }
+}
+
+/// One bit for each of `planes` planes, from plane 0 up.
+fn all_planes(planes: u32) -> u32 {
+    if planes >= 32 {
+        u32::MAX
+    } else {
+        (1u32 << planes) - 1
     }
 }
 
@@ -178,6 +188,22 @@ mod tests {
             ..d
         };
         assert_eq!(field_of(&ao), "layout.ao_planes");
+    }
+
+    #[test]
+    fn ao_alone_is_every_plane_ao() {
+        let ao = Layout {
+            ao_planes: 1,
+            ..Layout::with_planes(1)
+        };
+        assert!(ao.ao_alone());
+        let shared = Layout {
+            planes: 3,
+            shadow_planes: 0b010,
+            ..ao
+        };
+        assert!(!shared.ao_alone(), "a shared frame's AO plane is not alone");
+        assert!(!Layout::with_planes(1).ao_alone());
     }
 
     #[test]

@@ -456,6 +456,11 @@ impl Denoiser {
         let r = self.settings.rates;
         RateSettings {
             rays_per_pixel: self.rays_per_pixel,
+            reset_boost: if self.layout.ao_alone() {
+                rates::ao_boost(&r, self.rays_per_pixel)
+            } else {
+                r.reset_boost
+            },
             reset_payback: if self.layout.reflections_alone {
                 self.settings.reflections.reset_payback
             } else {

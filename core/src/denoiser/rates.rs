@@ -313,6 +313,21 @@ pub(crate) fn frame_budget(
     r.rays_per_pixel * (1.0 + ahead)
 }
 
+/// Rays per pixel that AO's payback frames keep at the least ([`ao_boost`]): the balancer's
+/// shift lowers no request below half a ray (`balance::SHIFT_FLOOR`), and where every pixel
+/// asks, as after a cut, a budget below that falls back to the seed's cap, which gives a
+/// disoccluded pixel the same half ray as its neighbours. A quarter more than the floor: at
+/// exactly half a ray the room's disoccluded pixels starved (`docs/algorithms/fresh-pixels.md`).
+const AO_PAYBACK_LEAST: f32 = 0.625;
+
+/// The boost of a frame of AO alone at a budget of `rays_per_pixel`: `rates.ao_reset_boost`,
+/// or less where its payback frames would keep under [`AO_PAYBACK_LEAST`] rays per pixel, but
+/// never less than `rates.reset_boost`. Host-side, once a frame.
+pub(crate) fn ao_boost(r: &crate::settings::RateSettings, rays_per_pixel: f32) -> f32 {
+    let room = r.reset_payback as f32 * (1.0 - AO_PAYBACK_LEAST / rays_per_pixel.max(1e-6));
+    r.ao_reset_boost.min(room).max(r.reset_boost)
+}
+
 /// Whether a reset frame spends ahead: balanced rates, a payback, and no budget in milliseconds.
 fn boosts(r: &crate::settings::RateSettings) -> bool {
     r.load_balance && r.supersample_target > 0.0 && r.reset_payback != 0 && r.budget_ms <= 0.0
@@ -365,6 +380,40 @@ mod tests {
         approx::assert_relative_eq!(budgets[1], 1.5 * 7.0 / 8.0);
         assert_eq!(budgets[9], 1.5, "paid back");
         assert_eq!(frame_budget(&r, u32::MAX, false), 1.5, "no reset yet");
+    }
+
+    #[test]
+    fn ao_boosts_no_further_than_its_payback_frames_afford() {
+        let r = RateSettings {
+            ao_reset_boost: 3.0,
+            reset_boost: 1.0,
+            reset_payback: 8,
+            ..RateSettings::default()
+        };
+        assert_eq!(ao_boost(&r, 1.0), 3.0, "payback frames keep 5/8 of a ray");
+        assert_eq!(ao_boost(&r, 4.0), 3.0);
+        approx::assert_relative_eq!(ao_boost(&r, 0.8), 1.75);
+        assert_eq!(ao_boost(&r, 0.5), 1.0, "never below reset_boost");
+        assert_eq!(ao_boost(&r, 0.0), 1.0);
+        let none = RateSettings {
+            reset_payback: 0,
+            ..r
+        };
+        assert_eq!(ao_boost(&none, 1.0), 1.0);
+    }
+
+    #[test]
+    fn an_ao_boost_of_three_frames_is_paid_back_over_eight() {
+        let r = RateSettings {
+            rays_per_pixel: 1.0,
+            reset_boost: 3.0,
+            reset_payback: 8,
+            ..RateSettings::default()
+        };
+        assert_eq!(frame_budget(&r, 0, false), 4.0);
+        assert_eq!(frame_budget(&r, 1, false), 0.625);
+        let budgets: f32 = (0..=8).map(|f| frame_budget(&r, f, false)).sum();
+        approx::assert_relative_eq!(budgets, 9.0, epsilon = 1e-5);
     }
 
     #[test]

@@ -33,6 +33,7 @@ impl Default for RateSettings {
             load_balance: true,
             spend_saved_rays: true,
             reset_boost: 1.0,
+            ao_reset_boost: 3.0,
             reset_payback: 8,
             reset_refill: 1.0,
             undersample: true,

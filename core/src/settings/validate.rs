@@ -176,11 +176,24 @@ impl RateSettings {
             self.signal_floor,
             "0..=1",
         )?;
+        self.validate_reset()
+    }
+
+    /// The fields of a reset's boost, its payback and the shadows' refill.
+    fn validate_reset(&self) -> Result<(), SettingsError> {
         check(
             (0.0..=1.0).contains(&self.reset_boost),
             "rates.reset_boost",
             self.reset_boost,
             "0..=1",
+        )?;
+        check(
+            (0.0..=4.0).contains(&self.ao_reset_boost)
+                && (self.reset_payback == 0
+                    || self.ao_reset_boost * 2.0 <= self.reset_payback as f32),
+            "rates.ao_reset_boost",
+            self.ao_reset_boost,
+            "0..=4 and at most half of rates.reset_payback",
         )?;
         check(
             self.reset_payback <= super::MAX_RESET_PAYBACK,
