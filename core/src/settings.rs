@@ -138,15 +138,17 @@ pub struct RateSettings {
     /// fresh then and holds only this frame's rays, which stay in the history the next frames
     /// add to: spent early they count in every frame, the cut's included (see
     /// `docs/algorithms/fresh-pixels.md`). The cost is a frame of twice the rays at the cut.
-    /// Reflections alone pay it back over `reflections.reset_payback` frames.
+    /// Reflections alone pay it back over `reflections.reset_payback` frames; a frame of AO
+    /// alone takes `ao_reset_boost` instead.
     pub reset_boost: f32,
     /// What a frame of AO alone (`Layout::ao_alone`) spends ahead at a reset in place of
     /// `reset_boost` (0..=4, at most half of `reset_payback`; default 3: at one ray per pixel a
     /// cut's frame traces four frames' budget, the next `reset_payback` frames 5/8 of theirs).
     /// Below that budget it is lowered so that the payback frames keep 5/8 of a ray per pixel,
-    /// but never below `reset_boost` (`denoiser::rates::ao_boost`). AO's fresh pixels gain from
-    /// each ray the cut's frame gets, and its history holds them for every later frame; the
-    /// shadows and the reflections lost with a larger boost (`docs/algorithms/fresh-pixels.md`).
+    /// but not below `reset_boost` (a value under `reset_boost` is kept as set:
+    /// `denoiser::rates::ao_boost`). AO's fresh pixels gain from each ray the cut's frame gets,
+    /// and its history holds them for every later frame; the shadows and the reflections lost
+    /// with a larger boost (`docs/algorithms/fresh-pixels.md`).
     pub ao_reset_boost: f32,
     /// Frames over which a reset's `reset_boost` is paid back (0 = no boost; 0..=64; default 8:
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows

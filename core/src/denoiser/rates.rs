@@ -322,10 +322,12 @@ const AO_PAYBACK_LEAST: f32 = 0.625;
 
 /// The boost of a frame of AO alone at a budget of `rays_per_pixel`: `rates.ao_reset_boost`,
 /// or less where its payback frames would keep under [`AO_PAYBACK_LEAST`] rays per pixel, but
-/// never less than `rates.reset_boost`. Host-side, once a frame.
+/// never less than `rates.reset_boost` (unless `ao_reset_boost` itself is less: an engine that
+/// turns AO's boost down gets what it set). Host-side, once a frame.
 pub(crate) fn ao_boost(r: &crate::settings::RateSettings, rays_per_pixel: f32) -> f32 {
     let room = r.reset_payback as f32 * (1.0 - AO_PAYBACK_LEAST / rays_per_pixel.max(1e-6));
-    r.ao_reset_boost.min(room).max(r.reset_boost)
+    let least = r.reset_boost.min(r.ao_reset_boost);
+    r.ao_reset_boost.min(room).max(least)
 }
 
 /// Whether a reset frame spends ahead: balanced rates, a payback, and no budget in milliseconds.
@@ -400,6 +402,17 @@ mod tests {
             ..r
         };
         assert_eq!(ao_boost(&none, 1.0), 1.0);
+        for (ao_reset_boost, rpp) in [(0.0, 1.0), (0.0, 0.25), (0.5, 0.25)] {
+            let off = RateSettings {
+                ao_reset_boost,
+                ..r
+            };
+            assert_eq!(
+                ao_boost(&off, rpp),
+                ao_reset_boost,
+                "turned down, it stays down"
+            );
+        }
     }
 
     #[test]
