@@ -313,21 +313,23 @@ pub(crate) fn frame_budget(
     r.rays_per_pixel * (1.0 + ahead)
 }
 
-/// Rays per pixel that AO's payback frames keep at the least ([`ao_boost`]): the balancer's
-/// shift lowers no request below half a ray (`balance::SHIFT_FLOOR`), and where every pixel
-/// asks, as after a cut, a budget below that falls back to the seed's cap, which gives a
-/// disoccluded pixel the same half ray as its neighbours. A quarter more than the floor: at
-/// exactly half a ray the room's disoccluded pixels starved (`docs/algorithms/fresh-pixels.md`).
-const AO_PAYBACK_LEAST: f32 = 0.625;
+/// How far above the balancer's shift floor AO's payback frames keep their budget per pixel
+/// ([`ao_boost`]): the shift lowers no request below [`balance::SHIFT_FLOOR`]'s half ray, and
+/// where every pixel asks, as after a cut, a budget below that falls back to the seed's cap,
+/// which gives a disoccluded pixel the same half ray as its neighbours. A quarter more than the
+/// floor: at exactly the floor the room's disoccluded pixels starved
+/// (`docs/algorithms/fresh-pixels.md`).
+const AO_PAYBACK_MARGIN: f32 = 1.25;
 
 /// The boost of a frame of AO alone at a budget of `rays_per_pixel`: `rates.ao_reset_boost`,
-/// or less where its payback frames would keep under [`AO_PAYBACK_LEAST`] rays per pixel, but
-/// never less than `rates.reset_boost` (unless `ao_reset_boost` itself is less: an engine that
-/// turns AO's boost down gets what it set). Host-side, once a frame.
+/// or less where its payback frames would keep under [`AO_PAYBACK_MARGIN`] times the shift's
+/// floor per pixel, but never less than `rates.reset_boost` (unless `ao_reset_boost` itself is
+/// less: an engine that turns AO's boost down gets what it set). Host-side, once a frame.
 pub(crate) fn ao_boost(r: &crate::settings::RateSettings, rays_per_pixel: f32) -> f32 {
-    let room = r.reset_payback as f32 * (1.0 - AO_PAYBACK_LEAST / rays_per_pixel.max(1e-6));
-    let least = r.reset_boost.min(r.ao_reset_boost);
-    r.ao_reset_boost.min(room).max(least)
+    let least = AO_PAYBACK_MARGIN * buckets::bucket_to_rate(balance::SHIFT_FLOOR);
+    let room = r.reset_payback as f32 * (1.0 - least / rays_per_pixel.max(1e-6));
+    let lowest = r.reset_boost.min(r.ao_reset_boost);
+    r.ao_reset_boost.min(room).max(lowest)
 }
 
 /// Whether a reset frame spends ahead: balanced rates, a payback, and no budget in milliseconds.
