@@ -79,3 +79,37 @@ fn no_frame_traces_more_than_its_budget() {
     assert!(trimmed > 10, "only {trimmed} frames trimmed");
     assert!(refilled > 10, "only {refilled} frames with refill lists");
 }
+
+/// Shadows alone shift their requests like AO (rays where history is shortest: after the cut,
+/// a moving object whose shading the light changes loses its history every frame and gets the
+/// rays), while in the shared frame their group keeps the seed's cap
+/// (`docs/algorithms/balancer.md`).
+#[test]
+fn the_shadows_shift_their_requests_only_alone() {
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let modes = |signal: Signal| {
+        let mut exec = Backend::open(BackendKind::Cpu, false).unwrap().0;
+        let settings = Config::Vrrt.settings(Settings::default(), 1.0, signal);
+        let (w, h) = SIZE;
+        let mut r = Renderer::new(&mut exec, w, h, signal, scene.lights.len(), settings).unwrap();
+        let layout = signal.layout(scene.lights.len());
+        let mut modes = Vec::new();
+        // The frames after the cut at 60: every pixel asks for a refill, over the budget.
+        for i in 0..63 {
+            let out = r
+                .render(&mut exec, &scene.frame(i), Readback::default())
+                .unwrap();
+            if i > 60 {
+                let (z, _) = layout.shadows.unwrap();
+                let g = vrrt_core::kernels::plane_group(layout.plane_groups(), z);
+                modes.push(out.decisions[g as usize].mode);
+            }
+        }
+        modes
+    };
+    assert_eq!(modes(Signal::Shadows), [balance::MODE_SHIFT; 2]);
+    assert_eq!(
+        modes(Signal::All { max_distance: 1.0 }),
+        [balance::MODE_OVER; 2]
+    );
+}

@@ -383,8 +383,8 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     // With its own requests each signal gets what it asks for; one shared request per pixel
     // (coupled rates) was far worse than alone for the shadows. The shadows' verification rays
     // drop history where it was wrong, and the rays those pixels then ask for come partly out of
-    // AO's share. The balancer's shift stays off the shadows' requests: shifted, they broke this
-    // bound (docs/algorithms/balancer.md; the figures are in docs/algorithms/reflections.md).
+    // AO's share. The balancer's shift stays off the shadows' requests here (not alone): shifted,
+    // they broke this bound (docs/algorithms/balancer.md; figures in docs/algorithms/reflections.md).
     for (name, &(together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
         assert!(together < single * 1.2, "{name}: {together} vs {single}");
     }

@@ -5,16 +5,20 @@ use super::*;
 
 impl Denoiser {
     /// The plane groups whose requests the balancer shifts (`balance::BalanceParams::shift`): with
-    /// `rates.shift_requests`, every group but the reflections' importance-scaled one and those
-    /// holding a shadow plane. Shifted, the shadows gain alone but lose in the shared frame,
-    /// where their refills and verification rays compete with the other signals' (measured in
-    /// `docs/algorithms/balancer.md`).
+    /// `rates.shift_requests`, every group but the reflections' importance-scaled one, and in a
+    /// shared frame not those holding a shadow plane. Shifted, the shadows gain alone (pixels
+    /// whose history a moving light or object drops every frame get the rays) but lose in the
+    /// shared frame, where their refills and verification rays compete with the other signals'
+    /// (measured in `docs/algorithms/balancer.md`).
     fn shifting_groups(&self, importance_group: u32) -> u32 {
         let (s, l) = (&self.settings, &self.layout);
         if !s.rates.shift_requests {
             return 0;
         }
         let mut mask = !(1u32.checked_shl(importance_group).unwrap_or(0));
+        if l.shadows_alone() {
+            return mask;
+        }
         for z in 0..l.planes {
             if kernels::plane_in(l.shadow_planes, z) {
                 mask &= !(1 << kernels::plane_group(l.plane_groups, z));

@@ -217,8 +217,10 @@ pub fn shadow_ray(
 }
 
 /// Shadow ray `index` towards `light`: its value, and for a blocked ray the width of the
-/// penumbra its blocker casts at the surface ([`penumbra_width`]; 0 for a light behind the
-/// surface, [`NO_BLOCKER`] for a visible one).
+/// penumbra its blocker casts at the surface ([`penumbra_width`]; [`NO_BLOCKER`] for a visible
+/// one, and for a light point behind the surface: the horizon is no blocker, and a width of 0
+/// there kept the filter from blurring a curved surface where it turns from the light,
+/// `docs/algorithms/penumbra-guide.md`).
 pub fn shadow_ray_penumbra(
     s: &Surface,
     light: &AreaLight,
@@ -238,7 +240,7 @@ pub fn shadow_ray_penumbra(
     }
     let dir = normalize(d);
     if !(dir.dot(g) > 0.0) {
-        return (0.0, 0.0);
+        return (0.0, NO_BLOCKER);
     }
     let ray = Ray { origin, dir };
     let hit = trace::any_hit(nodes, tris, &ray, dist * (1.0 - SHADOW_T_SHRINK));
@@ -249,7 +251,7 @@ pub fn shadow_ray_penumbra(
     }
 }
 
-/// The penumbra record of a pixel none of whose rays was blocked.
+/// The penumbra record of a pixel none of whose rays was blocked by geometry.
 pub const NO_BLOCKER: f32 = -1.0;
 
 /// Width (world units) of the penumbra a blocker `t` from the surface casts there, for a light
