@@ -126,6 +126,33 @@ mod tests {
         }
     }
 
+    /// [`unusual_settings`]' rates: every field off its default.
+    fn unusual_rates() -> RateSettings {
+        RateSettings {
+            rays_per_pixel: 0.3,
+            budget_ms: 2.5,
+            budget_floor: 0.125,
+            budget_ceiling: 3.0,
+            supersample_target: 7.0,
+            load_balance: false,
+            spend_saved_rays: false,
+            reset_boost: 0.375,
+            ao_reset_boost: 1.25,
+            shadow_reset_boost: 0.75,
+            reset_payback: 3,
+            reset_refill: 0.1 + 0.2,
+            undersample: false,
+            undersample_after: 9.5,
+            variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],
+            variance_rate: [1.0 / 64.0, 0.7, 16.0, 1.0 / 3.0],
+            still_sigma: 0.0,
+            vrs_mask: true,
+            per_signal: false,
+            signal_floor: 0.6,
+            shift_requests: false,
+        }
+    }
+
     /// Non-default settings everywhere, awkward floats included.
     fn unusual_settings() -> Settings {
         Settings {
@@ -143,28 +170,7 @@ mod tests {
                 stuck_correction: false,
                 sampling: SamplePattern::PerPixel,
             },
-            rates: RateSettings {
-                rays_per_pixel: 0.3,
-                budget_ms: 2.5,
-                budget_floor: 0.125,
-                budget_ceiling: 3.0,
-                supersample_target: 7.0,
-                load_balance: false,
-                spend_saved_rays: false,
-                reset_boost: 0.375,
-                ao_reset_boost: 1.25,
-                reset_payback: 3,
-                reset_refill: 0.1 + 0.2,
-                undersample: false,
-                undersample_after: 9.5,
-                variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],
-                variance_rate: [1.0 / 64.0, 0.7, 16.0, 1.0 / 3.0],
-                still_sigma: 0.0,
-                vrs_mask: true,
-                per_signal: false,
-                signal_floor: 0.6,
-                shift_requests: false,
-            },
+            rates: unusual_rates(),
             prepass: PrepassSettings {
                 stratum: 5,
                 iterations: 0,

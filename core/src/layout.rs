@@ -71,8 +71,9 @@ impl Layout {
     }
 
     /// Every plane is a shadow ([`Self::shadow_planes`] holds them all): reset frames spend
-    /// `rates.reset_refill` of their boost on the penumbrae (a reserve of the whole frame's
-    /// boost, which in a shared frame the other signals would pay for).
+    /// `rates.shadow_reset_boost` ahead and `rates.reset_refill` of it on the penumbrae (a
+    /// reserve of the whole frame's boost, which in a shared frame the other signals would pay
+    /// for), and the balancer shifts their requests.
     pub fn shadows_alone(&self) -> bool {
         self.shadow_planes == all_planes(self.planes)
     }

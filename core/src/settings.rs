@@ -129,8 +129,8 @@ pub struct RateSettings {
     /// filling on history plus rays), instead of capping the largest requests or raising the
     /// smallest, the seed's: capped, a pixel disoccluded after a camera cut gets the same one ray
     /// as its neighbours with ten (default on). The reflections' requests, which their tiles'
-    /// importance scales, and the shadows', whose detection reads every pixel's rays, keep the
-    /// seed's rule.
+    /// importance scales, keep the seed's rule, and so do the shadows' in a shared frame, where
+    /// their refills and verification rays would take the other signals' rays.
     pub shift_requests: bool,
     /// After a reset (first frame, camera cut) the balancer spends this many frames' budget
     /// ahead, and the next `reset_payback` frames spend it less (0..=1; default 1; balanced rates
@@ -139,17 +139,24 @@ pub struct RateSettings {
     /// add to: spent early they count in every frame, the cut's included (see
     /// `docs/algorithms/fresh-pixels.md`). The cost is a frame of twice the rays at the cut.
     /// Reflections alone pay it back over `reflections.reset_payback` frames; a frame of AO
-    /// alone takes `ao_reset_boost` instead.
+    /// alone takes `ao_reset_boost` instead, and one of shadows alone `shadow_reset_boost`.
     pub reset_boost: f32,
     /// What a frame of AO alone (`Layout::ao_alone`) spends ahead at a reset in place of
     /// `reset_boost` (0..=4, at most half of `reset_payback`; default 3: at one ray per pixel a
     /// cut's frame traces four frames' budget, the next `reset_payback` frames 5/8 of theirs).
     /// Below that budget it is lowered so that the payback frames keep 5/8 of a ray per pixel,
     /// but not below `reset_boost` (a value under `reset_boost` is kept as set:
-    /// `denoiser::rates::ao_boost`). AO's fresh pixels gain from each ray the cut's frame gets,
-    /// and its history holds them for every later frame; the shadows and the reflections lost
-    /// with a larger boost (`docs/algorithms/fresh-pixels.md`).
+    /// `denoiser::rates::alone_boost`). AO's fresh pixels gain from each ray the cut's frame gets,
+    /// and its history holds them for every later frame; the reflections lost with a larger
+    /// boost (`docs/algorithms/fresh-pixels.md`).
     pub ao_reset_boost: f32,
+    /// What a frame of shadows alone (`Layout::shadows_alone`) spends ahead at a reset in place
+    /// of `reset_boost`, lowered the same way as `ao_reset_boost` (0..=4, at most half of
+    /// `reset_payback`; default 2: at one ray per pixel a cut's frame traces three frames'
+    /// budget, `reset_refill` of the boost on the penumbrae, and the next `reset_payback` frames
+    /// 3/4 of theirs). At 3 the payback frames starved the pixels a moving object uncovers
+    /// (`docs/algorithms/fresh-pixels.md`).
+    pub shadow_reset_boost: f32,
     /// Frames over which a reset's `reset_boost` is paid back (0 = no boost; 0..=64; default 8:
     /// a frame without rays after the cut starves what it disoccludes and lets moving shadows
     /// lag; see `docs/algorithms/fresh-pixels.md`).

@@ -457,7 +457,9 @@ impl Denoiser {
         RateSettings {
             rays_per_pixel: self.rays_per_pixel,
             reset_boost: if self.layout.ao_alone() {
-                rates::ao_boost(&r, self.rays_per_pixel)
+                rates::alone_boost(&r, r.ao_reset_boost, self.rays_per_pixel)
+            } else if self.layout.shadows_alone() {
+                rates::alone_boost(&r, r.shadow_reset_boost, self.rays_per_pixel)
             } else {
                 r.reset_boost
             },

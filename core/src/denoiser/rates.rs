@@ -317,23 +317,28 @@ pub(crate) fn frame_budget(
     r.rays_per_pixel * (1.0 + ahead)
 }
 
-/// How far above the balancer's shift floor AO's payback frames keep their budget per pixel
-/// ([`ao_boost`]): the shift lowers no request below [`balance::SHIFT_FLOOR`]'s half ray, and
-/// where every pixel asks, as after a cut, a budget below that falls back to the seed's cap,
-/// which gives a disoccluded pixel the same half ray as its neighbours. A quarter more than the
-/// floor: at exactly the floor the room's disoccluded pixels starved
-/// (`docs/algorithms/fresh-pixels.md`).
-const AO_PAYBACK_MARGIN: f32 = 1.25;
+/// How far above the balancer's shift floor the payback frames of a signal alone keep their
+/// budget per pixel ([`alone_boost`]): the shift lowers no request below
+/// [`balance::SHIFT_FLOOR`]'s half ray, and where every pixel asks, as after a cut, a budget
+/// below that falls back to the seed's cap, which gives a disoccluded pixel the same half ray as
+/// its neighbours. A quarter more than the floor: at exactly the floor the room's disoccluded
+/// pixels starved (`docs/algorithms/fresh-pixels.md`).
+const PAYBACK_MARGIN: f32 = 1.25;
 
-/// The boost of a frame of AO alone at a budget of `rays_per_pixel`: `rates.ao_reset_boost`,
-/// or less where its payback frames would keep under [`AO_PAYBACK_MARGIN`] times the shift's
-/// floor per pixel, but never less than `rates.reset_boost` (unless `ao_reset_boost` itself is
-/// less: an engine that turns AO's boost down gets what it set). Host-side, once a frame.
-pub(crate) fn ao_boost(r: &crate::settings::RateSettings, rays_per_pixel: f32) -> f32 {
-    let least = AO_PAYBACK_MARGIN * buckets::bucket_to_rate(balance::SHIFT_FLOOR);
+/// The boost of a frame of one shifted signal alone (AO: `rates.ao_reset_boost`, shadows:
+/// `rates.shadow_reset_boost`, passed as `boost`) at a budget of `rays_per_pixel`: `boost`, or
+/// less where its payback frames would keep under [`PAYBACK_MARGIN`] times the shift's floor per
+/// pixel, but never less than `rates.reset_boost` (unless `boost` itself is less: an engine that
+/// turns the boost down gets what it set). Host-side, once a frame.
+pub(crate) fn alone_boost(
+    r: &crate::settings::RateSettings,
+    boost: f32,
+    rays_per_pixel: f32,
+) -> f32 {
+    let least = PAYBACK_MARGIN * buckets::bucket_to_rate(balance::SHIFT_FLOOR);
     let room = r.reset_payback as f32 * (1.0 - least / rays_per_pixel.max(1e-6));
-    let lowest = r.reset_boost.min(r.ao_reset_boost);
-    r.ao_reset_boost.min(room).max(lowest)
+    let lowest = r.reset_boost.min(boost);
+    boost.min(room).max(lowest)
 }
 
 /// Whether a reset frame spends ahead: balanced rates, a payback, and no budget in milliseconds.
@@ -391,31 +396,32 @@ mod tests {
     }
 
     #[test]
-    fn ao_boosts_no_further_than_its_payback_frames_afford() {
+    fn a_boost_goes_no_further_than_its_payback_frames_afford() {
         let r = RateSettings {
-            ao_reset_boost: 3.0,
             reset_boost: 1.0,
             reset_payback: 8,
             ..RateSettings::default()
         };
-        assert_eq!(ao_boost(&r, 1.0), 3.0, "payback frames keep 5/8 of a ray");
-        assert_eq!(ao_boost(&r, 4.0), 3.0);
-        approx::assert_relative_eq!(ao_boost(&r, 0.8), 1.75);
-        assert_eq!(ao_boost(&r, 0.5), 1.0, "never below reset_boost");
-        assert_eq!(ao_boost(&r, 0.0), 1.0);
+        assert_eq!(
+            alone_boost(&r, 3.0, 1.0),
+            3.0,
+            "payback frames keep 5/8 of a ray"
+        );
+        assert_eq!(alone_boost(&r, 2.0, 1.0), 2.0, "and 3/4 at a boost of 2");
+        assert_eq!(alone_boost(&r, 3.0, 4.0), 3.0);
+        approx::assert_relative_eq!(alone_boost(&r, 3.0, 0.8), 1.75);
+        approx::assert_relative_eq!(alone_boost(&r, 2.0, 0.8), 1.75);
+        assert_eq!(alone_boost(&r, 3.0, 0.5), 1.0, "never below reset_boost");
+        assert_eq!(alone_boost(&r, 3.0, 0.0), 1.0);
         let none = RateSettings {
             reset_payback: 0,
             ..r
         };
-        assert_eq!(ao_boost(&none, 1.0), 1.0);
-        for (ao_reset_boost, rpp) in [(0.0, 1.0), (0.0, 0.25), (0.5, 0.25)] {
-            let off = RateSettings {
-                ao_reset_boost,
-                ..r
-            };
+        assert_eq!(alone_boost(&none, 3.0, 1.0), 1.0);
+        for (boost, rpp) in [(0.0, 1.0), (0.0, 0.25), (0.5, 0.25)] {
             assert_eq!(
-                ao_boost(&off, rpp),
-                ao_reset_boost,
+                alone_boost(&r, boost, rpp),
+                boost,
                 "turned down, it stays down"
             );
         }

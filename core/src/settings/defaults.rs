@@ -34,6 +34,7 @@ impl Default for RateSettings {
             spend_saved_rays: true,
             reset_boost: 1.0,
             ao_reset_boost: 3.0,
+            shadow_reset_boost: 2.0,
             reset_payback: 8,
             reset_refill: 1.0,
             undersample: true,

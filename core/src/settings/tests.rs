@@ -242,22 +242,25 @@ fn out_of_range_rates_prepass_and_detector_name_their_field() {
 }
 
 #[test]
-fn an_ao_boost_beyond_its_payback_names_its_field() {
+fn a_boost_beyond_its_payback_names_its_field() {
     let d = Settings::default();
-    let with = |ao_reset_boost, reset_payback| Settings {
+    let with = |ao_reset_boost, shadow_reset_boost, reset_payback| Settings {
         rates: RateSettings {
             ao_reset_boost,
+            shadow_reset_boost,
             reset_payback,
             ..d.rates
         },
         ..d
     };
-    assert_eq!(with(3.0, 8).validate(), Ok(()));
-    assert_eq!(with(3.0, 0).validate(), Ok(()), "no payback, no boost");
+    assert_eq!(with(3.0, 2.0, 8).validate(), Ok(()));
+    assert_eq!(with(3.0, 3.0, 0).validate(), Ok(()), "no payback, no boost");
     // Paid back over 4 frames, a boost of 3 would leave them a quarter of their budget.
     assert_named(&[
-        (with(4.5, 16), "rates.ao_reset_boost"),
-        (with(3.0, 4), "rates.ao_reset_boost"),
+        (with(4.5, 1.0, 16), "rates.ao_reset_boost"),
+        (with(3.0, 1.0, 4), "rates.ao_reset_boost"),
+        (with(1.0, 4.5, 16), "rates.shadow_reset_boost"),
+        (with(1.0, 3.0, 4), "rates.shadow_reset_boost"),
     ]);
 }
 

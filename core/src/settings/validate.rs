@@ -187,14 +187,18 @@ impl RateSettings {
             self.reset_boost,
             "0..=1",
         )?;
-        check(
-            (0.0..=4.0).contains(&self.ao_reset_boost)
-                && (self.reset_payback == 0
-                    || self.ao_reset_boost * 2.0 <= self.reset_payback as f32),
-            "rates.ao_reset_boost",
-            self.ao_reset_boost,
-            "0..=4 and at most half of rates.reset_payback",
-        )?;
+        for (boost, name) in [
+            (self.ao_reset_boost, "rates.ao_reset_boost"),
+            (self.shadow_reset_boost, "rates.shadow_reset_boost"),
+        ] {
+            check(
+                (0.0..=4.0).contains(&boost)
+                    && (self.reset_payback == 0 || boost * 2.0 <= self.reset_payback as f32),
+                name,
+                boost,
+                "0..=4 and at most half of rates.reset_payback",
+            )?;
+        }
         check(
             self.reset_payback <= super::MAX_RESET_PAYBACK,
             "rates.reset_payback",
