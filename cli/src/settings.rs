@@ -210,6 +210,7 @@ mod tests {
                 ao_symmetric_taps: false,
                 guide_sigma: 0.1 + 0.7,
                 guided_sigma_luminance: 2.75,
+                tall_guided_sigma_luminance: 5.5,
                 penumbra_reach: 0.1 + 0.2,
                 penumbra_sigma_luminance: 1.25,
                 penumbra_radius: 1,

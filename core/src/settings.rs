@@ -405,7 +405,8 @@ pub struct FilterSettings {
     /// and smaller images, where 5×5 covers more of the scene, were worse with it (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub wide_until: f32,
-    /// Image height (rows) from which `wide_until` applies (default 360; 0 = every size).
+    /// Image height (rows) from which `wide_until` and `tall_guided_sigma_luminance` apply
+    /// (default 360; 0 = every size).
     pub wide_rows: u32,
     /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
     /// largest standard deviation of the estimate (signal units) below this (each iteration
@@ -432,6 +433,12 @@ pub struct FilterSettings {
     /// σ from a few rays cuts the blur the flat parts need (see
     /// `docs/algorithms/reflections.md`).
     pub guided_sigma_luminance: f32,
+    /// `guided_sigma_luminance` on images at least `wide_rows` tall (> 0; default 6). At
+    /// 640x360 the wider test gained the reflections' whole sequences 1–6% and their fresh
+    /// pixels 6–19% on all three scenes; at 160x90 and 128x72 it lost 4–16%, as the filter's
+    /// footprint there covers more of the reflected image (see
+    /// `docs/algorithms/reflections.md`).
+    pub tall_guided_sigma_luminance: f32,
     /// Reach of à-trous on the penumbra plane in penumbra widths (`k`: a tap `r` pixels from a
     /// pixel whose penumbra is `W` pixels wide weighs `exp(−(r / (k·W))²)`; >= 0, 0 = off;
     /// default 0.5): at 1 rpp the luminance test tells neither a wide penumbra nor a contact

@@ -110,7 +110,10 @@ fn the_shadows_shift_their_requests_only_alone() {
         }
         modes
     };
-    let (alone, shared) = (modes(Signal::Shadows), modes(Signal::All { max_distance: 1.0 }));
+    let (alone, shared) = (
+        modes(Signal::Shadows),
+        modes(Signal::All { max_distance: 1.0 }),
+    );
     assert_eq!(alone, [balance::MODE_SHIFT; 5]);
     assert_eq!(shared, [balance::MODE_OVER; 5]);
 }

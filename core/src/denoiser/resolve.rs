@@ -429,7 +429,11 @@ impl Denoiser {
             },
             guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
-            guided_sigma_luminance: s.filter.guided_sigma_luminance,
+            guided_sigma_luminance: if self.height >= s.filter.wide_rows {
+                s.filter.tall_guided_sigma_luminance
+            } else {
+                s.filter.guided_sigma_luminance
+            },
             penumbra_plane: l.penumbra_plane.unwrap_or(reproject::NO_PLANE),
             penumbra_scale: if s.filter.penumbra_reach > 0.0 {
                 1.0 / s.filter.penumbra_reach

@@ -101,6 +101,7 @@ impl Default for FilterSettings {
             ao_symmetric_taps: true,
             guide_sigma: 1.6,
             guided_sigma_luminance: 3.0,
+            tall_guided_sigma_luminance: 6.0,
             penumbra_reach: 0.5,
             penumbra_sigma_luminance: 2.0,
             penumbra_radius: 2,

@@ -384,12 +384,15 @@ impl FilterSettings {
             self.guide_sigma,
             ">= 0",
         )?;
-        check(
-            finite(self.guided_sigma_luminance) && self.guided_sigma_luminance > 0.0,
-            "filter.guided_sigma_luminance",
-            self.guided_sigma_luminance,
-            "> 0",
-        )?;
+        for (sigma, name) in [
+            (self.guided_sigma_luminance, "filter.guided_sigma_luminance"),
+            (
+                self.tall_guided_sigma_luminance,
+                "filter.tall_guided_sigma_luminance",
+            ),
+        ] {
+            check(finite(sigma) && sigma > 0.0, name, sigma, "> 0")?;
+        }
         check(
             finite(self.penumbra_reach) && self.penumbra_reach >= 0.0,
             "filter.penumbra_reach",
