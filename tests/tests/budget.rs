@@ -93,6 +93,8 @@ fn the_shadows_shift_their_requests_only_alone() {
         let (w, h) = SIZE;
         let mut r = Renderer::new(&mut exec, w, h, signal, scene.lights.len(), settings).unwrap();
         let layout = signal.layout(scene.lights.len());
+        let (z, _) = layout.shadows.unwrap();
+        let group = vrrt_core::kernels::plane_group(layout.plane_groups(), z) as usize;
         let mut modes = Vec::new();
         // The frames after the cut at 60: every pixel asks for a refill, over the budget. Not
         // frame 61, which sets aside a ray for each pixel the cut's penumbra lists held
@@ -103,9 +105,7 @@ fn the_shadows_shift_their_requests_only_alone() {
                 .render(&mut exec, &scene.frame(i), Readback::default())
                 .unwrap();
             if i > 61 {
-                let (z, _) = layout.shadows.unwrap();
-                let g = vrrt_core::kernels::plane_group(layout.plane_groups(), z);
-                modes.push(out.decisions[g as usize].mode);
+                modes.push(out.decisions[group].mode);
             }
         }
         modes
