@@ -162,10 +162,12 @@ pub struct RateSettings {
     /// lag; see `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
     /// Share of `reset_boost` a reset frame spends on the shadows' penumbrae instead of on every
-    /// pixel (0..=1; default 1; only a denoiser of the shadows alone, `Layout::shadows_alone`: in
-    /// a shared frame the other signals would pay for the penumbrae): the pixels whose 3×3
+    /// pixel (0..=1; default 0.95; only a denoiser of the shadows alone, `Layout::shadows_alone`:
+    /// in a shared frame the other signals would pay for the penumbrae): the pixels whose 3×3
     /// window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
-    /// `docs/algorithms/penumbra-guide.md`).
+    /// `docs/algorithms/penumbra-guide.md`). The rest is a second ray for a tenth of the pixels
+    /// at one ray per pixel: where the penumbrae are wide and the lists hit their 16 rays, it
+    /// keeps the boost from going unspent (`docs/algorithms/fresh-pixels.md`).
     pub reset_refill: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,

@@ -36,7 +36,7 @@ impl Default for RateSettings {
             ao_reset_boost: 3.0,
             shadow_reset_boost: 2.0,
             reset_payback: 8,
-            reset_refill: 1.0,
+            reset_refill: 0.95,
             undersample: true,
             undersample_after: 16.0,
             variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],
