@@ -16,6 +16,7 @@ use vrrt_core::kernels::buckets::MAX_RATE;
 use vrrt_core::kernels::gradient::{GradientSample, EMPTY_KEY};
 use vrrt_core::kernels::work_list::{work_entry, LIST_GROUP};
 use vrrt_core::kernels::{self, classify, group_planes, reproject};
+use vrrt_core::layout::Layout;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::reflections::Reflections;
@@ -442,33 +443,7 @@ impl Renderer {
         let groups = layout.groups();
         let group_rays = d.read_rays(exec)?;
         let decisions: Vec<Balance> = read(exec, d.decision(), groups as usize)?;
-        // A group's ray costs one ray of each of its planes.
-        let weight: Vec<f64> = (0..groups)
-            .map(|g| group_planes(layout.plane_groups, planes, g) as f64 / planes as f64)
-            .collect();
-        let pixels = (w * h) as usize;
-        let rays: Vec<f32> = (0..pixels)
-            .map(|i| {
-                let per_group = group_rays.iter().skip(i).step_by(pixels);
-                per_group
-                    .zip(&weight)
-                    .map(|(&r, &c)| r as f64 * c)
-                    .sum::<f64>() as f32
-            })
-            .collect();
-        let per_plane = |f: fn(&Balance) -> f32| -> f64 {
-            decisions
-                .iter()
-                .zip(&weight)
-                .map(|(d, &c)| f(d) as f64 * c)
-                .sum()
-        };
-        // What the frame may trace, its refill lists included (`Balance::allowed`).
-        let (budget, requested, granted) = (
-            per_plane(|d| d.allowed as f32),
-            per_plane(|d| d.requested),
-            per_plane(|d| d.granted),
-        );
+        let per_plane = PlaneRays::new(layout, &group_rays, &decisions, (w * h) as usize);
         // Resolve does not write the requests (with the flags).
         let requests: Vec<u32> = read(exec, d.requests(), (w * h) as usize)?;
         let flags = requests
@@ -495,11 +470,11 @@ impl Renderer {
                 .map(|s| if s.rays > 0 { s.m1 } else { 0.0 })
                 .collect(),
             rays_per_pixel,
-            rays,
+            rays: per_plane.rays,
             decisions,
-            budget,
-            requested,
-            granted,
+            budget: per_plane.budget,
+            requested: per_plane.requested,
+            granted: per_plane.granted,
             flags,
             gradient_ran: report.gradient_ran,
             reset: report.reset,
@@ -784,4 +759,46 @@ pub fn reference_with<E: Executor>(
         .map(|se| if spp < 2 { f32::NAN } else { se })
         .collect();
     Ok(Reference { mean, stderr, spp })
+}
+
+/// A frame's rays and budget counted per plane of the frame: a group's ray costs one ray of
+/// each of its planes, so a shadow ray of one of three lights is a third of an AO ray.
+struct PlaneRays {
+    /// Each pixel's rays (`Denoiser::read_rays`, group-major, summed over the groups).
+    rays: Vec<f32>,
+    /// What the frame may trace, its refill lists included (`Balance::allowed`).
+    budget: f64,
+    requested: f64,
+    granted: f64,
+}
+
+impl PlaneRays {
+    fn new(layout: &Layout, group_rays: &[u32], decisions: &[Balance], pixels: usize) -> Self {
+        let (groups, planes) = (layout.groups(), layout.planes);
+        let weight: Vec<f64> = (0..groups)
+            .map(|g| group_planes(layout.plane_groups, planes, g) as f64 / planes as f64)
+            .collect();
+        let rays = (0..pixels)
+            .map(|i| {
+                let per_group = group_rays.iter().skip(i).step_by(pixels);
+                per_group
+                    .zip(&weight)
+                    .map(|(&r, &c)| r as f64 * c)
+                    .sum::<f64>() as f32
+            })
+            .collect();
+        let per_plane = |f: fn(&Balance) -> f32| -> f64 {
+            decisions
+                .iter()
+                .zip(&weight)
+                .map(|(d, &c)| f(d) as f64 * c)
+                .sum()
+        };
+        PlaneRays {
+            rays,
+            budget: per_plane(|d| d.allowed as f32),
+            requested: per_plane(|d| d.requested),
+            granted: per_plane(|d| d.granted),
+        }
+    }
 }
