@@ -221,7 +221,7 @@ pub struct FrameOutput {
     /// The load balancer's decision of each signal (plane group).
     pub decisions: Vec<Balance>,
     /// The frame's budget, in rays per plane like `rays_traced` (the groups' budgets weighted by
-    /// their planes).
+    /// their planes, summed and rounded alike: `vrrt_core::frame::per_plane`).
     pub budget: f64,
     /// Expected rays requested, per plane.
     pub requested: f64,
@@ -766,7 +766,8 @@ pub fn reference_with<E: Executor>(
 struct PlaneRays {
     /// Each pixel's rays (`Denoiser::read_rays`, group-major, summed over the groups).
     rays: Vec<f32>,
-    /// What the frame may trace, its refill lists included (`Balance::allowed`).
+    /// What the frame may trace, its refill lists included (`Balance::allowed`), counted as
+    /// the frame's rays are (`vrrt_core::frame::per_plane`).
     budget: f64,
     requested: f64,
     granted: f64,
@@ -787,7 +788,7 @@ impl PlaneRays {
                     .sum::<f64>() as f32
             })
             .collect();
-        let per_plane = |f: fn(&Balance) -> f32| -> f64 {
+        let weighted = |f: fn(&Balance) -> f32| -> f64 {
             decisions
                 .iter()
                 .zip(&weight)
@@ -796,9 +797,9 @@ impl PlaneRays {
         };
         PlaneRays {
             rays,
-            budget: per_plane(|d| d.allowed as f32),
-            requested: per_plane(|d| d.requested),
-            granted: per_plane(|d| d.granted),
+            budget: vrrt_core::frame::per_plane(layout, decisions, |d| d.allowed) as f64,
+            requested: weighted(|d| d.requested),
+            granted: weighted(|d| d.granted),
         }
     }
 }

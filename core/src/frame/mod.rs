@@ -39,6 +39,7 @@ use crate::kernels::gbuffer::InstanceData;
 use crate::kernels::gradient::GradientSample;
 use crate::kernels::group_planes;
 use crate::kernels::raygen::AreaLight;
+use crate::layout::Layout;
 use crate::reflections::{ReflectionScene, Reflections};
 use crate::settings::{Settings, SettingsError};
 
@@ -142,8 +143,8 @@ pub struct FrameReport {
     /// The temporal-gradient prepass ran.
     pub gradient_ran: bool,
     /// Rays the frame traced, main pass and refill lists, per plane: each plane group's rays
-    /// weighted by its share of the planes, as the ray budget counts them
-    /// ([`Frame::finish`]; 0 before it).
+    /// weighted by its share of the planes, as the ray budget counts them ([`per_plane`],
+    /// [`Frame::finish`]; 0 before it).
     pub rays_traced: u64,
     /// Milliseconds the frame's ray-tracing passes took ([`budget::trace_ms`] of the
     /// executor's timings since [`Frame::render`] began; [`Frame::finish`]).
@@ -175,7 +176,7 @@ pub struct Frame {
 
 impl Frame {
     /// A frame sequence of `width × height` for `signal` in a scene with `lights` lights. The
-    /// denoiser's [`Layout`](crate::denoiser::Layout) follows from the signal's planes
+    /// denoiser's [`Layout`] follows from the signal's planes
     /// ([`PlaneLayout::denoiser`]); `settings` are the denoiser's as given. Reflections
     /// cannot be re-traced by the temporal-gradient prepass, so with them `prepass.stratum`
     /// must be 0, or 1 for changes the host supplies ([`FrameScene::changes`]).
@@ -368,16 +369,9 @@ impl Frame {
             self.denoiser.decision(),
             bytemuck::cast_slice_mut(&mut decisions[..groups]),
         )?;
-        let planes = self.layout.planes;
-        let rays: f64 = (0..groups)
-            .map(|g| {
-                let d = &decisions[g];
-                let share = group_planes(layout.plane_groups, planes, g as u32) as f64;
-                (d.traced as f64 + d.refill_traced as f64) * share / planes as f64
-            })
-            .sum();
+        let traced = |d: &Balance| d.traced + d.refill_traced;
         let report = FrameReport {
-            rays_traced: math_round(rays),
+            rays_traced: per_plane(&layout, &decisions[..groups], traced),
             trace_ms: budget::trace_ms(exec.timings().get(self.first_timing..).unwrap_or(&[])),
             ..report
         };
@@ -447,8 +441,20 @@ impl Frame {
 
 /// `x` rounded to the nearest whole count (halves away from zero), for the non-negative ray
 /// totals of [`Frame::finish`]: core has no `f64::round` without `std`.
-fn math_round(x: f64) -> u64 {
-    (x + 0.5) as u64
+/// A count of rays per plane of the frame, as the ray budget counts them: `count` of each plane
+/// group's decision (group `g` at `decisions[g]`), a group's ray costing one ray of each of its
+/// planes, summed in whole plane-rays and rounded once (half up). Why whole plane-rays: the
+/// frame's rays ([`FrameReport::rays_traced`]) and its budget ([`Balance::allowed`]) counted
+/// alike cannot round apart, so a frame whose every group keeps to its own budget never shows
+/// over the whole of it (a shadow ray of one of three lights is a third of an AO ray).
+pub fn per_plane(layout: &Layout, decisions: &[Balance], count: impl Fn(&Balance) -> u32) -> u64 {
+    let planes = layout.planes.max(1) as u64;
+    let weighted: u64 = decisions
+        .iter()
+        .zip(0..)
+        .map(|(d, g)| count(d) as u64 * group_planes(layout.plane_groups, layout.planes, g) as u64)
+        .sum();
+    (weighted + planes / 2) / planes
 }
 
 #[cfg(all(test, feature = "std"))]
@@ -470,6 +476,40 @@ mod tests {
             camera_cut: false,
             changes: None,
         }
+    }
+
+    /// The rays of a shared frame (AO, three lights' shadows, reflections: groups of 1, 3 and
+    /// 1 planes) counted per plane never exceed its budget counted alike, whenever each group
+    /// keeps to its own; a lone group's count is its own.
+    #[test]
+    fn rays_per_plane_keep_to_the_budget_per_plane() {
+        let layout = Signal::All { max_distance: 1.0 }
+            .layout(3)
+            .denoiser(&Settings::default());
+        assert_eq!((layout.planes, layout.groups()), (5, 3));
+        let mut state = 0x2545_f491_u32;
+        let mut next = |n: u32| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) % n
+        };
+        for _ in 0..10_000 {
+            let mut decisions = [Balance::default(); 3];
+            for d in &mut decisions {
+                d.allowed = next(100_000);
+                d.traced = d.allowed - next(d.allowed + 1).min(next(4));
+            }
+            let traced = per_plane(&layout, &decisions, |d| d.traced);
+            let allowed = per_plane(&layout, &decisions, |d| d.allowed);
+            assert!(traced <= allowed, "{decisions:?}: {traced} > {allowed}");
+        }
+        // 2 AO rays and 1 shadow ray of each light: (2 + 3) / 5 planes, one ray.
+        let d = |n| Balance {
+            traced: n,
+            ..Balance::default()
+        };
+        assert_eq!(per_plane(&layout, &[d(2), d(1), d(0)], |d| d.traced), 1);
+        let alone = Layout::with_planes(1);
+        assert_eq!(per_plane(&alone, &[d(12_345)], |d| d.traced), 12_345);
     }
 
     #[test]
