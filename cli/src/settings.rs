@@ -223,6 +223,7 @@ mod tests {
                 max_rate: 3.5,
                 tile_sigma: 0.1 + 0.2,
                 reuse_radius: 2,
+                tall_reuse_radius: 3,
                 parallax: false,
                 motion_radius: 0,
                 plane_threshold: 1.0e-7,

@@ -215,17 +215,25 @@ impl Reflections {
         gbuffer: &GBuffer,
         scene: &ReflectionScene,
     ) -> Result<(), E::Error> {
-        if self.settings.reuse_radius == 0 {
+        let (w, h) = denoiser.size();
+        // A reset frame keeps the narrow window: no pixel has history there, and the wider
+        // reuse made the first frames worse (`docs/algorithms/reflections.md`).
+        let tall = h >= denoiser.settings().filter.wide_rows && !denoiser.frame().reset;
+        let radius = if tall {
+            self.settings.tall_reuse_radius
+        } else {
+            self.settings.reuse_radius
+        };
+        if radius == 0 {
             return Ok(());
         }
-        let (w, h) = denoiser.size();
         let frame = denoiser.frame().index;
         let reuse = reflect::ReuseParams {
             width: w,
             height: h,
             plane: self.plane,
             frame,
-            radius: self.settings.reuse_radius,
+            radius,
             plane_threshold: self.settings.plane_threshold,
             _pad: [0; 2],
             shading: self.shading(scene),

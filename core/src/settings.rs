@@ -322,8 +322,15 @@ pub struct ReflectionSettings {
     /// 0.15).
     pub tile_sigma: f32,
     /// Ray reuse radius in pixels (0..=3; 0 = no reuse; default 1, a 3×3 neighbourhood: on the
-    /// room, 5×5 reuses rays across lobes too different and the error rises again).
+    /// room, 5×5 reuses rays across lobes too different and the error rises again), on images
+    /// less than `filter.wide_rows` tall.
     pub reuse_radius: u32,
+    /// `reuse_radius` on images at least `filter.wide_rows` tall, but for reset frames (0..=3;
+    /// default 2, a 5×5 neighbourhood). Why larger there: a glossy lobe and the surface under
+    /// it span more pixels, so a wider window still gathers rays of nearly the same lobe, and
+    /// each pixel reuses more of them; on a reset frame, where no pixel has history, it made
+    /// the first frame worse (measured in `docs/algorithms/reflections.md`).
+    pub tall_reuse_radius: u32,
     /// Reproject reflections along the parallax of their hit distance (default on); off, they
     /// follow the surface (the G-buffer motion), which smears them when the camera moves.
     pub parallax: bool,
@@ -407,8 +414,8 @@ pub struct FilterSettings {
     /// and smaller images, where 5×5 covers more of the scene, were worse with it (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub wide_until: f32,
-    /// Image height (rows) from which `wide_until` and `tall_guided_sigma_luminance` apply
-    /// (default 360; 0 = every size).
+    /// Image height (rows) from which `wide_until`, `tall_guided_sigma_luminance` and
+    /// `reflections.tall_reuse_radius` apply (default 360; 0 = every size).
     pub wide_rows: u32,
     /// Adaptive filtering: an 8×8 tile runs only the à-trous iterations needed to bring its
     /// largest standard deviation of the estimate (signal units) below this (each iteration
@@ -435,11 +442,9 @@ pub struct FilterSettings {
     /// σ from a few rays cuts the blur the flat parts need (see
     /// `docs/algorithms/reflections.md`).
     pub guided_sigma_luminance: f32,
-    /// `guided_sigma_luminance` on images at least `wide_rows` tall (> 0; default 6). At
-    /// 640x360 the wider test gained the reflections' whole sequences 1–6% and their fresh
-    /// pixels 6–19% on all three scenes; at 160x90 and 128x72 it lost 4–16%, as the filter's
-    /// footprint there covers more of the reflected image (see
-    /// `docs/algorithms/reflections.md`).
+    /// `guided_sigma_luminance` on images at least `wide_rows` tall (> 0; default 6): on
+    /// smaller images the filter's footprint covers more of the reflected image, and the wider
+    /// test blurred it (measured in `docs/algorithms/reflections.md`).
     pub tall_guided_sigma_luminance: f32,
     /// Reach of à-trous on the penumbra plane in penumbra widths (`k`: a tap `r` pixels from a
     /// pixel whose penumbra is `W` pixels wide weighs `exp(−(r / (k·W))²)`; >= 0, 0 = off;

@@ -1,7 +1,8 @@
 //! Glossy reflections (issue: stochastic SSR ideas, multi-signal) on the CPU backend, against
 //! converged references traced by the same raygen: the estimator converges to them, ray reuse
-//! lowers the error at equal rays, the parallax reprojection follows a reflection under camera
-//! motion, and AO, shadows and reflections share one frame and one ray budget.
+//! lowers the error at equal rays (its radius following the image height), the parallax
+//! reprojection follows a reflection under camera motion, and AO, shadows and reflections share
+//! one frame and one ray budget.
 
 use vrrt_core::glam::Vec3;
 use vrrt_core::kernels::balance::MODE_KEEP;
@@ -388,4 +389,40 @@ fn ao_shadows_and_reflections_share_one_frame_and_one_budget() {
     for (name, &(together, single)) in ["ao", "shadow", "reflections"].iter().zip(&errors) {
         assert!(together < single * 1.2, "{name}: {together} vs {single}");
     }
+}
+
+/// The reuse radius follows the image's height: `reflections.tall_reuse_radius` from
+/// `filter.wide_rows` rows up, `reuse_radius` below and on reset frames (a wider window gathers
+/// rays of the same lobe only where a lobe spans enough pixels, and no pixel of a reset frame
+/// has history: `docs/algorithms/reflections.md`). With reuse only on tall images, the samples
+/// after reuse equal those without any reuse one row short of `wide_rows`, and at it on the
+/// first frame (a reset) but not on the second.
+#[test]
+fn the_reuse_radius_follows_the_image_height() {
+    let scene = vrrt_scene::builtin::builtin("room").unwrap();
+    let (w, h) = (48, 27);
+    let raw = |reuse_radius, tall_reuse_radius, wide_rows| {
+        let mut s = Settings::default();
+        s.reflections.reuse_radius = reuse_radius;
+        s.reflections.tall_reuse_radius = tall_reuse_radius;
+        s.filter.wide_rows = wide_rows;
+        let mut exec = CpuExecutor::new();
+        let mut r = Renderer::new(&mut exec, w, h, Signal::Reflections, 1, s).unwrap();
+        let mut frame = |i| {
+            r.render(&mut exec, &scene.frame(i), Readback::default())
+                .unwrap()
+                .raw
+        };
+        (frame(0), frame(1))
+    };
+    let none = raw(0, 0, h);
+    assert_eq!(raw(0, 2, h + 1), none, "one row short: reuse_radius (0)");
+    let tall = raw(0, 2, h);
+    assert_eq!(tall.0, none.0, "a reset frame: reuse_radius (0)");
+    assert_ne!(tall.1, none.1, "at wide_rows: tall_reuse_radius (2)");
+    assert_ne!(
+        raw(1, 0, h + 1).1,
+        none.1,
+        "below wide_rows, reuse_radius (1) reuses"
+    );
 }

@@ -120,6 +120,7 @@ impl Default for ReflectionSettings {
             max_rate: 2.0,
             tile_sigma: 0.15,
             reuse_radius: 1,
+            tall_reuse_radius: 2,
             parallax: true,
             motion_radius: 2,
             plane_threshold: 0.02,

@@ -442,12 +442,12 @@ impl ReflectionSettings {
             self.tile_sigma,
             "> 0",
         )?;
-        check(
-            self.reuse_radius <= 3,
-            "reflections.reuse_radius",
-            self.reuse_radius,
-            "0..=3",
-        )?;
+        for (radius, name) in [
+            (self.reuse_radius, "reflections.reuse_radius"),
+            (self.tall_reuse_radius, "reflections.tall_reuse_radius"),
+        ] {
+            check(radius <= 3, name, radius, "0..=3")?;
+        }
         check(
             self.guide_radius <= 3,
             "reflections.guide_radius",
