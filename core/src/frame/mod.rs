@@ -439,8 +439,6 @@ impl Frame {
     }
 }
 
-/// `x` rounded to the nearest whole count (halves away from zero), for the non-negative ray
-/// totals of [`Frame::finish`]: core has no `f64::round` without `std`.
 /// A count of rays per plane of the frame, as the ray budget counts them: `count` of each plane
 /// group's decision (group `g` at `decisions[g]`), a group's ray costing one ray of each of its
 /// planes, summed in whole plane-rays and rounded once (half up). Why whole plane-rays: the
