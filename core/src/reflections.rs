@@ -218,7 +218,7 @@ impl Reflections {
         let (w, h) = denoiser.size();
         // A reset frame keeps the narrow window: no pixel has history there, and the wider
         // reuse made the first frames worse (`docs/algorithms/reflections.md`).
-        let tall = h >= denoiser.settings().filter.wide_rows && !denoiser.frame().reset;
+        let tall = denoiser.settings().filter.tall(h) && !denoiser.frame().reset;
         let radius = if tall {
             self.settings.tall_reuse_radius
         } else {

@@ -471,6 +471,14 @@ pub struct FilterSettings {
     pub fused_pair: bool,
 }
 
+impl FilterSettings {
+    /// Whether an image `rows` tall takes the tall-image values (`wide_until`,
+    /// `tall_guided_sigma_luminance`, `reflections.tall_reuse_radius`): at least `wide_rows`.
+    pub fn tall(&self, rows: u32) -> bool {
+        rows >= self.wide_rows
+    }
+}
+
 impl Settings {
     /// The SVGF baseline VRRT is measured against (every tile filtered fully, as published): every
     /// pixel traces `rays_per_pixel`, no requests, no balancing.

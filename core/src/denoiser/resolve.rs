@@ -288,7 +288,7 @@ impl Denoiser {
             ),
             guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
-            wide_until: if h >= s.filter.wide_rows {
+            wide_until: if s.filter.tall(h) {
                 s.filter.wide_until
             } else {
                 0.0
@@ -429,7 +429,7 @@ impl Denoiser {
             },
             guide_plane: l.guide_plane.unwrap_or(reproject::NO_PLANE),
             guide_scale: guide_scale(s.filter.guide_sigma),
-            guided_sigma_luminance: if self.height >= s.filter.wide_rows {
+            guided_sigma_luminance: if s.filter.tall(self.height) {
                 s.filter.tall_guided_sigma_luminance
             } else {
                 s.filter.guided_sigma_luminance
