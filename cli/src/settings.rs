@@ -203,6 +203,7 @@ mod tests {
                 spatial_until: 0.0,
                 ao_spatial_until: 2.5,
                 ao_spatial_rows: 45,
+                ao_reach: 0.25,
                 wide_until: 1.5,
                 wide_rows: 77,
                 skip_sigma: 1.0e-3,

@@ -406,6 +406,15 @@ pub struct FilterSettings {
     /// whole-sequence AO was at 8 rays at 160x90, 16 at 320x180 and 24–32 at 640x360 (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub ao_spatial_rows: u32,
+    /// How far the AO planes' à-trous taps may reach, as a fraction of the image height (0..=1,
+    /// 0 = as far as `atrous_iterations` go, as SVGF; default 0.1). The AO planes run the
+    /// iterations whose footprint, `2·(2ⁿ − 1)` pixels from the centre, stays within
+    /// `ao_reach × rows`, at least one and at most `atrous_iterations`
+    /// (`kernels::atrous::ao_iterations`): 2 at 90 rows, 3 at 144–180, 4 from 360 on. A wide
+    /// stride at a small size blurs across what the scene holds of AO's detail (a contact, a
+    /// crease, a thin pole); from 360 rows on, fewer were no better (see
+    /// `docs/results/benchmarks.md`, "AO's filter reach on small images").
+    pub ao_reach: f32,
     /// Pixels holding fewer rays than this take a spatial variance window one pixel wider
     /// (`spatial_radius + 1`, 5×5 by default) on the AO and reflections planes of an image at
     /// least `wide_rows` tall (>= 0; default 3: a cut's pixels, which hold the reset boost's two
@@ -505,6 +514,7 @@ impl Settings {
                 ao_normal_power: self.filter.normal_power,
                 ao_spatial_until: self.filter.spatial_until,
                 ao_spatial_rows: 0,
+                ao_reach: 0.0,
                 wide_until: 0.0,
                 ao_symmetric_taps: false,
                 guide_sigma: 0.0,

@@ -351,7 +351,13 @@ impl Denoiser {
         target: Option<BufferId>,
     ) -> Result<(), E::Error> {
         let (w, h, planes) = (self.width, self.height, self.layout.planes);
-        let iterations = self.settings.filter.atrous_iterations;
+        // A frame of AO planes alone runs only theirs: the later passes would copy every pixel.
+        let all = (1u32 << planes) - 1;
+        let iterations = if self.layout.ao_planes & all == all {
+            self.ao_iterations()
+        } else {
+            self.settings.filter.atrous_iterations
+        };
         let tiled = self.settings.filter.workgroup_tiles;
         self.out = 0;
         let passes = if target.is_some() {
@@ -441,7 +447,14 @@ impl Denoiser {
                 0.0
             },
             penumbra_sigma_luminance: s.filter.penumbra_sigma_luminance,
+            ao_iterations: self.ao_iterations(),
         }
+    }
+
+    /// Iterations the AO planes run on this image (`FilterSettings::ao_reach`).
+    fn ao_iterations(&self) -> u32 {
+        let f = &self.settings.filter;
+        atrous::ao_iterations(f.ao_reach, self.height, f.atrous_iterations)
     }
 }
 

@@ -94,6 +94,7 @@ impl Default for FilterSettings {
             spatial_until: 4.0,
             ao_spatial_until: 8.0,
             ao_spatial_rows: 120,
+            ao_reach: 0.1,
             wide_until: 3.0,
             wide_rows: 360,
             skip_sigma: 0.004,

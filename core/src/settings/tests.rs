@@ -39,6 +39,7 @@ fn svgf_is_the_default_with_rates_off() {
         s.filter.ao_spatial_rows, 0,
         "SVGF's window does not grow with the image"
     );
+    assert_eq!(s.filter.ao_reach, 0.0, "SVGF's AO runs every iteration");
     assert!(
         !s.filter.ao_symmetric_taps,
         "SVGF's taps are the published ones"
@@ -70,6 +71,7 @@ fn svgf_is_the_default_with_rates_off() {
             ao_normal_power: d.filter.ao_normal_power,
             ao_spatial_until: d.filter.ao_spatial_until,
             ao_spatial_rows: d.filter.ao_spatial_rows,
+            ao_reach: d.filter.ao_reach,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
             wide_until: d.filter.wide_until,
             guide_sigma: d.filter.guide_sigma,

@@ -367,6 +367,12 @@ impl FilterSettings {
             ">= 0",
         )?;
         check(
+            finite(self.ao_reach) && (0.0..=1.0).contains(&self.ao_reach),
+            "filter.ao_reach",
+            self.ao_reach,
+            "0..=1",
+        )?;
+        check(
             finite(self.wide_until) && self.wide_until >= 0.0,
             "filter.wide_until",
             self.wide_until,

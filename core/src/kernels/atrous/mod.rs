@@ -71,6 +71,9 @@ pub struct AtrousParams {
     pub penumbra_scale: f32,
     /// `sigma_luminance` of `penumbra_plane` (`FilterSettings::penumbra_sigma_luminance`).
     pub penumbra_sigma_luminance: f32,
+    /// Iterations the planes in `ao_planes` run ([`ao_iterations`]): from this one on they
+    /// pass through, whatever their tile needs.
+    pub ao_iterations: u32,
 }
 
 impl Default for AtrousParams {
@@ -93,8 +96,23 @@ impl Default for AtrousParams {
             penumbra_plane: NO_PLANE,
             penumbra_scale: 0.0,
             penumbra_sigma_luminance: 4.0,
+            ao_iterations: u32::MAX,
         }
     }
+}
+
+/// À-trous iterations of the AO planes on an image `rows` tall (`FilterSettings::ao_reach`):
+/// the most, up to `iterations`, whose footprint (`2·(2ⁿ − 1)` pixels from the centre) stays
+/// within `reach × rows`, and at least one; `iterations` for `reach` 0. Host-side, once a frame.
+pub fn ao_iterations(reach: f32, rows: u32, iterations: u32) -> u32 {
+    if reach <= 0.0 || iterations == 0 {
+        return iterations;
+    }
+    let mut n = 1;
+    while n < iterations && (2 * ((2u32 << n) - 1)) as f32 <= reach * rows as f32 {
+        n += 1;
+    }
+    n
 }
 
 const B3: [f32; 3] = [3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
@@ -236,7 +254,7 @@ fn iterate<const N: usize>(
     let packed = Lanes::<PackedFiltered, N>::load_row(input, plane_row, x0, w);
     let cd = Lanes::<f32, N>::load_row(depth, row, x0, w);
     let needed = Lanes::<u32, N>::gather(tiles, xs.map(|x| tile_index(x, id.y, w) as u32));
-    let pass = cd.zip(needed, |d, t| passes_through(d, p.iteration, t));
+    let pass = cd.zip(needed, |d, t| passes_through(p, id.z, d, t));
     if pass.all() {
         return packed;
     }
@@ -263,11 +281,13 @@ fn iterate<const N: usize>(
     filtered.select(pass.map(|p| !p), packed)
 }
 
-/// Whether a pixel at view depth `depth` passes iteration `iteration` through unfiltered: it has
-/// no surface, or its tile needs no more than `needed` iterations ([`super::classify`]).
+/// Whether a pixel of plane `z` at view depth `depth` passes iteration `p.iteration` through
+/// unfiltered: it has no surface, its tile needs no more than `needed` iterations
+/// ([`super::classify`]), or its plane is an AO plane that has run its `p.ao_iterations`.
 #[inline(always)]
-fn passes_through(depth: f32, iteration: u32, needed: u32) -> bool {
-    !surface::has_surface(depth) || iteration >= needed
+fn passes_through(p: &AtrousParams, z: u32, depth: f32, needed: u32) -> bool {
+    let needed = per_plane(needed, needed.min(p.ao_iterations), p.ao_planes, z);
+    !surface::has_surface(depth) || p.iteration >= needed
 }
 
 /// What the centre pixels of a filter step bring: view depth, unit normal, value and variance,

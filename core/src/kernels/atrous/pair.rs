@@ -123,7 +123,7 @@ pub fn first(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &m
         let index = ((id.z * h + y) * w + x) as usize;
         let texels = &pair.input;
         let cd = texels.depth(t);
-        if passes_through(cd, p1.iteration, tiles[tile_index(x, y, w)]) {
+        if passes_through(&p1, id.z, cd, tiles[tile_index(x, y, w)]) {
             pair.first[t] = input[index];
             continue;
         }
@@ -158,7 +158,7 @@ pub fn second(ids: WorkgroupIds, p: &AtrousParams, io: AtrousPairIo<'_>, pair: &
     let t = (i + j * SIDE) as usize;
     let texels = First(&*pair);
     let cd = texels.depth(t);
-    if passes_through(cd, p2.iteration, tiles[tile_index(x, y, w)]) {
+    if passes_through(&p2, id.z, cd, tiles[tile_index(x, y, w)]) {
         out[index] = pair.first[t];
         return;
     }

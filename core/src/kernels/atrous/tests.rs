@@ -76,6 +76,56 @@ fn a_capped_variance_keeps_the_highlight_out() {
     );
 }
 
+/// The middle of [`below_a_highlight`]'s patch (variance uncapped, so the highlight gets in)
+/// at the second iteration, stride 1, its plane an AO plane or not, the AO planes running
+/// `ao_iterations`.
+fn second_iteration_below_a_highlight(ao_planes: u32, ao_iterations: u32) -> f32 {
+    let input: std::vec::Vec<PackedFiltered> = (0..15)
+        .map(|i| {
+            let (value, variance) = if i < 5 { (4.0, 4.0) } else { (0.1, 1e-4) };
+            Filtered { value, variance }.pack()
+        })
+        .collect();
+    let p = AtrousParams {
+        iteration: 1,
+        ao_planes,
+        ao_iterations,
+        ..Default::default()
+    };
+    filter_wall(&input, &[5.0; 15], &[NO_GUIDE], 5, p, 2, 1)
+}
+
+#[test]
+fn ao_planes_pass_through_once_they_have_run_their_iterations() {
+    let unfiltered = Filtered {
+        value: 0.1,
+        variance: 1e-4,
+    }
+    .pack()
+    .unpack()
+    .value;
+    // An AO plane that has run its one iteration keeps its value, though its tile needs more.
+    assert_eq!(second_iteration_below_a_highlight(1, 1), unfiltered);
+    // With two, or on a plane that is not AO, the second iteration filters.
+    assert!(second_iteration_below_a_highlight(1, 2) > 0.15);
+    assert!(second_iteration_below_a_highlight(0, 1) > 0.15);
+}
+
+#[test]
+fn ao_iterations_keep_the_footprint_within_the_reach() {
+    // Footprints 2, 6, 14, 30 pixels: a tenth of 72–90 rows holds 6, of 144–180 holds 14.
+    let at = |rows| ao_iterations(0.1, rows, 4);
+    assert_eq!(
+        [at(72), at(90), at(144), at(180), at(360), at(1080)],
+        [2, 2, 3, 3, 4, 4]
+    );
+    // At least one iteration, at most the configured count; reach 0 runs them all.
+    assert_eq!(ao_iterations(0.1, 8, 4), 1);
+    assert_eq!(ao_iterations(1.0, 1080, 5), 5);
+    assert_eq!(ao_iterations(0.1, 90, 0), 0);
+    assert_eq!(ao_iterations(0.0, 90, 4), 4);
+}
+
 /// Pixel `x` of a row on one wall whose value rises linearly (0.1 a pixel) and whose
 /// surface ends after pixel 5 (a crease seen edge-on), filtered with taps in pairs on plane 0
 /// (`symmetric_planes` 1) or one at a time (0).

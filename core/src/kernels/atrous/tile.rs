@@ -188,7 +188,7 @@ pub fn filter(ids: WorkgroupIds, p: &AtrousParams, io: AtrousTiledIo<'_>, tile: 
     let index = ((id.z * h + y) * w + x) as usize;
     let centre = (lx + 2 + (ly + 2) * SIDE) as usize;
     let cd = tile.depth[centre];
-    if passes_through(cd, p.iteration, tiles[tile_index(x, y, w)]) {
+    if passes_through(p, id.z, cd, tiles[tile_index(x, y, w)]) {
         out[index] = input[index];
         return;
     }
