@@ -47,16 +47,20 @@ fn filter_wall(
     out[(y * w + x) as usize].unpack().value
 }
 
-/// The first iteration at the middle of a 5×3 patch of one wall: a highlight along the top
-/// row (4.0, variance of the estimate 4.0), a dark, settled surface below it (0.1, variance
-/// 1e-4).
-fn below_a_highlight(cap_variance: u32) -> f32 {
-    let input: std::vec::Vec<PackedFiltered> = (0..15)
+/// A 5×3 patch of one wall: a highlight along the top row (4.0, variance of the estimate 4.0),
+/// a dark, settled surface below it (0.1, variance 1e-4).
+fn highlight_patch() -> std::vec::Vec<PackedFiltered> {
+    (0..15)
         .map(|i| {
             let (value, variance) = if i < 5 { (4.0, 4.0) } else { (0.1, 1e-4) };
             Filtered { value, variance }.pack()
         })
-        .collect();
+        .collect()
+}
+
+/// The first iteration at the middle of [`highlight_patch`].
+fn below_a_highlight(cap_variance: u32) -> f32 {
+    let input = highlight_patch();
     let p = AtrousParams {
         cap_variance,
         ..Default::default()
@@ -80,12 +84,7 @@ fn a_capped_variance_keeps_the_highlight_out() {
 /// at the second iteration, stride 1, its plane an AO plane or not, the AO planes running
 /// `ao_iterations`.
 fn second_iteration_below_a_highlight(ao_planes: u32, ao_iterations: u32) -> f32 {
-    let input: std::vec::Vec<PackedFiltered> = (0..15)
-        .map(|i| {
-            let (value, variance) = if i < 5 { (4.0, 4.0) } else { (0.1, 1e-4) };
-            Filtered { value, variance }.pack()
-        })
-        .collect();
+    let input = highlight_patch();
     let p = AtrousParams {
         iteration: 1,
         ao_planes,
