@@ -324,48 +324,33 @@ impl FilterSettings {
             self.atrous_iterations,
             "0..=5",
         )?;
-        check(
-            finite(self.sigma_luminance) && self.sigma_luminance > 0.0,
-            "filter.sigma_luminance",
-            self.sigma_luminance,
-            "> 0",
-        )?;
-        check(
-            finite(self.normal_power) && self.normal_power >= 0.0,
-            "filter.normal_power",
-            self.normal_power,
-            ">= 0",
-        )?;
-        check(
-            finite(self.ao_normal_power) && self.ao_normal_power >= 0.0,
-            "filter.ao_normal_power",
-            self.ao_normal_power,
-            ">= 0",
-        )?;
-        check(
-            finite(self.plane_tolerance) && self.plane_tolerance > 0.0,
-            "filter.plane_tolerance",
-            self.plane_tolerance,
-            "> 0",
-        )?;
-        check(
-            self.spatial_radius <= 5,
-            "filter.spatial_radius",
-            self.spatial_radius,
-            "0..=5",
-        )?;
-        check(
-            finite(self.spatial_until) && self.spatial_until >= 0.0,
-            "filter.spatial_until",
-            self.spatial_until,
-            ">= 0",
-        )?;
-        check(
-            finite(self.ao_spatial_until) && self.ao_spatial_until >= 0.0,
-            "filter.ao_spatial_until",
-            self.ao_spatial_until,
-            ">= 0",
-        )?;
+        for (v, name) in [
+            (self.sigma_luminance, "filter.sigma_luminance"),
+            (self.plane_tolerance, "filter.plane_tolerance"),
+            (self.guided_sigma_luminance, "filter.guided_sigma_luminance"),
+            (
+                self.tall_guided_sigma_luminance,
+                "filter.tall_guided_sigma_luminance",
+            ),
+            (
+                self.penumbra_sigma_luminance,
+                "filter.penumbra_sigma_luminance",
+            ),
+        ] {
+            check(finite(v) && v > 0.0, name, v, "> 0")?;
+        }
+        for (v, name) in [
+            (self.normal_power, "filter.normal_power"),
+            (self.ao_normal_power, "filter.ao_normal_power"),
+            (self.spatial_until, "filter.spatial_until"),
+            (self.ao_spatial_until, "filter.ao_spatial_until"),
+            (self.wide_until, "filter.wide_until"),
+            (self.skip_sigma, "filter.skip_sigma"),
+            (self.guide_sigma, "filter.guide_sigma"),
+            (self.penumbra_reach, "filter.penumbra_reach"),
+        ] {
+            check(finite(v) && v >= 0.0, name, v, ">= 0")?;
+        }
         check(
             finite(self.ao_reach) && (0.0..=1.0).contains(&self.ao_reach),
             "filter.ao_reach",
@@ -373,43 +358,10 @@ impl FilterSettings {
             "0..=1",
         )?;
         check(
-            finite(self.wide_until) && self.wide_until >= 0.0,
-            "filter.wide_until",
-            self.wide_until,
-            ">= 0",
-        )?;
-        check(
-            finite(self.skip_sigma) && self.skip_sigma >= 0.0,
-            "filter.skip_sigma",
-            self.skip_sigma,
-            ">= 0",
-        )?;
-        check(
-            finite(self.guide_sigma) && self.guide_sigma >= 0.0,
-            "filter.guide_sigma",
-            self.guide_sigma,
-            ">= 0",
-        )?;
-        for (sigma, name) in [
-            (self.guided_sigma_luminance, "filter.guided_sigma_luminance"),
-            (
-                self.tall_guided_sigma_luminance,
-                "filter.tall_guided_sigma_luminance",
-            ),
-        ] {
-            check(finite(sigma) && sigma > 0.0, name, sigma, "> 0")?;
-        }
-        check(
-            finite(self.penumbra_reach) && self.penumbra_reach >= 0.0,
-            "filter.penumbra_reach",
-            self.penumbra_reach,
-            ">= 0",
-        )?;
-        check(
-            finite(self.penumbra_sigma_luminance) && self.penumbra_sigma_luminance > 0.0,
-            "filter.penumbra_sigma_luminance",
-            self.penumbra_sigma_luminance,
-            "> 0",
+            self.spatial_radius <= 5,
+            "filter.spatial_radius",
+            self.spatial_radius,
+            "0..=5",
         )?;
         check(
             self.penumbra_radius <= 3,
