@@ -257,17 +257,20 @@ pub struct FrameOutput {
     /// 8×8 tiles of the spatial filter (`Denoiser::tile_histogram`): without geometry, then
     /// needing 0, 1, … 5 à-trous iterations.
     pub tiles: [u32; classify::HISTOGRAM_LEN as usize],
+    /// À-trous iterations the frame dispatched (`Denoiser::filter_iterations`).
+    pub filter_iterations: u32,
 }
 
 impl FrameOutput {
     /// À-trous tile-iterations over the tiles with geometry: `(run, configured)`, where every such
-    /// tile would run `iterations` with nothing skipped (`classify` never asks for more).
-    pub fn filter_work(&self, iterations: u32) -> (u64, u64) {
+    /// tile would run the frame's `filter_iterations` with nothing skipped (`classify` never
+    /// asks for more).
+    pub fn filter_work(&self) -> (u64, u64) {
         let mut work = (0, 0);
         for n in 0..=5 {
             let tiles = self.tiles[1 + n] as u64;
             work.0 += tiles * n as u64;
-            work.1 += tiles * iterations as u64;
+            work.1 += tiles * self.filter_iterations as u64;
         }
         work
     }
@@ -484,6 +487,7 @@ impl Renderer {
             gradient: gradient_overlays.1,
             changes: detected,
             tiles: tiles.try_into().expect("histogram length"),
+            filter_iterations: d.filter_iterations(),
             ..FrameOutput::default()
         };
         if readback.overlays {

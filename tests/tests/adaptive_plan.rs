@@ -70,7 +70,7 @@ fn run(
             traced += out.rays_traced;
             budget += out.budget;
             runs += out.gradient_ran as u32;
-            let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
+            let (run, configured) = out.filter_work();
             tiles_run += run;
             tiles_full += configured;
         }

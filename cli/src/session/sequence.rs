@@ -106,7 +106,7 @@ pub fn run_sequence(
             .map_err(|e| anyhow!("rendering frame {i}: {e}"))?;
         let ms_frame = start.elapsed().as_secs_f64() * 1e3;
         let passes = pass_times(rec.timings(), &mut pass_names);
-        let mut record = new_record(i, &out, ms_frame, passes, &settings, frame_planes);
+        let mut record = new_record(i, &out, ms_frame, passes, frame_planes);
         let fresh = fresh_mask(&out.flags, out.reset);
         if let (Some(o), false) = (&oracle, out.changes.is_empty()) {
             record.detection = Some(Detection::score(&out.changes, o));
@@ -262,10 +262,9 @@ fn new_record(
     out: &FrameOutput,
     ms_frame: f64,
     passes: Vec<(&'static str, f64)>,
-    settings: &Settings,
     frame_planes: usize,
 ) -> FrameRecord {
-    let (run, configured) = out.filter_work(settings.filter.atrous_iterations);
+    let (run, configured) = out.filter_work();
     let all_tiles: u32 = out.tiles.iter().sum();
     FrameRecord {
         prepass_ran: out.gradient_ran,

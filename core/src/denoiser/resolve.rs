@@ -309,7 +309,7 @@ impl Denoiser {
         let cls = classify::ClassifyParams {
             width: w,
             height: h,
-            iterations: s.filter.atrous_iterations,
+            iterations: self.filter_iterations(),
             skip_sigma: s.filter.skip_sigma,
         };
         let classify = kernels::ClassifyBindings {
@@ -351,13 +351,7 @@ impl Denoiser {
         target: Option<BufferId>,
     ) -> Result<(), E::Error> {
         let (w, h, planes) = (self.width, self.height, self.layout.planes);
-        // A frame of AO planes alone runs only theirs: the later passes would copy every pixel.
-        let all = (1u32 << planes) - 1;
-        let iterations = if self.layout.ao_planes & all == all {
-            self.ao_iterations()
-        } else {
-            self.settings.filter.atrous_iterations
-        };
+        let iterations = self.filter_iterations();
         let tiled = self.settings.filter.workgroup_tiles;
         self.out = 0;
         let passes = if target.is_some() {
@@ -455,6 +449,17 @@ impl Denoiser {
     fn ao_iterations(&self) -> u32 {
         let f = &self.settings.filter;
         atrous::ao_iterations(f.ao_reach, self.height, f.atrous_iterations)
+    }
+
+    /// À-trous iterations a frame dispatches: the AO planes' own count on a frame of AO planes
+    /// alone (the later passes would only copy), else `filter.atrous_iterations`.
+    pub fn filter_iterations(&self) -> u32 {
+        let all = (1u32 << self.layout.planes) - 1;
+        if self.layout.ao_planes & all == all {
+            self.ao_iterations()
+        } else {
+            self.settings.filter.atrous_iterations
+        }
     }
 }
 

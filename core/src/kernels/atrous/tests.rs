@@ -80,7 +80,7 @@ fn a_capped_variance_keeps_the_highlight_out() {
     );
 }
 
-/// The middle of [`below_a_highlight`]'s patch (variance uncapped, so the highlight gets in)
+/// The middle of [`highlight_patch`] (variance uncapped, so the highlight gets in)
 /// at the second iteration, stride 1, its plane an AO plane or not, the AO planes running
 /// `ao_iterations`.
 fn second_iteration_below_a_highlight(ao_planes: u32, ao_iterations: u32) -> f32 {
