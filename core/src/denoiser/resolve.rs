@@ -454,8 +454,7 @@ impl Denoiser {
     /// À-trous iterations a frame dispatches: the AO planes' own count on a frame of AO planes
     /// alone (the later passes would only copy), else `filter.atrous_iterations`.
     pub fn filter_iterations(&self) -> u32 {
-        let all = (1u32 << self.layout.planes) - 1;
-        if self.layout.ao_planes & all == all {
+        if self.layout.ao_alone() {
             self.ao_iterations()
         } else {
             self.settings.filter.atrous_iterations
