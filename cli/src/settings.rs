@@ -187,6 +187,7 @@ mod tests {
                 shadow_radius: 3,
                 shadow_threshold: 0.25,
                 ao_sigma: 2.5,
+                ao_gain: 4.5,
                 shadow_verify_sigma: 0.75,
                 shadow_verify_history: 9.5,
                 shadow_drop_sigma: 2.25,

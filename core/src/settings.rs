@@ -270,12 +270,17 @@ pub struct DetectorSettings {
     pub shadow_radius: u32,
     /// `threshold` of the shadow planes (0..=1; default 0.3).
     pub shadow_threshold: f32,
-    /// `sigma` of the AO planes (`Layout::ao_planes`; >= 1; default 1) at one ray per pixel and
-    /// more; below, it rises as `1/√rays_per_pixel` (`kernels::detect::ao_significance`): AO
-    /// changes only where geometry moves, and where a frame holds few rays a low significance
-    /// shortens converged history by chance, while at one ray per pixel 1σ lets the contact
-    /// shadows of moving objects lag least (see `docs/algorithms/change-detector.md`).
+    /// `sigma` of the AO planes (`Layout::ao_planes`; >= 1; default 1.5) at one ray per pixel
+    /// and more; below, it rises as `1/√rays_per_pixel` (`kernels::detect::ao_significance`):
+    /// AO changes only where geometry moves, and where a frame holds few rays a low
+    /// significance shortens converged history by chance (see
+    /// `docs/algorithms/change-detector.md`).
     pub ao_sigma: f32,
+    /// Gain of `λ` on the AO planes (>= 1, 1 = none; default 3), up to the drop `threshold`
+    /// (`kernels::detect::plane_lambda`): AO's slow changes read as a small `λ`, which left
+    /// history as long as a converged pixel's, and the contact shadows of moving objects lagged
+    /// (see `docs/algorithms/change-detector.md`).
+    pub ao_gain: f32,
     /// Verification of the shadow planes (>= 0, 0 = off; default 1.5): a pixel that traced fewer
     /// than `refill_rays` and whose own rays lie this many standard deviations from its history
     /// (`kernels::detect::pixel_z`) joins the refill lists, and accumulation drops its history

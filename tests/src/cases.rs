@@ -348,6 +348,8 @@ pub(crate) fn detect_params(rng: &mut Pcg32, w: u32, h: u32) -> detect::DetectPa
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         ao_planes: rng.random_range(0..1 << PLANES),
         ao_z_full: [1.0, 2.0][rng.random_range(0..2)],
+        ao_gain: [1.0, 3.0, 8.0][rng.random_range(0..3)],
+        ao_cap: [0.3, 0.5, 1.0][rng.random_range(0..3)],
     }
 }
 

@@ -35,6 +35,8 @@ impl Denoiser {
             z_full: s.detector.sigma,
             ao_planes: l.ao_planes,
             ao_z_full: detect::ao_significance(s.detector.ao_sigma, self.rays_per_pixel),
+            ao_gain: s.detector.ao_gain,
+            ao_cap: s.detector.threshold,
             min_variance: s.detector.min_variance,
         };
         if !refill {

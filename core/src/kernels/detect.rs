@@ -47,6 +47,11 @@ pub struct DetectParams {
     pub ao_planes: u32,
     /// `z_full` of the planes in `ao_planes`.
     pub ao_z_full: f32,
+    /// Gain of `λ` on the planes in `ao_planes` ([`lengthened`]); 1 or below leaves it as is.
+    pub ao_gain: f32,
+    /// Where that gain stops: the AO planes' drop threshold, so the gain shortens history and
+    /// never drops it on its own.
+    pub ao_cap: f32,
 }
 
 /// One call per `N` consecutive pixels of a row and one signal plane ([`crate::lanes`]):
@@ -132,8 +137,36 @@ pub fn lambda<const N: usize>(
     let [sum_s, sum_m, var] = sums;
     Lanes::<f32, N>::from_index(|l| {
         let l = l as usize;
-        lambda_of([sum_s.0[l], sum_m.0[l], var.0[l]], z_full)
+        plane_lambda(
+            p,
+            id.z,
+            lambda_of([sum_s.0[l], sum_m.0[l], var.0[l]], z_full),
+        )
     })
+}
+
+/// `λ` of plane `z` from the window's [`lambda_of`]: on the AO planes times `ao_gain`, up to
+/// `ao_cap`, and never below `λ` itself. AO changes only where geometry moves and changes
+/// slowly there (a soft contact shadow darkens a floor pixel by a few hundredths a frame): the
+/// window's relative gradient reads such a ramp as a `λ` of a few hundredths, which leaves a
+/// history about as long as a converged one, and the pixel lags. Scaled up, the same `λ` keeps
+/// the history short for as long as the change goes on, while a chance `λ` on converged history
+/// stays small: what is shortened by chance refills in a few frames. Capped at the drop
+/// threshold, the gain never drops a history that `λ` alone would keep (see
+/// `docs/algorithms/change-detector.md`).
+#[inline(always)]
+pub fn plane_lambda(p: &DetectParams, z: u32, lambda: f32) -> f32 {
+    if plane_in(p.ao_planes, z) {
+        lengthened(lambda, p.ao_gain, p.ao_cap)
+    } else {
+        lambda
+    }
+}
+
+/// `λ · gain` up to `cap`, and never below `λ`.
+#[inline(always)]
+fn lengthened(lambda: f32, gain: f32, cap: f32) -> f32 {
+    math::max(lambda, math::min(lambda * gain, cap))
 }
 
 /// `λ` of a pixel from its window's sums of this frame's means, the history means and the
@@ -454,6 +487,47 @@ mod tests {
         assert_eq!(lambdas_with::<8>(&p), one);
         p.shadow_planes = 2;
         assert_eq!(lambdas_with::<8>(&p), lambdas::<8>(w, h, 3));
+    }
+
+    #[test]
+    fn ao_planes_take_the_gain_up_to_the_drop_threshold() {
+        let mut p = DetectParams {
+            width: 37,
+            height: 11,
+            radius: 2,
+            z_full: 1.5,
+            ao_z_full: 1.5,
+            min_variance: 1e-4,
+            ao_gain: 3.0,
+            ao_cap: 0.5,
+            ..Default::default()
+        };
+        let plain = lambdas_with::<8>(&p);
+        p.ao_planes = 1;
+        let gained = lambdas_with::<8>(&p);
+        let (mut raised, mut capped) = (0, 0);
+        for (a, b) in plain.iter().zip(&gained) {
+            let (a, b) = (f32::from_bits(*a), f32::from_bits(*b));
+            // Never below λ, never a drop λ alone would not make, else exactly λ · gain.
+            assert!(b >= a, "{b} < {a}");
+            if a <= 0.5 {
+                assert!(b <= 0.5, "{a} became {b}, past the drop threshold");
+            }
+            let expected = if a * 3.0 >= 0.5 { a.max(0.5) } else { a * 3.0 };
+            assert!(
+                (b - expected).abs() <= 1e-6 * expected.max(1.0),
+                "{a} → {b}"
+            );
+            raised += (b > a) as u32;
+            capped += (a < 0.5 && b == 0.5) as u32;
+        }
+        assert!(raised > 0 && capped > 0, "raised {raised}, capped {capped}");
+        // The other planes keep their λ, and a gain of 1 changes nothing.
+        p.ao_planes = 2;
+        assert_eq!(lambdas_with::<8>(&p), plain);
+        p.ao_planes = 1;
+        p.ao_gain = 1.0;
+        assert_eq!(lambdas_with::<8>(&p), plain);
     }
 
     #[test]

@@ -288,6 +288,12 @@ impl DetectorSettings {
             ">= 1",
         )?;
         check(
+            finite(self.ao_gain) && self.ao_gain >= 1.0,
+            "detector.ao_gain",
+            self.ao_gain,
+            ">= 1",
+        )?;
+        check(
             finite(self.shadow_verify_sigma) && self.shadow_verify_sigma >= 0.0,
             "detector.shadow_verify_sigma",
             self.shadow_verify_sigma,

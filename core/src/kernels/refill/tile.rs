@@ -136,7 +136,7 @@ pub fn finish(
                 }
                 dy += 1;
             }
-            let lambda = detect::lambda_of([s, m, v], z_full);
+            let lambda = detect::plane_lambda(&p.detect, z, detect::lambda_of([s, m, v], z_full));
             changes[((z * h + y) * w + x) as usize] = lambda;
             seen.plane(id, z, r, (samples, history), Lanes([lambda]));
             slot += 1;
