@@ -47,7 +47,7 @@ pub struct DetectParams {
     pub ao_planes: u32,
     /// `z_full` of the planes in `ao_planes`.
     pub ao_z_full: f32,
-    /// Gain of `λ` on the planes in `ao_planes` ([`lengthened`]); 1 or below leaves it as is.
+    /// Gain of `λ` on the planes in `ao_planes` ([`plane_lambda`]); 1 or below leaves it as is.
     pub ao_gain: f32,
     /// Where that gain stops: the AO planes' drop threshold, so the gain shortens history and
     /// never drops it on its own.
@@ -157,7 +157,7 @@ pub fn lambda<const N: usize>(
 #[inline(always)]
 pub fn plane_lambda(p: &DetectParams, z: u32, lambda: f32) -> f32 {
     if plane_in(p.ao_planes, z) {
-        lengthened(lambda, p.ao_gain, p.ao_cap)
+        gained(lambda, p.ao_gain, p.ao_cap)
     } else {
         lambda
     }
@@ -165,7 +165,7 @@ pub fn plane_lambda(p: &DetectParams, z: u32, lambda: f32) -> f32 {
 
 /// `λ · gain` up to `cap`, and never below `λ`.
 #[inline(always)]
-fn lengthened(lambda: f32, gain: f32, cap: f32) -> f32 {
+fn gained(lambda: f32, gain: f32, cap: f32) -> f32 {
     math::max(lambda, math::min(lambda * gain, cap))
 }
 
