@@ -26,8 +26,8 @@ pub enum Config {
     VrrtNoskip,
     /// Full VRRT told by an oracle where the converged reference changed since the previous
     /// frame (per pixel and plane, beyond the references' own noise): history is dropped there
-    /// as a detected change would drop it, and supersampling follows. The best any change
-    /// detector can do with this denoiser: the yardstick of `moving_vs_oracle`.
+    /// as a detected change would drop it, and supersampling follows. The yardstick of
+    /// `moving_vs_oracle`; not a bound: changes slower than its per-pixel test stay unseen.
     VrrtOracle,
     /// Full VRRT with the change detector off: what the detector is measured against.
     VrrtNodetect,
