@@ -251,18 +251,24 @@ impl DetectorSettings {
             self.threshold,
             "0..=1",
         )?;
-        check(
-            finite(self.sigma) && self.sigma >= 1.0,
-            "detector.sigma",
-            self.sigma,
-            ">= 1",
-        )?;
-        check(
-            finite(self.min_variance) && self.min_variance >= 0.0,
-            "detector.min_variance",
-            self.min_variance,
-            ">= 0",
-        )?;
+        for (v, name) in [
+            (self.sigma, "detector.sigma"),
+            (self.ao_sigma, "detector.ao_sigma"),
+            (self.ao_gain, "detector.ao_gain"),
+            (self.shadow_verify_history, "detector.shadow_verify_history"),
+        ] {
+            check(finite(v) && v >= 1.0, name, v, ">= 1")?;
+        }
+        for (v, name) in [
+            (self.min_variance, "detector.min_variance"),
+            (self.shadow_verify_sigma, "detector.shadow_verify_sigma"),
+            (
+                self.reflection_confirm_sigma,
+                "detector.reflection_confirm_sigma",
+            ),
+        ] {
+            check(finite(v) && v >= 0.0, name, v, ">= 0")?;
+        }
         check(
             (1..=16).contains(&self.refill_rays),
             "detector.refill_rays",
@@ -282,40 +288,10 @@ impl DetectorSettings {
             "0..=1",
         )?;
         check(
-            finite(self.ao_sigma) && self.ao_sigma >= 1.0,
-            "detector.ao_sigma",
-            self.ao_sigma,
-            ">= 1",
-        )?;
-        check(
-            finite(self.ao_gain) && self.ao_gain >= 1.0,
-            "detector.ao_gain",
-            self.ao_gain,
-            ">= 1",
-        )?;
-        check(
-            finite(self.shadow_verify_sigma) && self.shadow_verify_sigma >= 0.0,
-            "detector.shadow_verify_sigma",
-            self.shadow_verify_sigma,
-            ">= 0",
-        )?;
-        check(
-            finite(self.shadow_verify_history) && self.shadow_verify_history >= 1.0,
-            "detector.shadow_verify_history",
-            self.shadow_verify_history,
-            ">= 1",
-        )?;
-        check(
             finite(self.shadow_drop_sigma) && self.shadow_drop_sigma > 0.0,
             "detector.shadow_drop_sigma",
             self.shadow_drop_sigma,
             "> 0",
-        )?;
-        check(
-            finite(self.reflection_confirm_sigma) && self.reflection_confirm_sigma >= 0.0,
-            "detector.reflection_confirm_sigma",
-            self.reflection_confirm_sigma,
-            ">= 0",
         )
     }
 }
