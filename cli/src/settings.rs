@@ -210,6 +210,8 @@ mod tests {
                 skip_sigma: 1.0e-3,
                 cap_variance: false,
                 ao_symmetric_taps: false,
+                ao_guide_directions: 7,
+                ao_guide_steps: 5,
                 guide_sigma: 0.1 + 0.7,
                 guided_sigma_luminance: 2.75,
                 tall_guided_sigma_luminance: 5.5,

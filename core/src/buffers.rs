@@ -36,7 +36,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 29;
+pub const DENOISER_BUFFERS: usize = 30;
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
 pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
@@ -64,24 +64,18 @@ pub fn denoiser_buffers(
     let (tw, th) = classify::tile_grid(width, height);
     let (rw, rh) = reflect::tile_grid(width, height);
     let bytes = |n: u64, elem: usize| n * elem as u64;
-    // Reflection parallax positions exist only with a parallax plane (one element otherwise).
-    let parallax = if layout.parallax_plane.is_some() {
-        pixels
-    } else {
-        1
-    };
-    // The hit-distance guide exists only with a guide plane (one element otherwise).
-    let guide = if layout.guide_plane.is_some() {
-        pixels
-    } else {
-        1
-    };
-    // So do the shadow raygen's blocker records and the penumbra guide, with a penumbra plane.
-    let penumbra = if layout.penumbra_plane.is_some() {
-        pixels
-    } else {
-        1
-    };
+    // Buffers a configuration may not need hold one element then.
+    let only = |needed: bool, elements: u64| if needed { elements } else { 1 };
+    // Reflection parallax positions exist only with a parallax plane, the hit-distance guide
+    // with a guide plane, the shadow raygen's blocker records and the penumbra guide with a
+    // penumbra plane, the AO guide (two pixels a word) with AO planes and the guide on.
+    let parallax = only(layout.parallax_plane.is_some(), pixels);
+    let guide = only(layout.guide_plane.is_some(), pixels);
+    let penumbra = only(layout.penumbra_plane.is_some(), pixels);
+    let ao_guide = only(
+        layout.ao_planes != 0 && settings.filter.ao_guide_directions > 0,
+        crate::kernels::ao_guide::guide_row_words(width) as u64 * height as u64,
+    );
     [
         size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4), "f32"),
         size("counters", 1, bytes(COUNTERS_LEN as u64, 4), "u32"),
@@ -163,6 +157,7 @@ pub fn denoiser_buffers(
         size("guide", 1, bytes(guide, 4), "f32"),
         size("blockers", 1, bytes(penumbra, 4), "f32"),
         size("penumbra", 1, bytes(penumbra, 4), "f32"),
+        size("ao_guide", 1, bytes(ao_guide, 4), "u32"),
         // Bound in place of a buffer a pass does not read in this configuration (accumulation's
         // surfaces without an own-surface clamp), so the pass neither waits on nor counts the
         // bytes it skips; two, since a pass binds each buffer once.

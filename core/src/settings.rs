@@ -447,6 +447,18 @@ pub struct FilterSettings {
     /// reflections keep one-sided windows: their edges are in the signal, not the geometry, and
     /// pairs made the room's fresh reflections worse (see `docs/algorithms/fresh-pixels.md`).
     pub ao_symmetric_taps: bool,
+    /// Directions of the AO guide the AO planes' spatial filter divides by and multiplies back
+    /// (`kernels::ao_guide`: screen-space AO from the G-buffer alone; 0..=64, 0 = off; default
+    /// off, 16 measured). A pixel without history leans on its neighbours, and where AO changes
+    /// within the filter's footprint (a crevice, a silhouette) their mean is not the pixel's;
+    /// the ratio to the guide is flat there. Every AO figure of the production bench gained
+    /// with 16, but the march's depth reads (directions × steps a pixel) cost the CPU backend
+    /// several times its frame, so it is a choice, not yet measured on a GPU (see
+    /// `docs/algorithms/fresh-pixels.md`). Needs the AO rays' length
+    /// (`Denoiser::set_ao_radius`; `Frame` sets it from the signal).
+    pub ao_guide_directions: u32,
+    /// Steps per direction of the AO guide's march (1..=32; default 6).
+    pub ao_guide_steps: u32,
     /// σ of the hit-distance guide of the reflections, in stops of hit distance (`log2`; >= 0,
     /// 0 = off; default 1.6). The G-buffer does not show the edges inside a reflected image and
     /// at 1 rpp the luminance test cannot find them either (`kernels::reflect::reflect_guide`).
@@ -522,6 +534,7 @@ impl Settings {
                 ao_reach: 0.0,
                 wide_until: 0.0,
                 ao_symmetric_taps: false,
+                ao_guide_directions: 0,
                 guide_sigma: 0.0,
                 penumbra_reach: 0.0,
                 ..self.filter

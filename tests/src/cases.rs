@@ -108,6 +108,23 @@ pub static TABLE: &[(&str, Generator, Tolerance)] = &[
         crate::trace_cases::penumbra_guide_case,
         Tolerance::DEFAULT,
     ),
+    ("ao_guide_march", crate::guide_cases::march_case, DECIDED),
+    ("ao_guide_blur", crate::guide_cases::blur_case, DECIDED),
+    (
+        "ao_demodulate",
+        crate::guide_cases::demodulate_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "ao_remodulate",
+        crate::guide_cases::remodulate_case,
+        Tolerance::DEFAULT,
+    ),
+    (
+        "ao_remodulate_into",
+        crate::guide_cases::remodulate_into_case,
+        Tolerance::DEFAULT,
+    ),
     (
         "gradient_project",
         crate::gradient_cases::project_case,

@@ -16,6 +16,7 @@ mod balance_cases;
 pub mod cases;
 mod filter_cases;
 pub mod gradient_cases;
+mod guide_cases;
 pub mod ingest_cases;
 pub mod inputs;
 pub mod reflect_cases;
@@ -52,6 +53,8 @@ pub mod layouts {
     pub const SAMPLE: &[Word] = &[Half2, U16Half];
     /// `PackedFiltered`: value and variance, binary16.
     pub const FILTERED: &[Word] = &[Half2];
+    /// Two binary16 values a word (the AO guide, `kernels::ao_guide::guide_at`).
+    pub const HALVES: &[Word] = &[Half2];
     /// f32 words.
     pub const FLOATS: &[Word] = &[F32];
     /// Integer words.

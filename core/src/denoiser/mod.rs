@@ -25,7 +25,9 @@
 //! History is ping-ponged explicitly: reprojection reads `history[prev]` (its 2×2 footprints
 //! need last frame's intact) and writes `history[cur]`, which raygen reads for its rng indices
 //! and accumulation then updates in place; the spatial filter's output never feeds back into
-//! history (seed: "spatial output is NOT being fed to temporal").
+//! history (seed: "spatial output is NOT being fed to temporal"). On the AO planes the spatial
+//! filter runs on the history divided by the AO guide (`kernels::ao_guide`), written to
+//! `history[prev]`, which reprojection has spent, and multiplies its output back.
 
 mod gradients;
 mod rates;
@@ -40,8 +42,8 @@ use crate::executor::{BufferId, Executor, Groups};
 use crate::inputs::{ConventionError, InputConventions};
 use crate::kernels::gradient;
 use crate::kernels::{
-    self, accumulate, apply, atrous, balance, buckets, classify, detect, fill, penumbra, refill,
-    reproject, trim, variance, work_list,
+    self, accumulate, ao_guide, apply, atrous, balance, buckets, classify, detect, fill, penumbra,
+    refill, reproject, trim, variance, work_list,
 };
 use crate::payload::COUNTERS_LEN;
 use crate::settings::{RateSettings, Settings, SettingsError};
@@ -301,6 +303,11 @@ pub struct Denoiser {
     guide: BufferId,
     blockers: BufferId,
     penumbra: BufferId,
+    /// The AO guide (`kernels::ao_guide`), binary16 per pixel with AO planes and the guide on.
+    ao_guide: BufferId,
+    /// The AO rays' length, which the AO guide marches to (0 until [`Self::set_ao_radius`]: no
+    /// guide).
+    ao_radius: f32,
     /// Bound where a pass does not read a binding in this configuration (`buffers`' `unread`).
     unread: [BufferId; 2],
     cur: usize,
@@ -400,6 +407,8 @@ impl Denoiser {
             guide: id("guide")[0],
             blockers: id("blockers")[0],
             penumbra: id("penumbra")[0],
+            ao_guide: id("ao_guide")[0],
+            ao_radius: 0.0,
             unread: [id("unread")[0], id("unread")[1]],
             cur: 0,
             out: 0,
@@ -419,6 +428,21 @@ impl Denoiser {
     /// This frame's [`FrameInfo`] (from [`Self::begin_frame`]).
     pub fn frame(&self) -> FrameInfo {
         self.frame
+    }
+
+    /// Tells the denoiser the AO rays' length (world units), which its AO guide marches to
+    /// (`filter.ao_guide_directions`); until then, or at 0, the AO planes are filtered without
+    /// the guide. [`crate::frame::Frame`] sets it from its signal.
+    pub fn set_ao_radius(&mut self, radius: f32) -> Result<(), SettingsError> {
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(SettingsError::OutOfRange {
+                field: "ao radius",
+                value: radius.into(),
+                range: ">= 0",
+            });
+        }
+        self.ao_radius = radius;
+        Ok(())
     }
 
     /// The settings in use: the tunables it was created with, which never change.

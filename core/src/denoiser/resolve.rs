@@ -196,9 +196,60 @@ impl Denoiser {
     ) -> Result<(), E::Error> {
         self.detect(exec, false)?;
         self.accumulate(exec)?;
-        self.estimate_variance(exec)?;
+        let guided = self.ao_guide(exec)?;
+        self.estimate_variance(exec, guided)?;
         self.penumbra_guide(exec)?;
-        self.filter(exec, target)
+        self.filter(exec, target, guided)
+    }
+
+    /// The AO guide (`kernels::ao_guide`) and the history divided by it, where the AO planes
+    /// take it; whether they do. The divided history goes to `history[1 - cur]`, last frame's,
+    /// which reprojection has spent; the history itself stays undivided for the next frame,
+    /// whose guide differs.
+    fn ao_guide<E: Executor>(&self, exec: &mut E) -> Result<bool, E::Error> {
+        let (s, l) = (self.settings, self.layout);
+        if l.ao_planes == 0 || s.filter.ao_guide_directions == 0 || !(self.ao_radius > 0.0) {
+            return Ok(false);
+        }
+        let (w, h) = (self.width, self.height);
+        let (depth, normal_roughness) = (self.depth[self.cur], self.normal_roughness[self.cur]);
+        let march = ao_guide::MarchParams {
+            width: w,
+            height: h,
+            directions: s.filter.ao_guide_directions,
+            steps: s.filter.ao_guide_steps,
+            radius: self.ao_radius,
+        };
+        // The unblurred guide in the filter buffer the first iteration writes: free from
+        // accumulation on (its work and refill lists are spent).
+        let raw = self.filtered[1];
+        let pass = kernels::AoGuideMarchBindings {
+            depth,
+            normal_roughness,
+            view: self.view,
+            raw,
+        };
+        exec.dispatch(&pass.over_grid(&march, w, h, 1))?;
+        let p = ao_guide::GuideParams {
+            width: w,
+            height: h,
+            ao_planes: l.ao_planes,
+        };
+        let blur = kernels::AoGuideBlurBindings {
+            raw,
+            depth,
+            normal_roughness,
+            guide: self.ao_guide,
+        };
+        let words = ao_guide::guide_row_words(w);
+        exec.dispatch(&blur.over_grid(&p, words, h, 1))?;
+        let divide = kernels::AoDemodulateBindings {
+            history: self.history[self.cur],
+            guide: self.ao_guide,
+            out: self.history[1 - self.cur],
+        };
+        exec.dispatch(&divide.over_grid(&p, w, h, l.planes))?;
+        Ok(true)
     }
 
     /// Accumulation of this frame's samples into the reprojected history.
@@ -258,7 +309,7 @@ impl Denoiser {
     }
 
     /// Variance estimation into the filter's input, then the tiles' classification.
-    fn estimate_variance<E: Executor>(&self, exec: &mut E) -> Result<(), E::Error> {
+    fn estimate_variance<E: Executor>(&self, exec: &mut E, guided: bool) -> Result<(), E::Error> {
         let (s, l) = (self.settings, self.layout);
         let (w, h, planes) = (self.width, self.height, l.planes);
         // The variance pass gathers each tile's worst variance, the classification turns it into
@@ -298,7 +349,8 @@ impl Denoiser {
             wide_planes: !l.shadow_planes,
         };
         let variance = kernels::VarianceBindings {
-            payload: self.history[self.cur],
+            // Divided by the AO guide where it ran (`Self::ao_guide`).
+            payload: self.history[if guided { 1 - self.cur } else { self.cur }],
             depth: self.depth[self.cur],
             normal_roughness: self.normal_roughness[self.cur],
             view: self.view,
@@ -346,24 +398,30 @@ impl Denoiser {
 
     /// The à-trous iterations, ping-ponging between the two filter buffers (`out` says which
     /// holds the result), the last into `target` when the engine gave one (at least one
-    /// iteration then, which passes every tile through when the filter has none).
+    /// iteration then, which passes every tile through when the filter has none). `guided`:
+    /// the input is divided by the AO guide, and a last pass multiplies it back, into `target`
+    /// when given.
     fn filter<E: Executor>(
         &mut self,
         exec: &mut E,
         target: Option<BufferId>,
+        guided: bool,
     ) -> Result<(), E::Error> {
         let (w, h, planes) = (self.width, self.height, self.layout.planes);
         let iterations = self.filter_iterations();
         let tiled = self.settings.filter.workgroup_tiles;
         self.out = 0;
-        let passes = if target.is_some() {
+        // The iterations write the target themselves only without the guide.
+        let target_written = if guided { None } else { target };
+        let passes = if target_written.is_some() {
             iterations.max(1)
         } else {
             iterations
         };
         // The fused pair writes the second iteration to the filter buffers, not to a target.
-        let fused =
-            self.settings.filter.fused_pair && passes >= 2 && !(target.is_some() && passes == 2);
+        let fused = self.settings.filter.fused_pair
+            && passes >= 2
+            && !(target_written.is_some() && passes == 2);
         let mut i = 0;
         while i < passes {
             let params = self.atrous_params(i);
@@ -372,7 +430,7 @@ impl Denoiser {
                 self.depth[self.cur],
                 self.normal_roughness[self.cur],
             );
-            if let (Some(out), true) = (target, i + 1 == passes) {
+            if let (Some(out), true) = (target_written, i + 1 == passes) {
                 let atrous = kernels::AtrousEngineBindings {
                     input,
                     depth,
@@ -407,7 +465,42 @@ impl Denoiser {
             self.out = 1 - self.out;
             i += 1;
         }
+        if guided {
+            self.remodulate(exec, target)?;
+        }
         Ok(())
+    }
+
+    /// The filter's output multiplied back by the AO guide (`kernels::ao_guide`): in place, or
+    /// into the engine's `target`.
+    fn remodulate<E: Executor>(
+        &self,
+        exec: &mut E,
+        target: Option<BufferId>,
+    ) -> Result<(), E::Error> {
+        let (w, h, planes) = (self.width, self.height, self.layout.planes);
+        let p = ao_guide::GuideParams {
+            width: w,
+            height: h,
+            ao_planes: self.layout.ao_planes,
+        };
+        match target {
+            Some(out) => {
+                let pass = kernels::AoRemodulateIntoBindings {
+                    input: self.filtered[self.out],
+                    guide: self.ao_guide,
+                    out,
+                };
+                exec.dispatch(&pass.over_grid(&p, w, h, planes))
+            }
+            None => {
+                let pass = kernels::AoRemodulateBindings {
+                    guide: self.ao_guide,
+                    out: self.filtered[self.out],
+                };
+                exec.dispatch(&pass.over_grid(&p, w, h, planes))
+            }
+        }
     }
 
     /// The parameters of à-trous iteration `i`.

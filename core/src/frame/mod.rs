@@ -198,7 +198,10 @@ impl Frame {
                         reflection re-trace)",
             }));
         }
-        let denoiser = Denoiser::with_layout(exec, width, height, planes, settings)?;
+        let mut denoiser = Denoiser::with_layout(exec, width, height, planes, settings)?;
+        denoiser
+            .set_ao_radius(signal.ao_distance().unwrap_or(0.0))
+            .map_err(DenoiserError::Settings)?;
         let reflections = match layout.reflections {
             Some(plane) => Some(Reflections::new(
                 exec,

@@ -4,6 +4,7 @@
 //! (`AtrousBindings`, …), [`ALL`] and the SPIR-V entry points.
 
 pub mod accumulate;
+pub mod ao_guide;
 pub mod apply;
 pub mod atrous;
 pub mod balance;

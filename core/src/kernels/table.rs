@@ -440,6 +440,49 @@ crate::kernel_table! {
         guide: write f32,
     }
 
+    /// [`ao_guide::march`]: the AO guide's unblocked fraction per pixel, before its blur.
+    ao_guide_march => AO_GUIDE_MARCH, AoGuideMarchBindings, AoGuideMarchIo: fn ao_guide::march,
+    threads(8, 8, 1), params ao_guide::MarchParams {
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        view: read View,
+        raw: write f32,
+    }
+
+    /// [`ao_guide::blur`]: the AO guide, `raw`'s 4×4 mean on the pixel's surface; one invocation
+    /// per two pixels of a row, binary16 each (`ao_guide::guide_at`).
+    ao_guide_blur => AO_GUIDE_BLUR, AoGuideBlurBindings, AoGuideBlurIo: fn ao_guide::blur,
+    threads(8, 8, 1), params ao_guide::GuideParams {
+        raw: read f32,
+        depth: read Depth,
+        normal_roughness: read NormalRoughness,
+        guide: write u32,
+    }
+
+    /// [`ao_guide::demodulate`]: the history divided by the AO guide on the AO planes, for the
+    /// variance pass; one invocation per pixel and plane.
+    ao_demodulate => AO_DEMODULATE, AoDemodulateBindings, AoDemodulateIo: fn ao_guide::demodulate,
+    threads(8, 8, 1), params ao_guide::GuideParams {
+        history: read PackedPayload,
+        guide: read u32,
+        out: write PackedPayload,
+    }
+
+    /// [`ao_guide::remodulate`]: the filter's output multiplied back by the AO guide, in place.
+    ao_remodulate => AO_REMODULATE, AoRemodulateBindings, AoRemodulateIo: fn ao_guide::remodulate,
+    threads(8, 8, 1), params ao_guide::GuideParams {
+        guide: read u32,
+        out: update PackedFiltered,
+    }
+
+    /// [`ao_guide::remodulate_into`]: [`ao_guide::remodulate`] into the engine's texture.
+    ao_remodulate_into => AO_REMODULATE_INTO, AoRemodulateIntoBindings, AoRemodulateIntoIo: fn ao_guide::remodulate_into,
+    threads(8, 8, 1), params ao_guide::GuideParams {
+        input: read PackedFiltered,
+        guide: read u32,
+        out: storage Texel,
+    }
+
     /// [`penumbra::penumbra_guide`]: the penumbra guide of the à-trous shadow plane, from the
     /// shadow raygen's blocker records.
     penumbra_guide => PENUMBRA_GUIDE, PenumbraGuideBindings, PenumbraGuideIo: fn penumbra::penumbra_guide,

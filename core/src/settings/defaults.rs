@@ -101,6 +101,8 @@ impl Default for FilterSettings {
             skip_sigma: 0.004,
             cap_variance: true,
             ao_symmetric_taps: true,
+            ao_guide_directions: 0,
+            ao_guide_steps: 6,
             guide_sigma: 1.6,
             guided_sigma_luminance: 3.0,
             tall_guided_sigma_luminance: 6.0,

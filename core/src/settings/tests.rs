@@ -73,6 +73,7 @@ fn svgf_is_the_default_with_rates_off() {
             ao_spatial_rows: d.filter.ao_spatial_rows,
             ao_reach: d.filter.ao_reach,
             ao_symmetric_taps: d.filter.ao_symmetric_taps,
+            ao_guide_directions: d.filter.ao_guide_directions,
             wide_until: d.filter.wide_until,
             guide_sigma: d.filter.guide_sigma,
             penumbra_reach: d.filter.penumbra_reach,

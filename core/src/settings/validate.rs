@@ -350,6 +350,18 @@ impl FilterSettings {
             "filter.penumbra_radius",
             self.penumbra_radius,
             "0..=3",
+        )?;
+        check(
+            self.ao_guide_directions <= 64,
+            "filter.ao_guide_directions",
+            self.ao_guide_directions,
+            "0..=64",
+        )?;
+        check(
+            (1..=32).contains(&self.ao_guide_steps),
+            "filter.ao_guide_steps",
+            self.ao_guide_steps,
+            "1..=32",
         )
     }
 }
