@@ -449,10 +449,10 @@ pub struct FilterSettings {
     pub ao_symmetric_taps: bool,
     /// Directions of the AO guide the AO planes' spatial filter divides by and multiplies back
     /// (`kernels::ao_guide`: screen-space AO from the G-buffer alone; 0..=64, 0 = off; default
-    /// off, 16 measured). A pixel without history leans on its neighbours, and where AO changes
+    /// off, 16 and 24 measured). A pixel without history leans on its neighbours, and where AO changes
     /// within the filter's footprint (a crevice, a silhouette) their mean is not the pixel's;
-    /// the ratio to the guide is flat there. Every AO figure of the production bench gained
-    /// with 16, but the march's depth reads (directions × steps a pixel) cost the CPU backend
+    /// the ratio to the guide is flat there. Every AO figure of the production bench but the
+    /// flicker gained with 16 and more with 24, but the march's depth reads (directions × steps a pixel) cost the CPU backend
     /// several times its frame, so it is a choice, not yet measured on a GPU (see
     /// `docs/algorithms/fresh-pixels.md`). Needs the AO rays' length
     /// (`Denoiser::set_ao_radius`; `Frame` sets it from the signal).
