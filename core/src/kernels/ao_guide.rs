@@ -27,10 +27,11 @@
 
 use super::plane_index;
 use super::{AoDemodulateIo, AoGuideBlurIo, AoGuideMarchIo, AoRemodulateIntoIo, AoRemodulateIo};
-use crate::camera::PixelRays;
+use crate::camera::{Camera, PixelRays};
+use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
-use crate::payload::{PackedFiltered, PackedPayload};
+use crate::payload::{pack_filtered, unpack_filtered, PackedFiltered, PackedPayload, PayloadLanes};
 use crate::sampling;
 use crate::surface;
 use crate::textures::Store;
@@ -95,9 +96,11 @@ pub fn dither(x: u32, y: u32) -> f32 {
     rank as f32 / 16.0
 }
 
-/// Raw guide, one invocation per pixel: the fraction of the pixel's directions no step of
-/// which is blocked (module docs); 1 where there is no surface.
-pub fn march(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>) {
+/// Raw guide, one call per `N` consecutive pixels of a row ([`crate::lanes`]): the fraction of
+/// each pixel's directions no step of which is blocked (module docs); 1 where there is no
+/// surface.
+#[inline(always)]
+pub fn march<const N: usize>(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>) {
     let AoGuideMarchIo {
         depth,
         normal_roughness,
@@ -108,44 +111,55 @@ pub fn march(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
-    let pix = (id.y * w + id.x) as usize;
-    let d = depth[pix];
-    if !surface::has_surface(d) || p.directions == 0 {
-        raw[pix] = 1.0;
+    let (row, x0) = (id.y * w, id.x as i32);
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let d = Lanes::<f32, N>::load_row(depth, row, x0, w);
+    let surfaced = d.map(surface::has_surface);
+    if !surfaced.any() || p.directions == 0 {
+        Lanes::<f32, N>::splat(1.0).store(raw, (row + id.x) as usize, live);
         return;
     }
-    let camera = &view[0].camera;
-    let n = packing::unpack_normal(normal_roughness[pix]);
-    // Eye-relative start, and the projection as linear functions of it: a point `v` (relative
-    // to the eye) is at view depth `v·f`, pixel `x = v·sx / (v·f) + cx`, `y = v·sy / (v·f) + cy`.
-    let start = PixelRays::new(camera, w, h).dir(id.x as f32, id.y as f32) * d + n * (LIFT * d);
-    let tan_y = camera.tan_half_fov_y;
-    let tan_x = tan_y * (w as f32 / h as f32);
-    let sx = camera.right() * (0.5 * w as f32 / tan_x);
-    let sy = camera.up() * (-0.5 * h as f32 / tan_y);
-    let f = camera.forward();
-    let projection = Projection {
-        start: Vec3::new(start.dot(sx), start.dot(sy), start.dot(f)),
-        sx,
-        sy,
-        f,
-        centre: (0.5 * w as f32 - 0.5, 0.5 * h as f32 - 0.5),
-    };
-    let rotation = dither(id.x, id.y);
-    let (t, b) = sampling::orthonormal_basis(n);
-    let mut open = 0u32;
+    let words = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
+    let q = Projection::new(&view[0].camera, w, h);
+    let rays = PixelRays::new(&view[0].camera, w, h);
+    // Per lane: the normal, its basis, the start in projected form, the dither's rotation.
+    let n = words.map(packing::unpack_normal);
+    let mut start = Lanes::<Vec3, N>::splat(Vec3::ZERO);
+    let (mut tangent, mut bitangent) = (start, start);
+    // Direction `k` of a pixel of rotation `ρ`: `u1 = (k + ρ) / directions` and azimuth
+    // `k·GOLDEN + ρ·PLASTIC` turns, the sum's sine and cosine from the two terms' (the first
+    // shared by every lane, the second by every direction).
+    let (mut rotation, mut turn_sin, mut turn_cos) = (d, d, d);
+    lanes::each_lane!(l in N {
+        let x = id.x + l as u32;
+        let v = rays.dir(x as f32, id.y as f32) * d.0[l] + n.0[l] * (LIFT * d.0[l]);
+        start.0[l] = q.project(v);
+        (tangent.0[l], bitangent.0[l]) = sampling::orthonormal_basis(n.0[l]);
+        rotation.0[l] = dither(x, id.y);
+        (turn_sin.0[l], turn_cos.0[l]) = math::sin_cos_turns(rotation.0[l] * PLASTIC);
+    });
+    let mut open = Lanes::<u32, N>::splat(0);
     let mut k = 0;
     while k < p.directions {
-        let u1 = (k as f32 + rotation) / p.directions as f32;
-        let (s, c) = math::sin_cos_turns(fract(k as f32 * GOLDEN + rotation * PLASTIC));
-        let r = math::sqrt(u1);
-        let dir = t * (r * c) + b * (r * s) + n * math::sqrt(math::max(1.0 - u1, 0.0));
-        if !blocked(&projection, dir, p, depth) {
-            open += 1;
-        }
+        let (sk, ck) = math::sin_cos_turns(fract(k as f32 * GOLDEN));
+        let mut step = Lanes::<Vec3, N>::splat(Vec3::ZERO);
+        lanes::each_lane!(l in N {
+            let u1 = (k as f32 + rotation.0[l]) / p.directions as f32;
+            let (sr, cr) = (turn_sin.0[l], turn_cos.0[l]);
+            let (s, c) = (sk * cr + ck * sr, ck * cr - sk * sr);
+            let r = math::sqrt(u1);
+            let (t, b) = (tangent.0[l], bitangent.0[l]);
+            let dir = t * (r * c) + b * (r * s) + n.0[l] * math::sqrt(math::max(1.0 - u1, 0.0));
+            step.0[l] = q.project(dir);
+        });
+        let blocked = blocked(&q, &start, &step, p, depth);
+        open = open.zip(blocked, |open, blocked| open + !blocked as u32);
         k += 1;
     }
-    raw[pix] = open as f32 / p.directions as f32;
+    let value = open.map(|open| open as f32 / p.directions as f32);
+    value
+        .select(surfaced, Lanes::splat(1.0))
+        .store(raw, (row + id.x) as usize, live);
 }
 
 /// The fractional part of a non-negative `x`.
@@ -154,46 +168,85 @@ fn fract(x: f32) -> f32 {
     x - math::floor(x)
 }
 
-/// A march's start in projected form (`(v·sx, v·sy, v·f)`) and the projection's rows.
+/// The projection as linear functions of a point `v` relative to the eye: it is at view depth
+/// `v·f`, pixel `x = v·sx / (v·f) + cx`, `y = v·sy / (v·f) + cy`.
 struct Projection {
-    start: Vec3,
     sx: Vec3,
     sy: Vec3,
     f: Vec3,
     centre: (f32, f32),
 }
 
-/// Whether a step of the march from the projection's start along `dir` is blocked (module
-/// docs). Steps fall at `radius · ((s + ½) / steps)^1.5`, denser near the surface, where a
-/// crevice's walls are.
-#[inline]
-fn blocked(q: &Projection, dir: Vec3, p: &MarchParams, depth: &[f32]) -> bool {
+impl Projection {
+    fn new(camera: &Camera, w: u32, h: u32) -> Self {
+        let tan_y = camera.tan_half_fov_y;
+        let tan_x = tan_y * (w as f32 / h as f32);
+        Projection {
+            sx: camera.right() * (0.5 * w as f32 / tan_x),
+            sy: camera.up() * (-0.5 * h as f32 / tan_y),
+            f: camera.forward(),
+            centre: (0.5 * w as f32 - 0.5, 0.5 * h as f32 - 0.5),
+        }
+    }
+
+    /// `(v·sx, v·sy, v·f)`: linear in `v`, so a march's steps are `start + step · t`.
+    #[inline]
+    fn project(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.sx), v.dot(self.sy), v.dot(self.f))
+    }
+}
+
+/// Whether a step of each lane's march from `start` along `step` (both projected) is blocked
+/// (module docs). Steps fall at `radius · ((s + ½) / steps)^1.5`, denser near the surface,
+/// where a crevice's walls are. Stops early once every lane is blocked (on the GPU, one lane:
+/// at its first blocked step).
+#[inline(always)]
+fn blocked<const N: usize>(
+    q: &Projection,
+    start: &Lanes<Vec3, N>,
+    step: &Lanes<Vec3, N>,
+    p: &MarchParams,
+    depth: &[f32],
+) -> Lanes<bool, N> {
     let (w, h) = (p.width, p.height);
-    let step = Vec3::new(dir.dot(q.sx), dir.dot(q.sy), dir.dot(q.f));
     let thickness = THICKNESS * p.radius;
+    let mut hit = Lanes::<bool, N>::splat(false);
     let mut s = 0;
     while s < p.steps {
         let u = (s as f32 + 0.5) / p.steps as f32;
-        let v = q.start + step * (p.radius * u * math::sqrt(u));
-        if v.z > 0.0 {
+        let t = p.radius * u * math::sqrt(u);
+        let mut index = Lanes::<u32, N>::splat(0);
+        let mut inside = Lanes::<bool, N>::splat(false);
+        let mut z = Lanes::<f32, N>::splat(0.0);
+        lanes::each_lane!(l in N {
+            let v = start.0[l] + step.0[l] * t;
             let inv = 1.0 / v.z;
             let (x, y) = (v.x * inv + q.centre.0, v.y * inv + q.centre.1);
-            if x > -0.5 && x < w as f32 - 0.5 && y > -0.5 && y < h as f32 - 0.5 {
-                let (ix, iy) = (math::floor(x + 0.5) as u32, math::floor(y + 0.5) as u32);
-                let seen = depth[(math::min(iy as f32, (h - 1) as f32) as u32 * w
-                    + math::min(ix as f32, (w - 1) as f32) as u32)
-                    as usize];
-                if surface::has_surface(seen)
-                    && v.z > seen * (1.0 + RELATIVE_BIAS) + ABSOLUTE_BIAS
-                    && v.z - seen < thickness
-                {
-                    return true;
-                }
-            }
+            let ok = v.z > 0.0 && x > -0.5 && x < w as f32 - 0.5 && y > -0.5 && y < h as f32 - 0.5;
+            // `x + 0.5` rounds up to `w` for some `x` just below `w − 0.5` (at widths past a
+            // power of two), hence the clamps to the last column and row.
+            let (ix, iy) = if ok { (x + 0.5, y + 0.5) } else { (0.0, 0.0) };
+            let (ix, iy) = (math::floor_small(ix), math::floor_small(iy));
+            let ix = if ix < w { ix } else { w - 1 };
+            let iy = if iy < h { iy } else { h - 1 };
+            index.0[l] = iy * w + ix;
+            inside.0[l] = ok;
+            z.0[l] = v.z;
+        });
+        let seen = Lanes::gather(depth, index);
+        lanes::each_lane!(l in N {
+            let (z, seen) = (z.0[l], seen.0[l]);
+            hit.0[l] |= inside.0[l]
+                && surface::has_surface(seen)
+                && z > seen * (1.0 + RELATIVE_BIAS) + ABSOLUTE_BIAS
+                && z - seen < thickness;
+        });
+        if hit.all() {
+            break;
         }
         s += 1;
     }
-    false
+    hit
 }
 
 /// Words of the guide per row: two pixels a word.
@@ -213,67 +266,86 @@ pub fn guide_at(guide: &[u32], x: u32, y: u32, width: u32) -> f32 {
     }
 }
 
-/// The guide, one invocation per two horizontal neighbours (`x = 2·id.x` and `2·id.x + 1`, one
-/// word, binary16 each; [`guide_at`]).
-pub fn blur(id: UVec3, p: &GuideParams, io: AoGuideBlurIo<'_>) {
+/// The guide, one call per `N` consecutive words of a row ([`crate::lanes`]); a word holds two
+/// horizontal neighbours (`x = 2·id.x` and `2·id.x + 1`), binary16 each ([`guide_at`]).
+#[inline(always)]
+pub fn blur<const N: usize>(id: UVec3, p: &GuideParams, io: AoGuideBlurIo<'_>) {
     let AoGuideBlurIo {
         raw,
         depth,
         normal_roughness,
         guide,
     } = io;
-    let (w, h) = (p.width, p.height);
-    let x = 2 * id.x;
-    if x >= w || id.y >= h {
+    let (w, h, words) = (p.width, p.height, guide_row_words(p.width));
+    if id.x >= words || id.y >= h {
         return;
     }
-    let even = blurred(x, id.y, p, (raw, depth, normal_roughness));
-    let odd = if x + 1 < w {
-        blurred(x + 1, id.y, p, (raw, depth, normal_roughness))
-    } else {
-        1.0
-    };
-    guide[(id.y * guide_row_words(w) + id.x) as usize] = packing::pack_f16x2(even, odd);
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < words);
+    let inputs = (raw, depth, normal_roughness);
+    let even = blurred::<N>(2 * id.x, id.y, p, inputs);
+    let odd = blurred::<N>(2 * id.x + 1, id.y, p, inputs);
+    // The odd half of a row's last word lies past an odd width.
+    let odd = odd.select(
+        Lanes::from_index(|l| 2 * (id.x + l) + 1 < w),
+        Lanes::splat(1.0),
+    );
+    packing::pack_f16x2_lanes(even, odd).store(guide, (id.y * words + id.x) as usize, live);
 }
 
-/// `raw`'s mean over the 4×4 block of pixel `(x, y)` (offsets −2..=1) on its own surface, at
-/// least [`FLOOR`]; 1 where there is no surface.
-#[inline]
-fn blurred(
-    x: u32,
+/// `raw`'s mean over the 4×4 block (offsets −2..=1) of pixels `(x0 + 2·l, y)` on each one's
+/// own surface, at least [`FLOOR`]; 1 where there is no surface (or past the row's end).
+#[inline(always)]
+fn blurred<const N: usize>(
+    x0: u32,
     y: u32,
     p: &GuideParams,
     (raw, depth, normal_roughness): (&[f32], &[f32], &[u32]),
-) -> f32 {
+) -> Lanes<f32, N> {
     let (w, h) = (p.width, p.height);
-    let pix = (y * w + x) as usize;
-    let d = depth[pix];
-    if !surface::has_surface(d) {
-        return 1.0;
-    }
-    let n = packing::unpack_normal(normal_roughness[pix]);
-    let (mut sum, mut count) = (0.0f32, 0.0f32);
+    let xs = Lanes::<u32, N>::from_index(|l| x0 + 2 * l);
+    let centre = xs.map(|x| y * w + if x < w { x } else { w - 1 });
+    let d = Lanes::gather(depth, centre);
+    let n = Lanes::gather(normal_roughness, centre).map(packing::unpack_normal);
+    let (mut sum, mut count) = (Lanes::<f32, N>::splat(0.0), Lanes::<f32, N>::splat(0.0));
     let mut dy = -2;
     while dy < 2 {
+        let qy = y as i32 + dy;
         let mut dx = -2;
         while dx < 2 {
-            let (qx, qy) = (x as i32 + dx, y as i32 + dy);
-            if qx >= 0 && qy >= 0 && qx < w as i32 && qy < h as i32 {
-                let q = (qy as u32 * w + qx as u32) as usize;
-                let qd = depth[q];
-                let same = n.dot(packing::unpack_normal(normal_roughness[q])) > BLUR_COSINE
+            let mut index = Lanes::<u32, N>::splat(0);
+            let mut inside = Lanes::<bool, N>::splat(false);
+            lanes::each_lane!(l in N {
+                let qx = xs.0[l] as i32 + dx;
+                let ok = qx >= 0 && qy >= 0 && qx < w as i32 && qy < h as i32;
+                index.0[l] = if ok { qy as u32 * w + qx as u32 } else { centre.0[l] };
+                inside.0[l] = ok;
+            });
+            let (qd, qn) = (
+                Lanes::gather(depth, index),
+                Lanes::gather(normal_roughness, index),
+            );
+            let qr = Lanes::gather(raw, index);
+            lanes::each_lane!(l in N {
+                let (d, qd) = (d.0[l], qd.0[l]);
+                let same = n.0[l].dot(packing::unpack_normal(qn.0[l])) > BLUR_COSINE
                     && math::abs(qd - d) < BLUR_DEPTH * d;
-                if surface::has_surface(qd) && same {
-                    sum += raw[q];
-                    count += 1.0;
+                if inside.0[l] && surface::has_surface(qd) && same {
+                    sum.0[l] += qr.0[l];
+                    count.0[l] += 1.0;
                 }
-            }
+            });
             dx += 1;
         }
         dy += 1;
     }
-    // The centre always counts, so `count >= 1`.
-    math::max(sum / count, FLOOR)
+    // The centre counts wherever it has a surface, so `count >= 1` there.
+    let mut out = Lanes::<f32, N>::splat(1.0);
+    lanes::each_lane!(l in N {
+        if xs.0[l] < w && surface::has_surface(d.0[l]) {
+            out.0[l] = math::max(sum.0[l] / count.0[l], FLOOR);
+        }
+    });
+    out
 }
 
 /// Whether plane `z` is one the guide divides.
@@ -282,9 +354,20 @@ fn guided(p: &GuideParams, z: u32) -> bool {
     (p.ao_planes >> z) & 1 != 0
 }
 
-/// The history the variance pass reads, one invocation per pixel and plane: on the guided
-/// planes the moments divided by the guide (`m1 / g`, `m2 / g²`), elsewhere as they are.
-pub fn demodulate(id: UVec3, p: &GuideParams, io: AoDemodulateIo<'_>) {
+/// [`guide_at`] of pixels `(x + l, y)` (clamped to the row).
+#[inline(always)]
+fn guide_lanes<const N: usize>(guide: &[u32], x: u32, y: u32, width: u32) -> Lanes<f32, N> {
+    let xs = Lanes::<u32, N>::from_index(|l| if x + l < width { x + l } else { width - 1 });
+    let row = y * guide_row_words(width);
+    let (even, odd) = packing::unpack_f16x2_lanes(Lanes::gather(guide, xs.map(|x| row + x / 2)));
+    even.select(xs.map(|x| x & 1 == 0), odd)
+}
+
+/// The history the variance pass reads, one call per `N` consecutive pixels of a row and
+/// plane ([`crate::lanes`]): on the guided planes the moments divided by the guide (`m1 / g`,
+/// `m2 / g²`), elsewhere as they are.
+#[inline(always)]
+pub fn demodulate<const N: usize>(id: UVec3, p: &GuideParams, io: AoDemodulateIo<'_>) {
     let AoDemodulateIo {
         history,
         guide,
@@ -294,40 +377,52 @@ pub fn demodulate(id: UVec3, p: &GuideParams, io: AoDemodulateIo<'_>) {
     if id.x >= w || id.y >= h {
         return;
     }
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let row = (id.z * h + id.y) * w;
+    let q = Lanes::<PackedPayload, N>::load_row(history, row, id.x as i32, w);
     let i = plane_index(id, w, h);
-    let q: PackedPayload = history[i];
-    out[i] = if guided(p, id.z) {
-        let g = guide_at(guide, id.x, id.y, w);
-        let mut u = q.unpack();
-        u.m1 /= g;
-        u.m2 /= g * g;
-        u.pack()
-    } else {
-        q
-    };
+    if !guided(p, id.z) {
+        q.store(out, i, live);
+        return;
+    }
+    let g = guide_lanes::<N>(guide, id.x, id.y, w);
+    let mut u = PayloadLanes::unpack(q);
+    u.m1 = u.m1.zip(g, |m1, g| m1 / g);
+    u.m2 = u.m2.zip(g, |m2, g| m2 / (g * g));
+    u.pack().store(out, i, live);
 }
 
-/// `f` multiplied back by the guide `g`: value by `g`, at most 1 (AO is a fraction of the
-/// hemisphere; a neighbour whose guide was too dark can lift the mean of ratios past `1 / g`),
-/// variance by `g²`.
-#[inline]
-fn times(f: PackedFiltered, g: f32) -> PackedFiltered {
-    let mut u = f.unpack();
-    u.value = math::min(u.value * g, 1.0);
-    u.variance *= g * g;
-    u.pack()
+/// A filtered `(value, variance)` multiplied back by the guide `g`: value by `g`, at most 1
+/// (AO is a fraction of the hemisphere; a neighbour whose guide was too dark can lift the mean
+/// of ratios past `1 / g`), variance by `g²`.
+#[inline(always)]
+fn times(value: f32, variance: f32, g: f32) -> (f32, f32) {
+    (math::min(value * g, 1.0), variance * (g * g))
 }
 
-/// The filter's output multiplied back by the guide on the guided planes, in place, one
-/// invocation per pixel and plane.
-pub fn remodulate(id: UVec3, p: &GuideParams, io: AoRemodulateIo<'_>) {
+/// The filter's output multiplied back by the guide on the guided planes, in place, one call
+/// per `N` consecutive pixels of a row and plane ([`crate::lanes`]).
+#[inline(always)]
+pub fn remodulate<const N: usize>(id: UVec3, p: &GuideParams, io: AoRemodulateIo<'_>) {
     let AoRemodulateIo { guide, out } = io;
     let (w, h) = (p.width, p.height);
     if id.x >= w || id.y >= h || !guided(p, id.z) {
         return;
     }
-    let i = plane_index(id, w, h);
-    out[i] = times(out[i], guide_at(guide, id.x, id.y, w));
+    let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let row = (id.z * h + id.y) * w;
+    let (value, variance) = unpack_filtered(Lanes::<PackedFiltered, N>::load_row(
+        out,
+        row,
+        id.x as i32,
+        w,
+    ));
+    let g = guide_lanes::<N>(guide, id.x, id.y, w);
+    let (mut v, mut var) = (value, variance);
+    lanes::each_lane!(l in N {
+        (v.0[l], var.0[l]) = times(value.0[l], variance.0[l], g.0[l]);
+    });
+    pack_filtered(v, var).store(out, plane_index(id, w, h), live);
 }
 
 /// [`remodulate`] into the engine's texture (R32F, plane `z`'s pixel `(x, y)` at texel
@@ -340,11 +435,12 @@ pub fn remodulate_into(id: UVec3, p: &GuideParams, io: AoRemodulateIntoIo<'_>, o
         return;
     }
     let i = plane_index(id, w, h);
-    let f = if guided(p, id.z) {
-        times(input[i], guide_at(guide, id.x, id.y, w))
-    } else {
-        input[i]
-    };
-    let value = f.unpack().value;
+    let mut f = input[i].unpack();
+    if guided(p, id.z) {
+        // Through binary16 as `remodulate` stores it, so both paths give the same value.
+        (f.value, f.variance) = times(f.value, f.variance, guide_at(guide, id.x, id.y, w));
+        f = f.pack().unpack();
+    }
+    let value = f.value;
     out.store(id.x, id.y + id.z * h, w, Vec4::new(value, 0.0, 0.0, 1.0));
 }

@@ -441,7 +441,7 @@ crate::kernel_table! {
     }
 
     /// [`ao_guide::march`]: the AO guide's unblocked fraction per pixel, before its blur.
-    ao_guide_march => AO_GUIDE_MARCH, AoGuideMarchBindings, AoGuideMarchIo: fn ao_guide::march,
+    ao_guide_march => AO_GUIDE_MARCH, AoGuideMarchBindings, AoGuideMarchIo: lanes(32, avx512 64) ao_guide::march,
     threads(8, 8, 1), params ao_guide::MarchParams {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
@@ -451,7 +451,7 @@ crate::kernel_table! {
 
     /// [`ao_guide::blur`]: the AO guide, `raw`'s 4×4 mean on the pixel's surface; one invocation
     /// per two pixels of a row, binary16 each (`ao_guide::guide_at`).
-    ao_guide_blur => AO_GUIDE_BLUR, AoGuideBlurBindings, AoGuideBlurIo: fn ao_guide::blur,
+    ao_guide_blur => AO_GUIDE_BLUR, AoGuideBlurBindings, AoGuideBlurIo: lanes(16, avx512 32) ao_guide::blur,
     threads(8, 8, 1), params ao_guide::GuideParams {
         raw: read f32,
         depth: read Depth,
@@ -461,7 +461,7 @@ crate::kernel_table! {
 
     /// [`ao_guide::demodulate`]: the history divided by the AO guide on the AO planes, for the
     /// variance pass; one invocation per pixel and plane.
-    ao_demodulate => AO_DEMODULATE, AoDemodulateBindings, AoDemodulateIo: fn ao_guide::demodulate,
+    ao_demodulate => AO_DEMODULATE, AoDemodulateBindings, AoDemodulateIo: lanes(16, avx512 32) ao_guide::demodulate,
     threads(8, 8, 1), params ao_guide::GuideParams {
         history: read PackedPayload,
         guide: read u32,
@@ -469,7 +469,7 @@ crate::kernel_table! {
     }
 
     /// [`ao_guide::remodulate`]: the filter's output multiplied back by the AO guide, in place.
-    ao_remodulate => AO_REMODULATE, AoRemodulateBindings, AoRemodulateIo: fn ao_guide::remodulate,
+    ao_remodulate => AO_REMODULATE, AoRemodulateBindings, AoRemodulateIo: lanes(16, avx512 32) ao_guide::remodulate,
     threads(8, 8, 1), params ao_guide::GuideParams {
         guide: read u32,
         out: update PackedFiltered,
