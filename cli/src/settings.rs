@@ -212,6 +212,7 @@ mod tests {
                 ao_symmetric_taps: false,
                 ao_guide_directions: 7,
                 ao_guide_steps: 5,
+                ao_guide_refresh: 3,
                 guide_sigma: 0.1 + 0.7,
                 guided_sigma_luminance: 2.75,
                 tall_guided_sigma_luminance: 5.5,

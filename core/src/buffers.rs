@@ -36,7 +36,7 @@ const fn size(name: &'static str, count: u32, bytes: u64, ty: &'static str) -> B
 }
 
 /// How many distinct buffers (ping-pong pairs counted once) a `Denoiser` allocates.
-pub const DENOISER_BUFFERS: usize = 30;
+pub const DENOISER_BUFFERS: usize = 31;
 
 /// Gradient cells across and down for stratum size `stratum` (one dummy cell when off).
 pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
@@ -72,10 +72,14 @@ pub fn denoiser_buffers(
     let parallax = only(layout.parallax_plane.is_some(), pixels);
     let guide = only(layout.guide_plane.is_some(), pixels);
     let penumbra = only(layout.penumbra_plane.is_some(), pixels);
+    let guided = layout.ao_planes != 0 && settings.filter.ao_guide_directions > 0;
     let ao_guide = only(
-        layout.ao_planes != 0 && settings.filter.ao_guide_directions > 0,
+        guided,
         crate::kernels::ao_guide::guide_row_words(width) as u64 * height as u64,
     );
+    // The guide's raw fractions, kept across frames (this frame's and last frame's) when it
+    // refreshes; otherwise a frame's go to a filter buffer.
+    let ao_guide_raw = only(guided && settings.filter.ao_guide_refresh > 0, pixels);
     [
         size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4), "f32"),
         size("counters", 1, bytes(COUNTERS_LEN as u64, 4), "u32"),
@@ -158,6 +162,7 @@ pub fn denoiser_buffers(
         size("blockers", 1, bytes(penumbra, 4), "f32"),
         size("penumbra", 1, bytes(penumbra, 4), "f32"),
         size("ao_guide", 1, bytes(ao_guide, 4), "u32"),
+        size("ao_guide_raw", 2, bytes(ao_guide_raw, 4), "u32"),
         // Bound in place of a buffer a pass does not read in this configuration (accumulation's
         // surfaces without an own-surface clamp), so the pass neither waits on nor counts the
         // bytes it skips; two, since a pass binds each buffer once.

@@ -459,6 +459,11 @@ pub struct FilterSettings {
     pub ao_guide_directions: u32,
     /// Steps per direction of the AO guide's march (1..=32; default 6).
     pub ao_guide_steps: u32,
+    /// Directions a pixel marches once its AO guide holds `ao_guide_directions` of them
+    /// (0..=64, at most `ao_guide_directions` taken; default 2): the guide is kept across frames, reprojected
+    /// like history, and each frame blends these few new ones in. 0 marches every direction
+    /// every frame, from a dither fixed to the screen, which flickers where the camera moves.
+    pub ao_guide_refresh: u32,
     /// σ of the hit-distance guide of the reflections, in stops of hit distance (`log2`; >= 0,
     /// 0 = off; default 1.6). The G-buffer does not show the edges inside a reflected image and
     /// at 1 rpp the luminance test cannot find them either (`kernels::reflect::reflect_guide`).

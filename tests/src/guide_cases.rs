@@ -3,7 +3,7 @@
 //! the multiplication back on random planes.
 
 use crate::cases::{self, groups, PLANES};
-use crate::layouts::{FILTERED, FLOATS, HALVES, PAYLOAD};
+use crate::layouts::{FILTERED, HALVES, PAYLOAD};
 use crate::trace_cases::{images, raygen_inputs, room_frame};
 use crate::{BufferSpec, Case};
 use rand::Rng;
@@ -13,29 +13,78 @@ use vrrt_core::packing;
 use vrrt_core::payload::{Filtered, PackedFiltered, PackedPayload, Payload};
 
 /// `ao_guide_march`: the unblocked fraction of 1–16 directions, marched in 1–8 steps to a
-/// radius from a third of the room's pole spacing to twice it. Whether a step is blocked
-/// compares depths, so a fraction may differ by one direction where a step grazes a surface.
+/// radius from a third of the room's pole spacing to twice it, kept from a random last frame's
+/// (the same G-buffer; fractions holding none, some or the most directions) or not (no refresh,
+/// a reset). Whether a step is blocked compares depths, so a fraction may differ by one
+/// direction where a step grazes a surface; whether a pixel marches all directions compares
+/// what it holds.
 pub fn march_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let frame = room_frame(rng);
-    let [depth, normal_roughness, _, view] = raygen_inputs(&images(&frame, w, h), &frame);
+    let g = images(&frame, w, h);
+    let [depth, normal_roughness, _, view] = raygen_inputs(&g, &frame);
+    let directions = rng.random_range(1..=16);
     let params = ao_guide::MarchParams {
         width: w,
         height: h,
-        directions: rng.random_range(1..=16),
+        directions,
         steps: rng.random_range(1..=8),
         radius: rng.random_range(0.3..2.0),
+        refresh: [0, 1, directions][rng.random_range(0..3)],
+        reset: rng.random_range(0..4) / 3,
+        first: rng.random_range(0..directions),
+        turn: rng.random_range(0.0..1.0),
+        normal_threshold: 0.9,
+        plane_threshold: 0.02,
     };
+    let most = ao_guide::HISTORY * directions as f32;
+    let prev_raw: Vec<u32> = (0..w * h)
+        .map(|_| {
+            let held = [0.0, 0.5 * directions as f32, directions as f32, most];
+            let held = held[rng.random_range(0..4)];
+            packing::pack_f16x2(rng.random_range(0.0..=1.0), held)
+        })
+        .collect();
     Case {
         name: format!(
-            "ao_guide_march {w}x{h} directions {} steps {} radius {:.2}",
-            params.directions, params.steps, params.radius
+            "ao_guide_march {w}x{h} directions {} steps {} radius {:.2} refresh {} reset {}",
+            params.directions, params.steps, params.radius, params.refresh, params.reset
         ),
         kernel: &kernels::AO_GUIDE_MARCH,
         buffers: vec![
             depth,
             normal_roughness,
+            g.motion(),
+            g.depth(),
+            g.normal_roughness(),
             view,
-            BufferSpec::from_pod(&vec![0.0f32; (w * h) as usize], FLOATS).decided(),
+            BufferSpec::from_pod(&prev_raw, HALVES),
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], HALVES).decided(),
+        ],
+        params: bytemuck::bytes_of(&params).to_vec(),
+        groups: groups(&kernels::AO_GUIDE_MARCH, w, h, 1),
+    }
+}
+
+/// `ao_guide_march` over the built-in room's first frame held still (no motion, last frame's
+/// G-buffer the same) and last frame's fractions `prev_raw` (for the kept guide's test in
+/// `tests/ao_guide.rs`).
+pub fn still_march_case(w: u32, h: u32, params: ao_guide::MarchParams, prev_raw: &[u32]) -> Case {
+    let scene = vrrt_scene::builtin::builtin("room").expect("built-in scene");
+    let frame = scene.frame(0);
+    let g = images(&frame, w, h);
+    let [depth, normal_roughness, _, view] = raygen_inputs(&g, &frame);
+    Case {
+        name: format!("ao_guide_march {w}x{h}, a still frame"),
+        kernel: &kernels::AO_GUIDE_MARCH,
+        buffers: vec![
+            depth,
+            normal_roughness,
+            BufferSpec::from_pod(&vec![0u32; 2 * (w * h) as usize], HALVES),
+            g.depth(),
+            g.normal_roughness(),
+            view,
+            BufferSpec::from_pod(prev_raw, HALVES),
+            BufferSpec::from_pod(&vec![0u32; (w * h) as usize], HALVES),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&kernels::AO_GUIDE_MARCH, w, h, 1),
@@ -47,13 +96,14 @@ pub fn march_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 pub fn blur_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let frame = room_frame(rng);
     let [depth, normal_roughness, ..] = raygen_inputs(&images(&frame, w, h), &frame);
-    let raw: Vec<f32> = (0..w * h)
+    let raw: Vec<u32> = (0..w * h)
         .map(|_| {
-            if rng.random_range(0..4) == 0 {
+            let fraction = if rng.random_range(0..4) == 0 {
                 0.0
             } else {
                 rng.random_range(0.0..=1.0)
-            }
+            };
+            packing::pack_f16x2(fraction, 16.0)
         })
         .collect();
     let params = guide_params(rng, w, h);
@@ -61,7 +111,7 @@ pub fn blur_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         name: format!("ao_guide_blur {w}x{h}"),
         kernel: &kernels::AO_GUIDE_BLUR,
         buffers: vec![
-            BufferSpec::from_pod(&raw, FLOATS),
+            BufferSpec::from_pod(&raw, HALVES),
             depth,
             normal_roughness,
             BufferSpec::from_pod(&vec![0u32; words(w, h)], HALVES).decided(),
@@ -74,18 +124,7 @@ pub fn blur_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
 /// `ao_demodulate`: random histories (empty ones among them) divided by random guides on a
 /// random set of planes.
 pub fn demodulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
-    let history: Vec<PackedPayload> = (0..w * h * PLANES)
-        .map(|_| {
-            let m1 = rng.random_range(0.0..=1.0);
-            Payload {
-                m1,
-                m2: m1 * rng.random_range(m1..=1.0),
-                count: [0.0, 1.0, 3.5, 24.0][rng.random_range(0..4)],
-                rng_index: rng.random_range(0..1 << 16),
-            }
-            .pack()
-        })
-        .collect();
+    let history = histories(rng, w, h);
     let params = guide_params(rng, w, h);
     Case {
         name: format!("ao_demodulate {w}x{h} planes {:b}", params.ao_planes),
@@ -98,6 +137,22 @@ pub fn demodulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: groups(&kernels::AO_DEMODULATE, w, h, PLANES),
     }
+}
+
+/// Random histories of every plane, empty and young ones among them.
+fn histories(rng: &mut Pcg32, w: u32, h: u32) -> Vec<PackedPayload> {
+    (0..w * h * PLANES)
+        .map(|_| {
+            let m1 = rng.random_range(0.0..=1.0);
+            Payload {
+                m1,
+                m2: m1 * rng.random_range(m1..=1.0),
+                count: [0.0, 1.0, 3.5, 24.0][rng.random_range(0..4)],
+                rng_index: rng.random_range(0..1 << 16),
+            }
+            .pack()
+        })
+        .collect()
 }
 
 /// `ao_remodulate`: random filtered values (up to the guide's inverse, as divided ones reach)

@@ -16,7 +16,7 @@ mod balance_cases;
 pub mod cases;
 mod filter_cases;
 pub mod gradient_cases;
-mod guide_cases;
+pub mod guide_cases;
 pub mod ingest_cases;
 pub mod inputs;
 pub mod reflect_cases;

@@ -81,3 +81,72 @@ fn the_guide_reshapes_the_filtered_image() {
         }
     }
 }
+
+/// The kept guide (`filter.ao_guide_refresh`) through the march alone, on a frame whose camera
+/// is still: a reset frame marches every direction into each pixel with a surface; the next
+/// frame finds all of them where they were and adds `refresh` directions, blending the new
+/// fraction in by `refresh / (directions + refresh)`; sky holds none.
+#[test]
+fn a_kept_guide_adds_refresh_directions_a_frame() {
+    use vrrt_core::kernels::ao_guide::{self, MarchParams};
+    use vrrt_core::packing::unpack_f16x2;
+    use vrrt_tests::{guide_cases::still_march_case, run_case};
+    let (w, h) = (48, 27);
+    let (directions, refresh) = (8, 2);
+    let params = MarchParams {
+        width: w,
+        height: h,
+        directions,
+        steps: 6,
+        radius: 1.0,
+        refresh,
+        reset: 1,
+        first: 0,
+        turn: 0.0,
+        normal_threshold: 0.9,
+        plane_threshold: 0.02,
+    };
+    let march = |params: MarchParams, prev: &[u32]| {
+        let case = still_march_case(w, h, params, prev);
+        let out = run_case(&mut CpuExecutor::new(), &case).unwrap();
+        out.last()
+            .unwrap()
+            .iter()
+            .map(|&w| unpack_f16x2(w))
+            .collect::<Vec<_>>()
+    };
+    let first = march(params, &vec![0; (w * h) as usize]);
+    let words: Vec<u32> = first
+        .iter()
+        .map(|&(v, n)| vrrt_core::packing::pack_f16x2(v, n))
+        .collect();
+    let next_params = MarchParams {
+        reset: 0,
+        first: refresh,
+        turn: 0.3,
+        ..params
+    };
+    let next = march(next_params, &words);
+    let (d, k) = (directions as f32, refresh as f32);
+    let mut surfaced = 0;
+    for (&(v0, n0), &(v1, n1)) in first.iter().zip(&next) {
+        if n0 == 0.0 {
+            assert_eq!((v0, v1, n1), (1.0, 1.0, 0.0), "sky");
+            continue;
+        }
+        surfaced += 1;
+        assert_eq!((n0, n1), (d, d + k), "directions held");
+        // The new fraction is a whole number of open directions out of `refresh`.
+        let fresh = v0 + (v1 - v0) * (d + k) / k;
+        let open = fresh * k;
+        assert!(
+            (open - open.round()).abs() < 0.02 && (0.0..=k).contains(&open.round()),
+            "{v0} → {v1}: {open} open directions of {k}"
+        );
+    }
+    assert!(
+        surfaced > (w * h / 2) as usize,
+        "{surfaced} pixels with a surface"
+    );
+    assert!(ao_guide::HISTORY * d >= d + k);
+}

@@ -305,6 +305,9 @@ pub struct Denoiser {
     penumbra: BufferId,
     /// The AO guide (`kernels::ao_guide`), binary16 per pixel with AO planes and the guide on.
     ao_guide: BufferId,
+    /// The AO guide's raw fractions, this frame's (`cur`) and last frame's, when it is kept
+    /// across frames (`filter.ao_guide_refresh`).
+    ao_guide_raw: [BufferId; 2],
     /// The AO rays' length, which the AO guide marches to (0 until [`Self::set_ao_radius`]: no
     /// guide).
     ao_radius: f32,
@@ -408,6 +411,7 @@ impl Denoiser {
             blockers: id("blockers")[0],
             penumbra: id("penumbra")[0],
             ao_guide: id("ao_guide")[0],
+            ao_guide_raw: [id("ao_guide_raw")[0], id("ao_guide_raw")[1]],
             ao_radius: 0.0,
             unread: [id("unread")[0], id("unread")[1]],
             cur: 0,

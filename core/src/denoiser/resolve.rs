@@ -211,22 +211,45 @@ impl Denoiser {
         if l.ao_planes == 0 || s.filter.ao_guide_directions == 0 || !(self.ao_radius > 0.0) {
             return Ok(false);
         }
-        let (w, h) = (self.width, self.height);
-        let (depth, normal_roughness) = (self.depth[self.cur], self.normal_roughness[self.cur]);
+        let (w, h, cur) = (self.width, self.height, self.cur);
+        let (depth, normal_roughness) = (self.depth[cur], self.normal_roughness[cur]);
+        let directions = s.filter.ao_guide_directions;
+        let refresh = s.filter.ao_guide_refresh.min(directions);
+        let index = self.frame.index as u64;
         let march = ao_guide::MarchParams {
             width: w,
             height: h,
-            directions: s.filter.ao_guide_directions,
+            directions,
             steps: s.filter.ao_guide_steps,
             radius: self.ao_radius,
+            refresh,
+            reset: self.frame.reset as u32,
+            first: (index * refresh as u64 % directions as u64) as u32,
+            // The golden ratio's multiples, in f64 so that large indices keep their fraction.
+            turn: if refresh > 0 {
+                (index as f64 * 0.618_033_988_749_895).fract() as f32
+            } else {
+                0.0
+            },
+            normal_threshold: s.temporal.normal_threshold,
+            plane_threshold: s.temporal.plane_threshold,
         };
-        // The unblurred guide in the filter buffer the first iteration writes: free from
-        // accumulation on (its work and refill lists are spent).
-        let raw = self.filtered[1];
+        // Kept across frames, or else in the filter buffer the first iteration writes: free
+        // from accumulation on (its work and refill lists are spent). Without history the
+        // march reads nothing of last frame's.
+        let (raw, prev_raw) = if refresh > 0 {
+            (self.ao_guide_raw[cur], self.ao_guide_raw[1 - cur])
+        } else {
+            (self.filtered[1], self.unread[0])
+        };
         let pass = kernels::AoGuideMarchBindings {
             depth,
             normal_roughness,
+            motion: self.motion,
+            prev_depth: self.depth[1 - cur],
+            prev_normal_roughness: self.normal_roughness[1 - cur],
             view: self.view,
+            prev_raw,
             raw,
         };
         exec.dispatch(&pass.over_grid(&march, w, h, 1))?;

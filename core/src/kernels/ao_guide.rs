@@ -15,7 +15,13 @@
 //!   when it lies behind the visible surface by less than [`THICKNESS`] of the radius. `raw`
 //!   is the unblocked fraction. The directions are rotated per pixel by a 4×4 ordered-dither
 //!   pattern, so a 4×4 block holds sixteen sets; one set for every pixel bands the guide, and
-//!   the bands came through the ratio as structure the filter kept.
+//!   the bands came through the ratio as structure the filter kept. With `refresh` directions
+//!   (`filter.ao_guide_refresh`) the fraction is kept across frames: reprojected like history
+//!   (the same texel tests), a pixel whose kept fraction holds `directions` directions marches
+//!   only `refresh` new ones, turned from frame to frame, and blends them in (at most
+//!   [`HISTORY`] × `directions` kept); the others march all `directions`. A fresh guide each
+//!   frame from a dither fixed to the screen flickers where the camera moves; a kept one does
+//!   not, and costs a fraction of the march.
 //! - [`blur`]: the mean of `raw` over each pixel's 4×4 block on its own surface (normals within
 //!   [`BLUR_COSINE`], depths within [`BLUR_DEPTH`]), floored at [`FLOOR`], so that a crevice
 //!   no step escapes does not divide by 0. Stored as binary16, two horizontal neighbours a word
@@ -26,14 +32,15 @@
 //! multiply the filter's last output back. Measured in `docs/algorithms/fresh-pixels.md`.
 
 use super::plane_index;
+use super::reproject::{self, ReprojectParams};
 use super::{AoDemodulateIo, AoGuideBlurIo, AoGuideMarchIo, AoRemodulateIntoIo, AoRemodulateIo};
-use crate::camera::{Camera, PixelRays};
+use crate::camera::{Camera, PixelRays, View};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::packing;
 use crate::payload::{pack_filtered, unpack_filtered, PackedFiltered, PackedPayload, PayloadLanes};
 use crate::sampling;
-use crate::surface;
+use crate::surface::{self, Moved};
 use crate::textures::Store;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3, Vec4};
@@ -74,7 +81,25 @@ pub struct MarchParams {
     pub steps: u32,
     /// The AO rays' length (world units).
     pub radius: f32,
+    /// Directions a pixel with history marches (`filter.ao_guide_refresh`, `1..=directions`);
+    /// 0: no pixel keeps history, every one marches `directions` with the dither alone.
+    pub refresh: u32,
+    /// Nonzero on the first frame and on camera cuts: no pixel has history.
+    pub reset: u32,
+    /// The stratum of this frame's first direction (`directions` strata, `refresh` a frame).
+    pub first: u32,
+    /// A turn added to every pixel's rotation this frame (in `[0, 1)`), so kept fractions
+    /// gather new directions.
+    pub turn: f32,
+    /// Reprojection's texel tests (`temporal.normal_threshold`).
+    pub normal_threshold: f32,
+    /// ...and `temporal.plane_threshold`.
+    pub plane_threshold: f32,
 }
+
+/// A pixel's kept fraction holds at most this many times `directions` directions: the blend of
+/// a frame's `refresh` new ones then weighs `refresh / (HISTORY · directions)`.
+pub const HISTORY: f32 = 4.0;
 
 /// Push constants of [`blur`], [`demodulate`], [`remodulate`] and [`remodulate_into`].
 #[repr(C)]
@@ -97,14 +122,19 @@ pub fn dither(x: u32, y: u32) -> f32 {
 }
 
 /// Raw guide, one call per `N` consecutive pixels of a row ([`crate::lanes`]): the fraction of
-/// each pixel's directions no step of which is blocked (module docs); 1 where there is no
-/// surface.
+/// each pixel's directions no step of which is blocked, kept across frames with `refresh`
+/// (module docs), as binary16 `(fraction, directions it holds)` in one word; `(1, 0)` where
+/// there is no surface.
 #[inline(always)]
 pub fn march<const N: usize>(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>) {
     let AoGuideMarchIo {
         depth,
         normal_roughness,
+        motion,
+        prev_depth,
+        prev_normal_roughness,
         view,
+        prev_raw,
         raw,
     } = io;
     let (w, h) = (p.width, p.height);
@@ -113,17 +143,101 @@ pub fn march<const N: usize>(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>)
     }
     let (row, x0) = (id.y * w, id.x as i32);
     let live = Lanes::<bool, N>::from_index(|l| id.x + l < w);
+    let out = (row + id.x) as usize;
     let d = Lanes::<f32, N>::load_row(depth, row, x0, w);
     let surfaced = d.map(surface::has_surface);
     if !surfaced.any() || p.directions == 0 {
-        Lanes::<f32, N>::splat(1.0).store(raw, (row + id.x) as usize, live);
+        Lanes::splat(packing::pack_f16x2(1.0, 0.0)).store(raw, out, live);
         return;
     }
-    let words = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
-    let q = Projection::new(&view[0].camera, w, h);
-    let rays = PixelRays::new(&view[0].camera, w, h);
-    // Per lane: the normal, its basis, the start in projected form, the dither's rotation.
-    let n = words.map(packing::unpack_normal);
+    let nr = Lanes::<u32, N>::load_row(normal_roughness, row, x0, w);
+    let (kept, held) = if p.refresh > 0 && p.reset == 0 {
+        let mv = Lanes::<[u32; 2], N>::load_row(motion, row, x0, w);
+        let prev = (prev_depth, prev_normal_roughness, prev_raw);
+        kept_fraction(id, p, &view[0], (d, nr, mv), prev)
+    } else {
+        (Lanes::splat(0.0), Lanes::splat(0.0))
+    };
+    // A pixel whose kept fraction holds every stratum marches `refresh` more, the others all.
+    let all = p.directions as f32;
+    let marched = held.map(|n| if n >= all { p.refresh } else { p.directions });
+    let open = open_directions(id, p, &view[0], (d, nr), marched, depth);
+    let mut word = Lanes::<u32, N>::splat(0);
+    lanes::each_lane!(l in N {
+        let m = marched.0[l] as f32;
+        let fraction = open.0[l] as f32 / m;
+        let n = math::min(held.0[l] + m, HISTORY * all);
+        let value = kept.0[l] + (fraction - kept.0[l]) * (m / n);
+        word.0[l] = if surfaced.0[l] {
+            packing::pack_f16x2(value, n)
+        } else {
+            packing::pack_f16x2(1.0, 0.0)
+        };
+    });
+    word.store(raw, out, live);
+}
+
+/// Last frame's fractions reprojected to pixels `(id.x + l, id.y)` (`inputs`: this frame's
+/// depth, normal + roughness and motion there): the bilinear blend of the footprint's texels
+/// that pass reprojection's tests and hold directions, and the directions they hold, weighted
+/// by the footprint as history lengths are (`kernels::reproject`).
+#[inline(always)]
+fn kept_fraction<const N: usize>(
+    id: UVec3,
+    p: &MarchParams,
+    view: &View,
+    (d, nr, mv): (Lanes<f32, N>, Lanes<u32, N>, Lanes<[u32; 2], N>),
+    (prev_depth, prev_normal_roughness, prev_raw): (&[f32], &[u32], &[u32]),
+) -> (Lanes<f32, N>, Lanes<f32, N>) {
+    let (w, h) = (p.width, p.height);
+    let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column(id.x as i32 + l as i32, w));
+    let c = Moved::new(view, xs, id.y, (w, h), d, nr, mv);
+    let tests = ReprojectParams {
+        width: w,
+        height: h,
+        normal_threshold: p.normal_threshold,
+        plane_threshold: p.plane_threshold,
+        ..ReprojectParams::default()
+    };
+    let (n, prev, cam) = (c.normal, c.prev_position, &view.prev_camera);
+    let (pd, pn) = (prev_depth, prev_normal_roughness);
+    let f = reproject::footprint(n, prev, c.prev_xy, c.valid, cam, pd, pn, &tests);
+    let zero = Lanes::<f32, N>::splat(0.0);
+    let (mut value, mut held, mut sum_w) = (zero, zero, zero);
+    let mut k = 0;
+    while k < 4 {
+        let (v, count) = packing::unpack_f16x2_lanes(Lanes::gather(prev_raw, f.texel[k]));
+        lanes::each_lane!(l in N {
+            // A texel without a surface last frame holds no directions.
+            let b = if count.0[l] > 0.0 { f.bilinear[k].0[l] } else { 0.0 };
+            value.0[l] += b * v.0[l];
+            held.0[l] += b * count.0[l];
+            sum_w.0[l] += b;
+        });
+        k += 1;
+    }
+    lanes::each_lane!(l in N {
+        value.0[l] = if sum_w.0[l] > 0.0 { value.0[l] / sum_w.0[l] } else { 0.0 };
+    });
+    (value, held)
+}
+
+/// How many of each pixel's first `marched[l]` directions this frame no step of which is
+/// blocked (`inputs`: depth and normal + roughness of pixels `(id.x + l, id.y)`).
+#[inline(always)]
+fn open_directions<const N: usize>(
+    id: UVec3,
+    p: &MarchParams,
+    view: &View,
+    (d, nr): (Lanes<f32, N>, Lanes<u32, N>),
+    marched: Lanes<u32, N>,
+    depth: &[f32],
+) -> Lanes<u32, N> {
+    let (w, h) = (p.width, p.height);
+    let q = Projection::new(&view.camera, w, h);
+    let rays = PixelRays::new(&view.camera, w, h);
+    // Per lane: the normal, its basis, the start in projected form, the rotation.
+    let n = nr.map(packing::unpack_normal);
     let mut start = Lanes::<Vec3, N>::splat(Vec3::ZERO);
     let (mut tangent, mut bitangent) = (start, start);
     // Direction `k` of a pixel of rotation `ρ`: `u1 = (k + ρ) / directions` and azimuth
@@ -135,12 +249,20 @@ pub fn march<const N: usize>(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>)
         let v = rays.dir(x as f32, id.y as f32) * d.0[l] + n.0[l] * (LIFT * d.0[l]);
         start.0[l] = q.project(v);
         (tangent.0[l], bitangent.0[l]) = sampling::orthonormal_basis(n.0[l]);
-        rotation.0[l] = dither(x, id.y);
+        // A pixel marching every direction takes the dither alone: where nothing moves, the
+        // same fraction as last frame's.
+        let turn = if marched.0[l] < p.directions { p.turn } else { 0.0 };
+        rotation.0[l] = fract(dither(x, id.y) + turn);
         (turn_sin.0[l], turn_cos.0[l]) = math::sin_cos_turns(rotation.0[l] * PLASTIC);
     });
+    let mut most = 0;
+    lanes::each_lane!(l in N {
+        most = if marched.0[l] > most { marched.0[l] } else { most };
+    });
     let mut open = Lanes::<u32, N>::splat(0);
-    let mut k = 0;
-    while k < p.directions {
+    let mut j = 0;
+    while j < most {
+        let k = (p.first + j) % p.directions;
         let (sk, ck) = math::sin_cos_turns(fract(k as f32 * GOLDEN));
         let mut step = Lanes::<Vec3, N>::splat(Vec3::ZERO);
         lanes::each_lane!(l in N {
@@ -153,13 +275,14 @@ pub fn march<const N: usize>(id: UVec3, p: &MarchParams, io: AoGuideMarchIo<'_>)
             step.0[l] = q.project(dir);
         });
         let blocked = blocked(&q, &start, &step, p, depth);
-        open = open.zip(blocked, |open, blocked| open + !blocked as u32);
-        k += 1;
+        lanes::each_lane!(l in N {
+            if !blocked.0[l] && j < marched.0[l] {
+                open.0[l] += 1;
+            }
+        });
+        j += 1;
     }
-    let value = open.map(|open| open as f32 / p.directions as f32);
-    value
-        .select(surfaced, Lanes::splat(1.0))
-        .store(raw, (row + id.x) as usize, live);
+    open
 }
 
 /// The fractional part of a non-negative `x`.
@@ -299,7 +422,7 @@ fn blurred<const N: usize>(
     x0: u32,
     y: u32,
     p: &GuideParams,
-    (raw, depth, normal_roughness): (&[f32], &[f32], &[u32]),
+    (raw, depth, normal_roughness): (&[u32], &[f32], &[u32]),
 ) -> Lanes<f32, N> {
     let (w, h) = (p.width, p.height);
     let xs = Lanes::<u32, N>::from_index(|l| x0 + 2 * l);
@@ -324,7 +447,7 @@ fn blurred<const N: usize>(
                 Lanes::gather(depth, index),
                 Lanes::gather(normal_roughness, index),
             );
-            let qr = Lanes::gather(raw, index);
+            let (qr, _) = packing::unpack_f16x2_lanes(Lanes::gather(raw, index));
             lanes::each_lane!(l in N {
                 let (d, qd) = (d.0[l], qd.0[l]);
                 let same = n.0[l].dot(packing::unpack_normal(qn.0[l])) > BLUR_COSINE

@@ -225,9 +225,9 @@ pub fn requested_rate(min_count: f32, max_variance: f32, p: &ReprojectParams) ->
 /// The 2×2 bilinear footprints of `N` pixels (one lane each): texel indices and bilinear weights
 /// with every texel that fails [`same_surface`] (or lies off-screen) set to 0, per texel `k`.
 #[derive(Copy, Clone)]
-struct Footprint<const N: usize> {
-    texel: [Lanes<u32, N>; 4],
-    bilinear: [Lanes<f32, N>; 4],
+pub(super) struct Footprint<const N: usize> {
+    pub(super) texel: [Lanes<u32, N>; 4],
+    pub(super) bilinear: [Lanes<f32, N>; 4],
     /// Whether any texel survived.
     any: Lanes<bool, N>,
 }
@@ -235,7 +235,7 @@ struct Footprint<const N: usize> {
 /// The [`Footprint`]s of previous-frame positions `xy` (pixels) of surfaces `c`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // The SPIR-V ABI passes slices one by one.
-fn footprint<const N: usize>(
+pub(super) fn footprint<const N: usize>(
     n: Lanes<Vec3, N>,
     prev: Lanes<Vec3, N>,
     xy: Lanes<[f32; 2], N>,

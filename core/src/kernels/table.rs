@@ -445,15 +445,19 @@ crate::kernel_table! {
     threads(8, 8, 1), params ao_guide::MarchParams {
         depth: read Depth,
         normal_roughness: read NormalRoughness,
+        motion: read Motion,
+        prev_depth: read Depth,
+        prev_normal_roughness: read NormalRoughness,
         view: read View,
-        raw: write f32,
+        prev_raw: read u32,
+        raw: write u32,
     }
 
     /// [`ao_guide::blur`]: the AO guide, `raw`'s 4×4 mean on the pixel's surface; one invocation
     /// per two pixels of a row, binary16 each (`ao_guide::guide_at`).
     ao_guide_blur => AO_GUIDE_BLUR, AoGuideBlurBindings, AoGuideBlurIo: lanes(16, avx512 32) ao_guide::blur,
     threads(8, 8, 1), params ao_guide::GuideParams {
-        raw: read f32,
+        raw: read u32,
         depth: read Depth,
         normal_roughness: read NormalRoughness,
         guide: write u32,

@@ -103,6 +103,7 @@ impl Default for FilterSettings {
             ao_symmetric_taps: true,
             ao_guide_directions: 0,
             ao_guide_steps: 6,
+            ao_guide_refresh: 2,
             guide_sigma: 1.6,
             guided_sigma_luminance: 3.0,
             tall_guided_sigma_luminance: 6.0,

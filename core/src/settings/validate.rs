@@ -362,6 +362,12 @@ impl FilterSettings {
             "filter.ao_guide_steps",
             self.ao_guide_steps,
             "1..=32",
+        )?;
+        check(
+            self.ao_guide_refresh <= 64,
+            "filter.ao_guide_refresh",
+            self.ao_guide_refresh,
+            "0..=64",
         )
     }
 }
