@@ -88,8 +88,8 @@ pub struct MarchParams {
     pub reset: u32,
     /// The stratum of this frame's first direction (`directions` strata, `refresh` a frame).
     pub first: u32,
-    /// A turn added to every pixel's rotation this frame (in `[0, 1)`), so kept fractions
-    /// gather new directions.
+    /// A turn (in `[0, 1)`) added this frame to the rotation of the pixels that march
+    /// `refresh` directions, so that kept fractions gather new ones.
     pub turn: f32,
     /// Reprojection's texel tests (`temporal.normal_threshold`).
     pub normal_threshold: f32,
