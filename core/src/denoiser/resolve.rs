@@ -225,9 +225,10 @@ impl Denoiser {
             refresh,
             reset: self.frame.reset as u32,
             first: (index * refresh as u64 % directions as u64) as u32,
-            // The golden ratio's multiples, in f64 so that large indices keep their fraction.
+            // The golden ratio's multiples' fractions, in 64-bit fixed point (2^64 / φ) so that
+            // large indices keep theirs; 24 bits of it.
             turn: if refresh > 0 {
-                (index as f64 * 0.618_033_988_749_895).fract() as f32
+                (index.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as f32 / (1u32 << 24) as f32
             } else {
                 0.0
             },
