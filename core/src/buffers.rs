@@ -47,6 +47,35 @@ pub fn grid_size(width: u32, height: u32, stratum: u32) -> (u32, u32) {
     }
 }
 
+/// Elements of the buffers only some configurations need (one element where not needed).
+struct Guides {
+    parallax: u64,
+    guide: u64,
+    penumbra: u64,
+    ao_guide: u64,
+    ao_guide_raw: u64,
+}
+
+/// [`Guides`] of a `width × height` denoiser with `layout` and `settings`: reflection parallax
+/// positions exist only with a parallax plane, the hit-distance guide with a guide plane, the
+/// shadow raygen's blocker records and the penumbra guide with a penumbra plane, the AO guide
+/// (two pixels a word) with AO planes and the guide on, and its raw fractions, kept across
+/// frames (this frame's and last frame's), when it refreshes (otherwise a frame's go to a
+/// filter buffer).
+fn guides(width: u32, height: u32, layout: &Layout, settings: &Settings) -> Guides {
+    let pixels = width as u64 * height as u64;
+    let only = |needed: bool, elements: u64| if needed { elements } else { 1 };
+    let ao = layout.ao_planes != 0 && settings.filter.ao_guide_directions > 0;
+    let words = crate::kernels::ao_guide::guide_row_words(width) as u64 * height as u64;
+    Guides {
+        parallax: only(layout.parallax_plane.is_some(), pixels),
+        guide: only(layout.guide_plane.is_some(), pixels),
+        penumbra: only(layout.penumbra_plane.is_some(), pixels),
+        ao_guide: only(ao, words),
+        ao_guide_raw: only(ao && settings.filter.ao_guide_refresh > 0, pixels),
+    }
+}
+
 /// Every buffer a `Denoiser` of `width × height` with `layout` and `settings` allocates, in
 /// allocation order.
 pub fn denoiser_buffers(
@@ -64,22 +93,13 @@ pub fn denoiser_buffers(
     let (tw, th) = classify::tile_grid(width, height);
     let (rw, rh) = reflect::tile_grid(width, height);
     let bytes = |n: u64, elem: usize| n * elem as u64;
-    // Buffers a configuration may not need hold one element then.
-    let only = |needed: bool, elements: u64| if needed { elements } else { 1 };
-    // Reflection parallax positions exist only with a parallax plane, the hit-distance guide
-    // with a guide plane, the shadow raygen's blocker records and the penumbra guide with a
-    // penumbra plane, the AO guide (two pixels a word) with AO planes and the guide on.
-    let parallax = only(layout.parallax_plane.is_some(), pixels);
-    let guide = only(layout.guide_plane.is_some(), pixels);
-    let penumbra = only(layout.penumbra_plane.is_some(), pixels);
-    let guided = layout.ao_planes != 0 && settings.filter.ao_guide_directions > 0;
-    let ao_guide = only(
-        guided,
-        crate::kernels::ao_guide::guide_row_words(width) as u64 * height as u64,
-    );
-    // The guide's raw fractions, kept across frames (this frame's and last frame's) when it
-    // refreshes; otherwise a frame's go to a filter buffer.
-    let ao_guide_raw = only(guided && settings.filter.ao_guide_refresh > 0, pixels);
+    let Guides {
+        parallax,
+        guide,
+        penumbra,
+        ao_guide,
+        ao_guide_raw,
+    } = guides(width, height, layout, settings);
     [
         size("noise", 1, bytes(crate::blue_noise::LEN as u64, 4), "f32"),
         size("counters", 1, bytes(COUNTERS_LEN as u64, 4), "u32"),
