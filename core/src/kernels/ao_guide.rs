@@ -21,11 +21,11 @@
 //!   only `refresh` new ones, turned from frame to frame, and blends them in (at most
 //!   [`HISTORY`] × `directions` kept); the others march all `directions`. A fresh guide each
 //!   frame from a dither fixed to the screen flickers where the camera moves; a kept one does
-//!   not, and costs a fraction of the march.
+//!   not, and the march costs less.
 //! - [`blur`]: the mean of `raw` over each pixel's 4×4 block on its own surface (normals within
 //!   [`BLUR_COSINE`], depths within [`BLUR_DEPTH`]), floored at [`FLOOR`], so that a crevice
 //!   no step escapes does not divide by 0. Stored as binary16, two horizontal neighbours a word
-//!   ([`guide_at`]): 2 bytes a pixel, which keep AO's memory within its 48.
+//!   ([`guide_at`]): 2 bytes a pixel (and 8 for the kept raw fractions, this frame's and last).
 //!
 //! [`demodulate`] writes the divided history for the variance pass to read (the history itself
 //! stays as it is: next frame's guide differs), and [`remodulate`] / [`remodulate_into`]
