@@ -243,7 +243,8 @@ fn open_directions<const N: usize>(
     // Direction `k` of a pixel of rotation `ρ`: `u1 = (k + ρ) / directions` and azimuth
     // `k·GOLDEN + ρ·PLASTIC` turns, the sum's sine and cosine from the two terms' (the first
     // shared by every lane, the second by every direction).
-    let (mut rotation, mut turn_sin, mut turn_cos) = (d, d, d);
+    let zero = Lanes::<f32, N>::splat(0.0);
+    let (mut rotation, mut turn_sin, mut turn_cos) = (zero, zero, zero);
     lanes::each_lane!(l in N {
         let x = id.x + l as u32;
         let v = rays.dir(x as f32, id.y as f32) * d.0[l] + n.0[l] * (LIFT * d.0[l]);
@@ -426,7 +427,7 @@ fn blurred<const N: usize>(
 ) -> Lanes<f32, N> {
     let (w, h) = (p.width, p.height);
     let xs = Lanes::<u32, N>::from_index(|l| x0 + 2 * l);
-    let centre = xs.map(|x| y * w + if x < w { x } else { w - 1 });
+    let centre = xs.map(|x| y * w + lanes::clamp_column(x as i32, w));
     let d = Lanes::gather(depth, centre);
     let n = Lanes::gather(normal_roughness, centre).map(packing::unpack_normal);
     let (mut sum, mut count) = (Lanes::<f32, N>::splat(0.0), Lanes::<f32, N>::splat(0.0));
@@ -480,7 +481,7 @@ fn guided(p: &GuideParams, z: u32) -> bool {
 /// [`guide_at`] of pixels `(x + l, y)` (clamped to the row).
 #[inline(always)]
 fn guide_lanes<const N: usize>(guide: &[u32], x: u32, y: u32, width: u32) -> Lanes<f32, N> {
-    let xs = Lanes::<u32, N>::from_index(|l| if x + l < width { x + l } else { width - 1 });
+    let xs = Lanes::<u32, N>::from_index(|l| lanes::clamp_column((x + l) as i32, width));
     let row = y * guide_row_words(width);
     let (even, odd) = packing::unpack_f16x2_lanes(Lanes::gather(guide, xs.map(|x| row + x / 2)));
     even.select(xs.map(|x| x & 1 == 0), odd)
