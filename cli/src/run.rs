@@ -436,7 +436,7 @@ fn tracing_summary(records: &[FrameRecord], target_ms: f32) -> String {
 /// `relmse_<part>`), then per-pass milliseconds.
 pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&str]) -> String {
     let mut s = String::from(
-        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays",
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays,reference_noise,fresh_reference_noise",
     );
     let several = part_names.len() > 1;
     if several {
@@ -450,7 +450,7 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
     for r in records {
         let _ = write!(
             s,
-            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{:.1},{:.1},{:.1},{:.1},{:.1},{},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.frame,
             r.rays_traced,
             r.budget,
@@ -472,6 +472,8 @@ pub fn frames_csv(records: &[FrameRecord], part_names: &[&str], pass_names: &[&s
             fmt(r.fresh_relmse, 7),
             r.fresh_pixels,
             r.detector_rays,
+            fmt(r.reference_noise, 7),
+            fmt(r.fresh_reference_noise, 7),
         );
         if several {
             for k in 0..part_names.len() {

@@ -184,6 +184,8 @@ mod tests {
                 min_variance: 3.0e-5,
                 refill: false,
                 refill_rays: 7,
+                refill_fresh: false,
+                refill_share: 0.5,
                 shadow_radius: 3,
                 shadow_threshold: 0.25,
                 ao_sigma: 2.5,

@@ -186,7 +186,7 @@ impl Reflections {
             frame: target.frame,
             list: target.list(self.plane),
             sampling: target.sampling,
-            _pad: 0,
+            merge: target.merge as u32,
             shading: self.shading(scene),
         };
         let pass = kernels::RaygenReflectBindings {

@@ -262,6 +262,16 @@ pub struct DetectorSettings {
     /// `docs/algorithms/change-detector.md`); the lists share what is left over or missing. A
     /// dropped pixel is a fresh one, and a fresh one asks for up to 16.
     pub refill_rays: u32,
+    /// The reflections' fresh pixels (disoccluded this frame) that traced fewer than
+    /// `refill_rays` join the refill lists too (default on): a glossy reflection at one ray is
+    /// the noisiest the filter sees where it has no history to lean on.
+    pub refill_fresh: bool,
+    /// Most of a signal's budget the refill lists may set aside from the main pass (0 < share
+    /// <= 1; default 0.1); the lists share what that and the main pass leave
+    /// (`kernels::refill::fit`). Sized to a large disocclusion (a crossing sphere's reflection),
+    /// a larger reserve starved the main pass whose rays the listed pixels reuse (see
+    /// `docs/algorithms/reflections.md`).
+    pub refill_share: f32,
     /// `radius` of the shadow planes (`Layout::shadow_planes`)
     /// (0..=4; default 1): a sliding penumbra changes a band about a pixel wide, a share of the
     /// window that falls as `1 / (2r + 1)`, so a 5×5 window sees it as a small `λ` and history

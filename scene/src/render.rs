@@ -742,6 +742,7 @@ pub fn reference_with<E: Executor>(
             plane_groups: 0,
             // References keep the per-pixel sequences: the pattern under test never judges itself.
             sampling: 0,
+            merge: false,
         };
         let scene = gpu.frame_scene(f);
         trace_planes(exec, signal, &layout, &scene, reflections, &target)?;

@@ -71,6 +71,7 @@ fn balance_params(rng: &mut Pcg32, w: u32, h: u32) -> balance::BalanceParams {
         planes: PLANES,
         signal_floor: [0.0f32, 0.25, 0.9][rng.random_range(0..3)],
         refill_rays: rng.random_range(1..=16),
+        refill_share: [0.1f32, 0.5, 1.0][rng.random_range(0..3)],
         // Last frame's lists were a reset frame's, but at 1×1.
         after_reset: (w > 1 && rng.random_range(0..2) == 0) as u32,
         shift: rng.random_range(0..4),
@@ -267,6 +268,7 @@ fn refill_params(rng: &mut Pcg32, w: u32, h: u32, lists: u32) -> refill::RefillP
         verify_history: [1.0, 4.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         frame_index: rng.random(),
+        fresh_planes: rng.random_range(0..1 << PLANES),
     }
 }
 

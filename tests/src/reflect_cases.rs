@@ -114,9 +114,29 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         list: list.list,
         // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
         sampling: w & 1,
-        _pad: 0,
+        // The refill lists' pass adds to what the main pass wrote.
+        merge: rng.random_range(0..2),
         shading: shading(rng, &frame),
     };
+    let prior: Vec<PackedSample> = (0..n)
+        .map(|_| {
+            let rays = [0u32, 1, 3][rng.random_range(0..3)];
+            let m1 = rng.random_range(0.0f32..4.0);
+            Sample {
+                m1,
+                m2: m1 * m1 + rng.random_range(0.0f32..1.0),
+                rays,
+                first: m1,
+            }
+            .pack()
+        })
+        .collect();
+    let prior_hits: Vec<RayHit> = (0..w * h)
+        .map(|_| RayHit {
+            log_distance: rng.random_range(-2.0f32..6.0),
+            ..RayHit::default()
+        })
+        .collect();
     let [work, args] = list.buffers();
     let (_, [depth, normal_roughness, geometry, view]) =
         packed(&glossy_surfaces(rng, &frame, w, h), &frame, w);
@@ -141,8 +161,8 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
             BufferSpec::from_pod(&lights, FLOATS),
             // The GGX sampler accepts or rejects each try by a float comparison: a one-ULP input
             // difference may pick another direction, and the sample and hit with it.
-            BufferSpec::from_pod(&vec![PackedSample::default(); n], SAMPLE).decided(),
-            BufferSpec::from_pod(&vec![RayHit::default(); (w * h) as usize], HIT).decided(),
+            BufferSpec::from_pod(&prior, SAMPLE).decided(),
+            BufferSpec::from_pod(&prior_hits, HIT).decided(),
         ],
         params: bytemuck::bytes_of(&params).to_vec(),
         groups: list.groups,

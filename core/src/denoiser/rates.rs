@@ -194,6 +194,7 @@ impl Denoiser {
             planes: l.planes,
             signal_floor: s.rates.signal_floor,
             refill_rays: s.detector.refill_rays,
+            refill_share: s.detector.refill_share,
             after_reset: (self.since_reset == 1 && self.reset_share() > 0.0) as u32,
             shift: self.shifting_groups(importance_group),
         };

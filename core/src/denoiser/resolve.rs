@@ -141,6 +141,10 @@ impl Denoiser {
             verify_history: s.detector.shadow_verify_history,
             min_variance: s.detector.min_variance,
             frame_index: self.frame.index,
+            fresh_planes: match l.parallax_plane {
+                Some(z) if s.detector.refill_fresh => 1 << z,
+                _ => 0,
+            },
         }
     }
 

@@ -72,6 +72,8 @@ pub struct RaygenTarget {
     pub plane_groups: u32,
     /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
     pub sampling: u32,
+    /// The refill lists' pass: reflection rays add to the pixel's sample (`RaygenParams::merge`).
+    pub merge: bool,
 }
 
 impl RaygenTarget {
@@ -93,6 +95,7 @@ impl RaygenTarget {
             frame: denoiser.frame().index,
             plane_groups: denoiser.layout().plane_groups,
             sampling: denoiser.settings().temporal.sampling.code(),
+            merge: false,
         }
     }
 
@@ -101,6 +104,7 @@ impl RaygenTarget {
         RaygenTarget {
             work: denoiser.refill_work(),
             args: denoiser.refill_args(),
+            merge: true,
             ..Self::of(denoiser, geometry)
         }
     }

@@ -393,8 +393,8 @@ crate::kernel_table! {
         nodes: read BvhNode,
         tris: read Triangle,
         lights: read AreaLight,
-        out: write PackedSample,
-        hits: write RayHit,
+        out: update PackedSample,
+        hits: update RayHit,
     }
 
     /// [`reflect::reflect_tiles`]: reflection importance per tile of `reflect::tile_grid`.

@@ -72,6 +72,8 @@ impl Default for DetectorSettings {
             min_variance: 1e-4,
             refill: true,
             refill_rays: 4,
+            refill_fresh: true,
+            refill_share: 0.1,
             shadow_radius: 1,
             shadow_threshold: 0.3,
             shadow_verify_sigma: 1.5,

@@ -270,6 +270,12 @@ impl DetectorSettings {
             check(finite(v) && v >= 0.0, name, v, ">= 0")?;
         }
         check(
+            finite(self.refill_share) && self.refill_share > 0.0 && self.refill_share <= 1.0,
+            "detector.refill_share",
+            self.refill_share,
+            "0 < share <= 1",
+        )?;
+        check(
             (1..=16).contains(&self.refill_rays),
             "detector.refill_rays",
             self.refill_rays,

@@ -88,6 +88,11 @@ pub struct BalanceParams {
     /// Rays of an entry of the detector's refill lists when they fit (`detector.refill_rays`,
     /// [`super::refill`]).
     pub refill_rays: u32,
+    /// Most of a group's budget its refill lists may set aside (`detector.refill_share`): lists
+    /// sized to a large disocclusion or change would starve the main pass, whose rays the
+    /// listed pixels' neighbours (and, for the reflections, the listed pixels themselves
+    /// through ray reuse) need.
+    pub refill_share: f32,
     /// Nonzero: last frame's lists were a reset frame's ([`refill_reserve`]).
     pub after_reset: u32,
     /// Bit `g` set: group `g` moves every request by the same step, down over budget
@@ -334,6 +339,8 @@ impl Search {
             active += counts[base + b as usize];
             b += 1;
         }
+        let cap = p.refill_share * rays_per_pixel * active as f32;
+        let spent = if spent < cap { spent } else { cap };
         let budget = math::max(rays_per_pixel * active as f32 - spent, 0.0);
         let mut s = Search {
             decision: Balance {

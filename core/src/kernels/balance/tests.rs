@@ -14,6 +14,7 @@ fn params(rays_per_pixel: f32, ring_count: u32, raise: u32) -> BalanceParams {
         planes: 1,
         signal_floor: 1.0,
         refill_rays: 1,
+        refill_share: 1.0,
         after_reset: 0,
         shift: 0,
     }
@@ -367,6 +368,7 @@ fn the_workgroup_phases_give_the_serial_decisions_bit_for_bit() {
             planes: groups,
             signal_floor: [0.0f32, 0.25, 1.0][next(3) as usize],
             refill_rays: 1 + next(8),
+            refill_share: [0.1f32, 0.5, 1.0][next(3) as usize],
             after_reset: (next(3) == 0) as u32,
             shift: next(16),
         };
@@ -436,4 +438,22 @@ fn last_frames_lists_set_rays_aside() {
         ..detector
     };
     assert_eq!(refill_reserve(100, &reset), 100.0);
+}
+
+#[test]
+fn the_lists_set_aside_at_most_their_share_of_the_budget() {
+    // 100 pixels asking for one ray each (bucket 64), one ray per pixel: 100 rays.
+    let c = histogram(&[(64, 0, 100)]);
+    let p = BalanceParams {
+        refill_share: 0.1,
+        ..params(1.0, 1, 1)
+    };
+    // Lists worth 80 rays keep 10 aside; lists worth 6 keep their 6.
+    assert_eq!(solve(&c, 0, 1.0, 80.0, &p).budget, 90.0);
+    assert_eq!(solve(&c, 0, 1.0, 6.0, &p).budget, 94.0);
+    let whole = BalanceParams {
+        refill_share: 1.0,
+        ..p
+    };
+    assert_eq!(solve(&c, 0, 1.0, 80.0, &whole).budget, 20.0);
 }

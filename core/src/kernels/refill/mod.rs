@@ -64,6 +64,9 @@ pub struct RefillParams {
     pub min_variance: f32,
     /// Frame number: varies which entries [`fit`] keeps when the lists do not fit ([`priority`]).
     pub frame_index: u32,
+    /// Planes (bit per plane) that list their pixels without history (disoccluded this frame)
+    /// that traced fewer than `rays`: the reflections' (`detector.refill_fresh`). 0: none.
+    pub fresh_planes: u32,
 }
 
 /// A reset frame's lists (no history, no detector: [`detect_refill`] makes the others): one call
@@ -143,6 +146,7 @@ struct Seen<const N: usize> {
     dropped: Lanes<bool, N>,
     surprised: Lanes<bool, N>,
     fewer: Lanes<bool, N>,
+    fresh: Lanes<bool, N>,
 }
 
 impl<const N: usize> Seen<N> {
@@ -155,6 +159,7 @@ impl<const N: usize> Seen<N> {
             dropped: no,
             surprised: no,
             fewer: no,
+            fresh: no,
         }
     }
 
@@ -175,6 +180,15 @@ impl<const N: usize> Seen<N> {
         let s = Lanes::<PackedSample, N>::load_row(samples, start, x0, w);
         self.traced = self.traced.zip(s, |t, s| t || s.rays() > 0);
         self.dropped = self.dropped.zip(lambda, |d, l| d || l > threshold);
+        // Fresh pixels, on the planes that list them (a uniform branch).
+        if super::plane_in(p.fresh_planes, z) {
+            let m = Lanes::<PackedPayload, N>::load_row(history, start, x0, w);
+            let fresh = &mut self.fresh;
+            lanes::each_lane!(l in N {
+                let rays = s.0[l].rays();
+                fresh.0[l] |= rays > 0 && rays < p.rays && !(m.0[l].unpack().count >= 1.0);
+            });
+        }
         // Verification, on the shadow planes only (a uniform branch).
         if p.verify_sigma > 0.0 && super::plane_in(p.shadow_planes, z) {
             let m = Lanes::<PackedPayload, N>::load_row(history, start, x0, w);
@@ -196,7 +210,7 @@ impl<const N: usize> Seen<N> {
         let mut out = Lanes::<bool, N>::splat(false);
         lanes::each_lane!(l in N {
             let verify = self.fewer.0[l] && self.surprised.0[l] && !self.dropped.0[l];
-            out.0[l] = (!self.traced.0[l] && self.dropped.0[l]) || verify;
+            out.0[l] = (!self.traced.0[l] && self.dropped.0[l]) || verify || self.fresh.0[l];
         });
         out
     }
@@ -431,7 +445,17 @@ mod tests {
     /// and has a lit history (mean 0.9 over 16 rays), with the shadow-plane mask
     /// `shadow_planes`.
     fn listed(rays: u32, value: f32, shadow_planes: u32) -> std::vec::Vec<(usize, u32)> {
-        let history = [Payload::binary(0.9, 16.0).pack()];
+        listed_over(Payload::binary(0.9, 16.0), rays, value, (shadow_planes, 0))
+    }
+
+    /// As [`listed`], over `history`, with the masks `(shadow_planes, fresh_planes)`.
+    fn listed_over(
+        history: Payload,
+        rays: u32,
+        value: f32,
+        (shadow_planes, fresh_planes): (u32, u32),
+    ) -> std::vec::Vec<(usize, u32)> {
+        let history = [history.pack()];
         let samples = [Sample::uniform(value, rays).pack()];
         let (mut work, mut args) = ([0u32; 1], [0u32, 0, 1, 1]);
         let p = DetectRefillParams {
@@ -454,6 +478,7 @@ mod tests {
                 verify_sigma: 1.5,
                 verify_history: 1.0,
                 min_variance: 1e-4,
+                fresh_planes,
                 ..Default::default()
             },
         };
@@ -481,6 +506,18 @@ mod tests {
         assert!(listed(1, 1.0, 1).is_empty());
         assert!(listed(1, 0.0, 0).is_empty());
         assert!(listed(4, 0.0, 1).is_empty());
+    }
+
+    #[test]
+    fn a_fresh_reflection_pixel_is_listed_for_more_rays() {
+        // No history (disoccluded) and one ray: four more.
+        let fresh = Payload::default();
+        assert_eq!(listed_over(fresh, 1, 0.5, (0, 1)), [(0, 4)]);
+        // With history, with the list's rays already, or on a plane that lists no fresh pixels:
+        // none.
+        assert!(listed_over(Payload::binary(0.5, 1.0), 1, 0.5, (0, 1)).is_empty());
+        assert!(listed_over(fresh, 4, 0.5, (0, 1)).is_empty());
+        assert!(listed_over(fresh, 1, 0.5, (0, 0)).is_empty());
     }
 
     /// The work list of a reset frame over a 4×3 image of one shadow plane (mask

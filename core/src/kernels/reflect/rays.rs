@@ -20,8 +20,10 @@ pub struct RaygenParams {
     pub list: u32,
     /// [`crate::sampling::SamplePattern::code`] of the rays' first two random numbers.
     pub sampling: u32,
-    /// Reserved.
-    pub _pad: u32,
+    /// Nonzero: the rays add to the pixel's sample and record instead of replacing them (the
+    /// refill lists' pass: a fresh pixel keeps its first ray and its neighbours' reused ones,
+    /// and the new rays continue its sequence).
+    pub merge: u32,
     /// Eye and hit lighting.
     pub shading: Shading,
 }
@@ -68,8 +70,13 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         normal_roughness,
         geometry,
     );
-    let first_index = history[i].rng_index();
-    let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, first_index);
+    let prior = if p.merge != 0 {
+        out[i].unpack()
+    } else {
+        Sample::default()
+    };
+    let first_index = history[i].rng_index().wrapping_add(prior.rays);
+    let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, history[i].rng_index());
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut record = RayHit::default();
     let (mut log_sum, mut drawn) = (0.0f32, 0.0f32);
@@ -88,6 +95,25 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
         sum += v;
         sum_sq += v * v;
         k += 1;
+    }
+    if prior.rays > 0 && s.is_valid() {
+        // The pixel's first ray and its record stay; the new rays join its moments and its mean
+        // hit distance as if traced with it.
+        let old = prior.rays as f32;
+        let mut kept = hits[pix];
+        if drawn > 0.0 {
+            kept.log_distance = (kept.log_distance * old + log_sum) / (old + drawn);
+        }
+        hits[pix] = kept;
+        let total = old + n as f32;
+        out[i] = Sample {
+            m1: (prior.m1 * old + sum) / total,
+            m2: (prior.m2 * old + sum_sq) / total,
+            rays: prior.rays + n,
+            first: prior.first,
+        }
+        .pack();
+        return;
     }
     record.frame = p.frame;
     if drawn > 0.0 {
