@@ -34,7 +34,7 @@ fn run_writes_frames_csv() {
     let mut lines = csv.lines();
     let header = lines.next().unwrap();
     assert!(header.starts_with(
-        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays,ms_frame,budget_rpp,trace_ms,ms_"
+        "frame,rays_traced,budget,requested,granted,overshoot,rays_saved,prepass_ran,filter_skipped,empty_tiles,signal_absent,relmse,rmse,psnr,ssim,flip,temporal,moving_relmse,fresh_relmse,fresh_pixels,detector_rays,reference_noise,fresh_reference_noise,ms_frame,budget_rpp,trace_ms,ms_"
     ));
     assert_eq!(lines.count(), 3);
     for f in [
