@@ -339,9 +339,9 @@ impl Search {
             active += counts[base + b as usize];
             b += 1;
         }
-        let cap = p.refill_share * rays_per_pixel * active as f32;
-        let spent = if spent < cap { spent } else { cap };
-        let budget = math::max(rays_per_pixel * active as f32 - spent, 0.0);
+        let rays = rays_per_pixel * active as f32;
+        let spent = math::min(spent, p.refill_share * rays);
+        let budget = math::max(rays - spent, 0.0);
         let mut s = Search {
             decision: Balance {
                 mode: MODE_KEEP,
@@ -349,7 +349,7 @@ impl Search {
                 requested,
                 granted: requested,
                 budget,
-                paid: rays_per_pixel * active as f32 - budget,
+                paid: rays - budget,
                 ..Balance::default()
             },
             ..Search::default()
@@ -504,6 +504,7 @@ pub fn setup(ids: WorkgroupIds, p: &BalanceParams, io: BalanceIo<'_>, local: &mu
 /// needed goes to the lists' own entries (more rays each), so a quarter more than last frame's
 /// rays keeps most frames from cutting them. A reset frame's lists (the shadows' mixed
 /// windows) say nothing of what the detector will list next: one ray for each of them.
+/// [`Search::new`] keeps at most [`BalanceParams::refill_share`] of the group's rays aside.
 #[inline]
 pub fn refill_reserve(count: u32, p: &BalanceParams) -> f32 {
     if p.after_reset != 0 {

@@ -75,8 +75,9 @@ pub fn raygen_reflect(id: UVec3, p: &RaygenParams, io: RaygenReflectIo<'_>) {
     } else {
         Sample::default()
     };
-    let first_index = history[i].rng_index().wrapping_add(prior.rays);
-    let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, history[i].rng_index());
+    let start = history[i].rng_index();
+    let first_index = start.wrapping_add(prior.rays);
+    let stream = Stream::new(p.sampling, x, y, p.plane, p.frame, start);
     let (mut sum, mut sum_sq, mut first) = (0.0f32, 0.0f32, 0.0f32);
     let mut record = RayHit::default();
     let (mut log_sum, mut drawn) = (0.0f32, 0.0f32);
