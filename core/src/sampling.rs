@@ -106,6 +106,14 @@ pub enum SamplePattern {
     ScreenBlue,
 }
 
+/// Pattern code of a reference's replicates (not a setting): the per-pixel pattern with the
+/// low-discrepancy sequence's rotation drawn anew for each replicate (`Stream::new`'s `frame`
+/// names the replicate). A reference traced as one stratified sequence per pixel is more
+/// accurate than independent samples, and its samples' spread overstates its error; a few
+/// independently rotated replicates give an error estimate that does not (randomised
+/// quasi-Monte Carlo, `vrrt_scene::render::REPLICATES`).
+pub const REPLICATE_PATTERN: u32 = 2;
+
 impl SamplePattern {
     /// The code passed to kernels (`Stream::pattern`).
     pub fn code(self) -> u32 {
@@ -132,7 +140,8 @@ pub struct Stream {
     pub first: u32,
     /// [`SamplePattern::code`].
     pub pattern: u32,
-    /// Screen-blue point of ray 0, first coordinate in 32-bit fixed point.
+    /// Screen-blue point of ray 0, first coordinate in 32-bit fixed point; under
+    /// [`REPLICATE_PATTERN`] the replicate's salt of the low-discrepancy sequence's seed.
     pub base_u: u32,
     /// Second coordinate of `base_u`'s point.
     pub base_v: u32,
@@ -144,6 +153,9 @@ impl Stream {
     pub fn new(pattern: u32, x: u32, y: u32, plane: u32, frame: u32, first: u32) -> Self {
         let (base_u, base_v) = if pattern == 1 {
             crate::blue_noise::screen_point(x, y, plane, frame)
+        } else if pattern == REPLICATE_PATTERN {
+            // Nonzero for every replicate, so none repeats the per-pixel pattern's rotation.
+            (pcg_hash(frame ^ 0x6a09_e667) | 1, 0)
         } else {
             (0, 0)
         };
@@ -188,13 +200,14 @@ impl Stream {
         }
     }
 
-    /// As [`Stream::point`], with the per-pixel pattern's [`low_discrepancy`] (reflections).
+    /// As [`Stream::point`], with the per-pixel pattern's [`low_discrepancy`] (reflections),
+    /// its rotation salted per replicate under [`REPLICATE_PATTERN`].
     #[inline]
     pub fn point_ld(&self, index: u32) -> (f32, f32) {
         if self.pattern == 1 {
             self.blue(index)
         } else {
-            low_discrepancy(self.seed, index)
+            low_discrepancy(self.seed ^ self.base_u, index)
         }
     }
 }
@@ -412,6 +425,17 @@ mod tests {
         let s = Stream::new(0, 4, 9, 1, 30, 100);
         assert_eq!(s.point(7), (rand(seed, 7, 0), rand(seed, 7, 1)));
         assert_eq!(s.point_ld(7), low_discrepancy(seed, 7));
+        // A replicate: the per-pixel numbers, but for the low-discrepancy sequence's rotation,
+        // which differs from the per-pixel pattern's and from every other replicate's.
+        let replicates: [Stream; 8] =
+            core::array::from_fn(|j| Stream::new(REPLICATE_PATTERN, 4, 9, 1, j as u32, 100));
+        for (j, r) in replicates.iter().enumerate() {
+            assert_eq!(r.point(7), s.point(7));
+            assert_ne!(r.point_ld(7), s.point_ld(7));
+            for other in &replicates[..j] {
+                assert_ne!(r.point_ld(7), other.point_ld(7));
+            }
+        }
     }
 
     /// Monte Carlo integral of `f` over the sphere with `count` uniform directions.

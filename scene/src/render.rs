@@ -20,6 +20,7 @@ use vrrt_core::layout::Layout;
 use vrrt_core::payload::PackedFiltered;
 use vrrt_core::payload::{PackedPayload, PackedSample, Payload, Sample};
 use vrrt_core::reflections::Reflections;
+use vrrt_core::sampling::REPLICATE_PATTERN;
 use vrrt_core::settings::{ReflectionSettings, Settings};
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -590,6 +591,64 @@ pub struct Reference {
 /// wrapping).
 pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 
+/// Independent replicates a reference traces its reflection plane in, when its samples divide
+/// into them (else as many as a power of two does). Reflection directions follow each pixel's
+/// low-discrepancy sequence, whose mean is more accurate than as many independent samples: the
+/// samples' own spread, the standard error's formula for independent samples, overstated the
+/// error of the reflections' 256-spp references about twofold. Replicate `j` rotates the
+/// sequence anew ([`REPLICATE_PATTERN`], `frame` = `j`) and takes the next `spp / REPLICATES`
+/// rng indices, so the replicates' means are independent and their spread is the mean's error
+/// (randomised quasi-Monte Carlo). AO and shadows draw independent samples and keep theirs.
+pub const REPLICATES: u32 = 8;
+
+/// The replicates a reference of `spp` samples traces its reflection plane in: the largest
+/// power of two up to [`REPLICATES`] that divides `spp` (1: one sequence, its error unknown).
+fn replicates(spp: u32) -> u32 {
+    1 << spp.max(1).trailing_zeros().min(REPLICATES.trailing_zeros())
+}
+
+/// The reflection plane's replicates: its sums at the current replicate's start and the sum of
+/// the replicates' squared means, per pixel.
+struct ReplicateSums {
+    plane: std::ops::Range<usize>,
+    start: Vec<f64>,
+    squares: Vec<f64>,
+}
+
+impl ReplicateSums {
+    fn new(plane: std::ops::Range<usize>) -> Self {
+        let n = plane.len();
+        ReplicateSums {
+            plane,
+            start: vec![0.0; n],
+            squares: vec![0.0; n],
+        }
+    }
+
+    /// Ends a replicate of `rays` samples whose sums `sum` now include.
+    fn close(&mut self, sum: &[f64], rays: f64) {
+        for ((s, start), sq) in sum[self.plane.clone()]
+            .iter()
+            .zip(&mut self.start)
+            .zip(&mut self.squares)
+        {
+            let mean = (s - *start) / rays;
+            *sq += mean * mean;
+            *start = *s;
+        }
+    }
+
+    /// The standard error of plane pixel `k`'s mean `mean` over `count` replicates (NaN below
+    /// two: one sequence has no spread to measure).
+    fn stderr(&self, k: usize, mean: f64, count: u32) -> f32 {
+        if count < 2 {
+            return f32::NAN;
+        }
+        let r = f64::from(count);
+        ((self.squares[k] / r - mean * mean).max(0.0) / (r - 1.0)).sqrt() as f32
+    }
+}
+
 /// The executor buffers of reference renders, kept from one call of [`reference_with`] to the
 /// next on the same executor. Executors have no call that frees a buffer, so a reference that
 /// made its own each time would keep every frame's copy of the geometry (about 90 bytes a
@@ -657,7 +716,7 @@ pub struct ReferenceSpec<'a> {
 
 /// Traces `spec.spp` rays per pixel of frame `f` at `(width, height)` with the raygen kernels
 /// (the same estimator the denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling
-/// `progress(done, spp)` after each.
+/// `progress(done, spp)` after each; a reflection plane in [`REPLICATES`] replicates.
 /// Its buffers are new and stay on `exec`: for more than one reference on an executor use
 /// [`reference_with`].
 pub fn reference<E: Executor>(
@@ -708,62 +767,96 @@ pub fn reference_with<E: Executor>(
     gpu.gbuffer(exec, f, width, height, gbuffer)?;
     let layout = signal.layout(f.lights.len());
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
+    let mut reflection = layout
+        .reflections
+        .map(|z| ReplicateSums::new(z as usize * pixels..(z as usize + 1) * pixels));
+    let count = reflection.as_ref().map_or(1, |_| replicates(spp));
     let mut done = 0u32;
     // The work list changes only with the batch's size (the last batch may be smaller).
     let mut listed = 0;
-    while done < spp {
-        // A work-list entry carries at most `MAX_RATE` rays.
-        let batch = (spp - done).min(MAX_RATE);
-        if batch != listed {
-            let entries: Vec<u32> = (0..pixels as u32).map(|i| work_entry(i, batch)).collect();
-            exec.write_buffer(work, bytes(&entries))?;
-            listed = batch;
-        }
-        let start = REFERENCE_RNG_BASE + done;
-        let hist: Vec<PackedPayload> = vec![
-            Payload {
-                rng_index: start,
-                ..Payload::default()
+    for replicate in 0..count {
+        let end = done + spp / count;
+        while done < end {
+            // A work-list entry carries at most `MAX_RATE` rays.
+            let batch = (end - done).min(MAX_RATE);
+            if batch != listed {
+                let entries: Vec<u32> = (0..pixels as u32).map(|i| work_entry(i, batch)).collect();
+                exec.write_buffer(work, bytes(&entries))?;
+                listed = batch;
             }
-            .pack();
-            n
-        ];
-        exec.write_buffer(history, bytes(&hist))?;
-        let target = RaygenTarget {
-            size: (width, height),
-            work,
-            args,
-            gbuffer,
-            history,
-            out,
-            blockers,
-            blocker_plane: reproject::NO_PLANE,
-            frame: 0,
-            plane_groups: 0,
-            // References keep the per-pixel sequences: the pattern under test never judges itself.
-            sampling: 0,
-            merge: false,
-        };
-        let scene = gpu.frame_scene(f);
-        trace_planes(exec, signal, &layout, &scene, reflections, &target)?;
-        accumulate(&read(exec, out, n)?, &mut sum, &mut sum_sq);
-        done += batch;
-        progress(done, spp);
+            let start = REFERENCE_RNG_BASE + done;
+            let hist: Vec<PackedPayload> = vec![
+                Payload {
+                    rng_index: start,
+                    ..Payload::default()
+                }
+                .pack();
+                n
+            ];
+            exec.write_buffer(history, bytes(&hist))?;
+            let target = RaygenTarget {
+                size: (width, height),
+                work,
+                args,
+                gbuffer,
+                history,
+                out,
+                blockers,
+                blocker_plane: reproject::NO_PLANE,
+                frame: replicate,
+                plane_groups: 0,
+                // References keep the per-pixel sequences (rotated per replicate): the pattern under
+                // test never judges itself.
+                sampling: if count > 1 { REPLICATE_PATTERN } else { 0 },
+                merge: false,
+            };
+            let scene = gpu.frame_scene(f);
+            trace_planes(exec, signal, &layout, &scene, reflections, &target)?;
+            accumulate(&read(exec, out, n)?, &mut sum, &mut sum_sq);
+            done += batch;
+            progress(done, spp);
+        }
+        if let Some(r) = reflection.as_mut() {
+            r.close(&sum, f64::from(spp / count));
+        }
     }
-    let k = spp.max(1) as f64;
-    let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
-    // One sample has no spread to measure: its standard error is unknown (NaN), not 0.
-    let stderr = sum
-        .iter()
-        .zip(&sum_sq)
-        .map(|(s, q)| {
-            let m = s / k;
-            let var = (q / k - m * m).max(0.0);
-            (var / (k - 1.0)).sqrt() as f32
-        })
-        .map(|se| if spp < 2 { f32::NAN } else { se })
-        .collect();
-    Ok(Reference { mean, stderr, spp })
+    Ok(Reference::from_sums(
+        spp,
+        (&sum, &sum_sq),
+        reflection.as_ref(),
+        count,
+    ))
+}
+
+impl Reference {
+    /// The mean and standard error of `spp` samples per cell from the sums of the samples and
+    /// of their squares, the reflection plane's error from its `count` replicates'.
+    fn from_sums(
+        spp: u32,
+        (sum, sum_sq): (&[f64], &[f64]),
+        reflection: Option<&ReplicateSums>,
+        count: u32,
+    ) -> Reference {
+        let k = spp.max(1) as f64;
+        let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
+        // One sample has no spread to measure: its standard error is unknown (NaN), not 0.
+        let mut stderr: Vec<f32> = sum
+            .iter()
+            .zip(sum_sq)
+            .map(|(s, q)| {
+                let m = s / k;
+                let var = (q / k - m * m).max(0.0);
+                (var / (k - 1.0)).sqrt() as f32
+            })
+            .map(|se| if spp < 2 { f32::NAN } else { se })
+            .collect();
+        if let Some(r) = reflection {
+            for (j, i) in r.plane.clone().enumerate() {
+                stderr[i] = r.stderr(j, sum[i] / k, count);
+            }
+        }
+        Reference { mean, stderr, spp }
+    }
 }
 
 /// A frame's rays and budget counted per plane of the frame: a group's ray costs one ray of

@@ -112,8 +112,13 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         lights: rng.random_range(0..=lights.len() as u32),
         frame: rng.random(),
         list: list.list,
-        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
-        sampling: w & 1,
+        // Both sample patterns across `cases::SIZES` (odd, odd, even widths), or a reference's
+        // replicate.
+        sampling: if rng.random_range(0..3) == 0 {
+            vrrt_core::sampling::REPLICATE_PATTERN
+        } else {
+            w & 1
+        },
         // The refill lists' pass adds to what the main pass wrote.
         merge: rng.random_range(0..2),
         shading: shading(rng, &frame),
@@ -142,8 +147,9 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         packed(&glossy_surfaces(rng, &frame, w, h), &frame, w);
     Case {
         name: format!(
-            "raygen_reflect {w}x{h} plane {} frame {} list {}",
+            "raygen_reflect {w}x{h} plane {} sampling {} frame {} list {}",
             params.plane,
+            params.sampling,
             frame.index,
             list.count()
         ),

@@ -175,6 +175,13 @@ pub struct SignalName<'a> {
     reflections: &'a ReflectionSettings,
 }
 
+impl SignalName<'_> {
+    /// Whether the signal has a reflection plane (whose references are traced in replicates).
+    pub fn has_reflections(&self) -> bool {
+        matches!(self.signal, Signal::Reflections | Signal::All { .. })
+    }
+}
+
 impl fmt::Display for SignalName<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = self.reflections;

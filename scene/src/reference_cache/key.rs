@@ -17,6 +17,10 @@ use crate::FrameGeometry;
 /// entries are then never looked up again.
 pub const ESTIMATOR_VERSION: u32 = 4;
 
+/// [`ESTIMATOR_VERSION`] of the references with a reflection plane, traced in independent
+/// replicates since version 5 ([`crate::render::REPLICATES`]).
+pub const REPLICATED_ESTIMATOR_VERSION: u32 = 5;
+
 /// BLAKE3 hash of everything of a frame that the reference renderer reads.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct SceneHash(pub [u8; 32]);
@@ -70,9 +74,11 @@ pub struct ReferenceKey {
     pub spp: u64,
     /// What was rendered with which parameters: [`SignalName`]'s `Display`, e.g. `"ao0.5"`.
     pub signal: String,
-    /// The caller's own version (e.g. the `vrrt` command's); the key also always carries
-    /// [`ESTIMATOR_VERSION`].
+    /// The caller's own version (e.g. the `vrrt` command's).
     pub version: u32,
+    /// The estimator's version: [`ESTIMATOR_VERSION`], or [`REPLICATED_ESTIMATOR_VERSION`]
+    /// for a signal with a reflection plane.
+    pub estimator: u32,
 }
 
 impl ReferenceKey {
@@ -96,6 +102,11 @@ impl ReferenceKey {
             spp,
             signal: signal.to_string(),
             version,
+            estimator: if signal.has_reflections() {
+                REPLICATED_ESTIMATOR_VERSION
+            } else {
+                ESTIMATOR_VERSION
+            },
         }
     }
 
@@ -108,13 +119,14 @@ impl ReferenceKey {
         p.push(sanitise(&self.signal));
         let hash = self.content.to_string();
         p.push(format!(
-            "f{:06}_{}x{}_{}spp_{}_v{}e{ESTIMATOR_VERSION}.exr",
+            "f{:06}_{}x{}_{}spp_{}_v{}e{}.exr",
             self.frame,
             self.width,
             self.height,
             self.spp,
             &hash[..16],
-            self.version
+            self.version,
+            self.estimator
         ));
         p
     }
@@ -123,7 +135,7 @@ impl ReferenceKey {
     pub(super) fn canonical(&self) -> String {
         format!(
             "scene=\"{}\";content={};signal=\"{}\";frame={};size={}x{};spp={};version={};\
-             estimator={ESTIMATOR_VERSION}",
+             estimator={}",
             self.scene.escape_default(),
             self.content,
             self.signal.escape_default(),
@@ -131,7 +143,8 @@ impl ReferenceKey {
             self.width,
             self.height,
             self.spp,
-            self.version
+            self.version,
+            self.estimator
         )
     }
 }

@@ -14,6 +14,7 @@ fn key() -> ReferenceKey {
         spp: 65536,
         signal: "ao-r0.5".into(),
         version: 1,
+        estimator: ESTIMATOR_VERSION,
     }
 }
 
