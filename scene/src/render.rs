@@ -607,26 +607,32 @@ fn replicates(spp: u32) -> u32 {
     1 << spp.max(1).trailing_zeros().min(REPLICATES.trailing_zeros())
 }
 
-/// The reflection plane's replicates: its sums at the current replicate's start and the sum of
-/// the replicates' squared means, per pixel.
+/// The reflection plane's replicates ([`replicates`] of them, `rays` samples each): its sums at
+/// the current replicate's start and the sum of the replicates' squared means, per pixel.
 struct ReplicateSums {
     plane: std::ops::Range<usize>,
+    count: u32,
+    rays: f64,
     start: Vec<f64>,
     squares: Vec<f64>,
 }
 
 impl ReplicateSums {
-    fn new(plane: std::ops::Range<usize>) -> Self {
+    fn new(plane: std::ops::Range<usize>, spp: u32) -> Self {
         let n = plane.len();
+        let count = replicates(spp);
         ReplicateSums {
             plane,
+            count,
+            rays: f64::from(spp / count),
             start: vec![0.0; n],
             squares: vec![0.0; n],
         }
     }
 
-    /// Ends a replicate of `rays` samples whose sums `sum` now include.
-    fn close(&mut self, sum: &[f64], rays: f64) {
+    /// Ends a replicate whose samples the sums `sum` now include.
+    fn close(&mut self, sum: &[f64]) {
+        let rays = self.rays;
         for ((s, start), sq) in sum[self.plane.clone()]
             .iter()
             .zip(&mut self.start)
@@ -638,13 +644,13 @@ impl ReplicateSums {
         }
     }
 
-    /// The standard error of plane pixel `k`'s mean `mean` over `count` replicates (NaN below
-    /// two: one sequence has no spread to measure).
-    fn stderr(&self, k: usize, mean: f64, count: u32) -> f32 {
-        if count < 2 {
+    /// The standard error of plane pixel `k`'s mean `mean` over the replicates (NaN below two:
+    /// one sequence has no spread to measure).
+    fn stderr(&self, k: usize, mean: f64) -> f32 {
+        if self.count < 2 {
             return f32::NAN;
         }
-        let r = f64::from(count);
+        let r = f64::from(self.count);
         ((self.squares[k] / r - mean * mean).max(0.0) / (r - 1.0)).sqrt() as f32
     }
 }
@@ -769,8 +775,8 @@ pub fn reference_with<E: Executor>(
     let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
     let mut reflection = layout
         .reflections
-        .map(|z| ReplicateSums::new(z as usize * pixels..(z as usize + 1) * pixels));
-    let count = reflection.as_ref().map_or(1, |_| replicates(spp));
+        .map(|z| ReplicateSums::new(z as usize * pixels..(z as usize + 1) * pixels, spp));
+    let count = reflection.as_ref().map_or(1, |r| r.count);
     let mut done = 0u32;
     // The work list changes only with the batch's size (the last batch may be smaller).
     let mut listed = 0;
@@ -817,25 +823,23 @@ pub fn reference_with<E: Executor>(
             progress(done, spp);
         }
         if let Some(r) = reflection.as_mut() {
-            r.close(&sum, f64::from(spp / count));
+            r.close(&sum);
         }
     }
     Ok(Reference::from_sums(
         spp,
         (&sum, &sum_sq),
         reflection.as_ref(),
-        count,
     ))
 }
 
 impl Reference {
     /// The mean and standard error of `spp` samples per cell from the sums of the samples and
-    /// of their squares, the reflection plane's error from its `count` replicates'.
+    /// of their squares, the reflection plane's error from its replicates'.
     fn from_sums(
         spp: u32,
         (sum, sum_sq): (&[f64], &[f64]),
         reflection: Option<&ReplicateSums>,
-        count: u32,
     ) -> Reference {
         let k = spp.max(1) as f64;
         let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
@@ -852,7 +856,7 @@ impl Reference {
             .collect();
         if let Some(r) = reflection {
             for (j, i) in r.plane.clone().enumerate() {
-                stderr[i] = r.stderr(j, sum[i] / k, count);
+                stderr[i] = r.stderr(j, sum[i] / k);
             }
         }
         Reference { mean, stderr, spp }
