@@ -241,6 +241,8 @@ mod tests {
                 light_probes: 15,
                 guide_radius: 3,
                 reset_payback: 17,
+                reset_refill: 0.625,
+                reset_contrast: 2.5,
             },
         }
     }

@@ -167,7 +167,8 @@ pub struct RateSettings {
     /// window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
     /// `docs/algorithms/penumbra-guide.md`). The rest is a second ray for a tenth of the pixels
     /// at one ray per pixel: where the penumbrae are wide and the lists hit their 16 rays, it
-    /// keeps the boost from going unspent (`docs/algorithms/fresh-pixels.md`).
+    /// keeps the boost from going unspent (`docs/algorithms/fresh-pixels.md`). Reflections alone
+    /// take `reflections.reset_refill` instead.
     pub reset_refill: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
@@ -376,6 +377,17 @@ pub struct ReflectionSettings {
     /// moving highlights starve after a cut, while their fresh pixels gain from the boost either
     /// way; `docs/algorithms/fresh-pixels.md`).
     pub reset_payback: u32,
+    /// Share of `rates.reset_boost` a reset frame of reflections alone spends on the pixels whose
+    /// 3×3 window of rays is contrasted (`reset_contrast`) instead of on every pixel, in place of
+    /// `rates.reset_refill` (0..=1, 0 = off; default 0.75). At a cut the filter has no history
+    /// to lean on, and its error lies at the highlights' and the reflected silhouettes' edges,
+    /// where one ray in a neighbour leaks in: there the listed pixels add up to 16 rays to their
+    /// sequences (`kernels::refill`; `docs/algorithms/reflections.md`).
+    pub reset_refill: f32,
+    /// How many times the darkest ray of a reset pixel's 3×3 window its brightest must be for
+    /// the pixel to take `reset_refill`'s rays (>= 1; default 4: at 2 the dragon's flat glossy
+    /// floor took rays its highlights' edges needed, at 6 the edges kept too few).
+    pub reset_contrast: f32,
 }
 
 /// Variance estimation and the edge-stopping à-trous filter (`kernels::variance`,

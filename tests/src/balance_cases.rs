@@ -269,6 +269,8 @@ fn refill_params(rng: &mut Pcg32, w: u32, h: u32, lists: u32) -> refill::RefillP
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         frame_index: rng.random(),
         fresh_planes: rng.random_range(0..1 << PLANES),
+        reset_planes: rng.random_range(0..1 << PLANES),
+        reset_contrast: [1.0, 2.0, 4.0][rng.random_range(0..3)],
     }
 }
 
@@ -279,20 +281,20 @@ fn refill_hist(rng: &mut Pcg32) -> Vec<u32> {
         .collect()
 }
 
-/// `refill`: a reset frame's lists of the shadows' mixed windows.
+/// `refill`: a reset frame's lists of the shadows' mixed and the reflections' contrasted windows.
 pub(crate) fn refill_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
     let (requests, _) = histogram(rng, w, h);
     let lists = rng.random_range(1..=2);
     let samples = refill_samples(rng, (w * h * PLANES) as usize);
-    // Reset lists come from the shadow planes only: at least one.
+    // Reset lists come from the planes a reset tests: at least one.
     let params = refill::RefillParams {
-        shadow_planes: rng.random_range(1..1 << PLANES),
+        reset_planes: rng.random_range(1..1 << PLANES),
         ..refill_params(rng, w, h, lists)
     };
     Case {
         name: format!(
-            "refill {w}x{h}x{PLANES} groups {lists} shadows {:b} rays {}",
-            params.shadow_planes, params.rays
+            "refill {w}x{h}x{PLANES} groups {lists} tested {:b} shadows {:b} contrast {} rays {}",
+            params.reset_planes, params.shadow_planes, params.reset_contrast, params.rays
         ),
         kernel: &vrrt_core::kernels::REFILL,
         buffers: vec![

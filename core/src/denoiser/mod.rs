@@ -496,6 +496,11 @@ impl Denoiser {
             } else {
                 r.reset_payback
             },
+            reset_refill: if self.layout.reflections_alone {
+                self.settings.reflections.reset_refill
+            } else {
+                r.reset_refill
+            },
             ..r
         }
     }
@@ -743,11 +748,14 @@ impl Denoiser {
         self.frame.reset && self.reset_share() > 0.0
     }
 
-    /// Whether reset frames make refill lists (`rates.reset_refill`, a denoiser of shadows alone,
-    /// and a host that traces refill lists: `detector.refill`).
+    /// Whether reset frames make refill lists (`rates.reset_refill` for a denoiser of shadows
+    /// alone, `reflections.reset_refill` for one of reflections alone, and a host that traces
+    /// refill lists: `detector.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
-        let s = &self.settings;
-        s.rates.reset_refill > 0.0 && self.layout.shadows_alone() && s.detector.refill
+        let l = &self.layout;
+        self.rates().reset_refill > 0.0
+            && (l.shadows_alone() || l.reflections_alone)
+            && self.settings.detector.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget

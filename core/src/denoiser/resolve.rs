@@ -145,6 +145,8 @@ impl Denoiser {
                 Some(z) if s.detector.refill_fresh => 1 << z,
                 _ => 0,
             },
+            reset_planes: l.shadow_planes | l.parallax_plane.map_or(0, |z| 1 << z),
+            reset_contrast: s.reflections.reset_contrast,
         }
     }
 

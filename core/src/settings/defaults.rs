@@ -138,6 +138,8 @@ impl Default for ReflectionSettings {
             light_probes: sh.light_probes,
             guide_radius: 2,
             reset_payback: super::MAX_RESET_PAYBACK,
+            reset_refill: 0.75,
+            reset_contrast: 4.0,
         }
     }
 }

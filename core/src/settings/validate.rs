@@ -425,6 +425,18 @@ impl ReflectionSettings {
             "0..=64",
         )?;
         check(
+            (0.0..=1.0).contains(&self.reset_refill),
+            "reflections.reset_refill",
+            self.reset_refill,
+            "0..=1",
+        )?;
+        check(
+            f(self.reset_contrast) && self.reset_contrast >= 1.0,
+            "reflections.reset_contrast",
+            self.reset_contrast,
+            ">= 1",
+        )?;
+        check(
             self.light_probes <= reflect::MAX_LIGHT_PROBES,
             "reflections.light_probes",
             self.light_probes,

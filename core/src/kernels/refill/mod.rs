@@ -67,12 +67,20 @@ pub struct RefillParams {
     /// Planes (bit per plane) that list their pixels without history (disoccluded this frame)
     /// that traced fewer than `rays`: the reflections' (`detector.refill_fresh`). 0: none.
     pub fresh_planes: u32,
+    /// Planes (bit per plane) whose windows a reset frame's lists test ([`refill`]): those in
+    /// `shadow_planes` list a mixed window, the others a contrasted one (`reset_contrast`).
+    pub reset_planes: u32,
+    /// How many times a window's darkest ray its brightest must be for a reset frame to list
+    /// the pixel on a plane of `reset_planes` outside `shadow_planes`
+    /// (`reflections.reset_contrast`).
+    pub reset_contrast: f32,
 }
 
 /// A reset frame's lists (no history, no detector: [`detect_refill`] makes the others): one call
 /// per `N` consecutive pixels of a row and plane group (z) ([`crate::lanes`]), appending the
-/// pixels of the group's shadow planes whose 3×3 window of rays is mixed (`reset_listed`), with
-/// `rays` rays each until [`cap`] sets them (the balancer reset `args` to `[0, 0, 1, 1]`).
+/// pixels of the group's `reset_planes` whose 3×3 window of rays is mixed or contrasted
+/// (`reset_listed`), with `rays` rays each until [`cap`] sets them (the balancer reset `args` to
+/// `[0, 0, 1, 1]`).
 #[inline(always)]
 pub fn refill<const N: usize>(id: UVec3, p: &RefillParams, io: RefillIo<'_>) {
     let RefillIo {
@@ -250,11 +258,17 @@ fn list<const N: usize>(
     );
 }
 
-/// On a reset frame: whether each lane's pixel traced fewer than `p.rays` on a shadow plane of
-/// group `id.z` whose 3×3 window holds traced samples that differ: a penumbra or a shadow's
-/// edge, where one or two binary rays are the noisiest and the filter has no history to lean
-/// on. Lit and umbra windows (all 1, all 0) need no more (see
-/// `docs/algorithms/penumbra-guide.md`).
+/// On a reset frame: whether each lane's pixel traced fewer than `p.rays` on a plane of
+/// `p.reset_planes` in group `id.z` whose 3×3 window of traced samples is
+///
+/// - on a shadow plane, mixed (samples that differ): a penumbra or a shadow's edge, where one or
+///   two binary rays are the noisiest and the filter has no history to lean on. Lit and umbra
+///   windows (all 1, all 0) need no more (see `docs/algorithms/penumbra-guide.md`);
+/// - on another plane (the reflections'), contrasted: its brightest sample more than
+///   `p.reset_contrast` times its darkest. A highlight's or a reflected silhouette's edge, where
+///   the filter and ray reuse spread a neighbour's bright ray over dark pixels; a flat
+///   reflection's rays differ less, and its pixels keep the main pass's rays (see
+///   `docs/algorithms/reflections.md`).
 #[inline(always)]
 fn reset_listed<const N: usize>(
     id: UVec3,
@@ -267,7 +281,13 @@ fn reset_listed<const N: usize>(
     let mut listed = Lanes::<bool, N>::splat(false);
     let mut z = 0;
     while z < p.planes {
-        if super::plane_group(p.plane_groups, z) == id.z && super::plane_in(p.shadow_planes, z) {
+        if super::plane_group(p.plane_groups, z) == id.z && super::plane_in(p.reset_planes, z) {
+            // A contrast of 1 is the shadows' mixed window: any two samples that differ.
+            let contrast = if super::plane_in(p.shadow_planes, z) {
+                1.0
+            } else {
+                p.reset_contrast
+            };
             let own = Lanes::<PackedSample, N>::load_row(samples, z * pixels + id.y * w, x0, w);
             let mut lo = Lanes::<f32, N>::splat(f32::MAX);
             let mut hi = Lanes::<f32, N>::splat(-f32::MAX);
@@ -295,7 +315,7 @@ fn reset_listed<const N: usize>(
             }
             lanes::each_lane!(l in N {
                 let n = own.0[l].rays();
-                listed.0[l] |= n > 0 && n < p.rays && hi.0[l] > lo.0[l];
+                listed.0[l] |= n > 0 && n < p.rays && hi.0[l] > contrast * lo.0[l];
             });
         }
         z += 1;
@@ -521,12 +541,24 @@ mod tests {
     }
 
     /// The work list of a reset frame over a 4×3 image of one shadow plane (mask
-    /// `shadow_planes`) whose first ray was `lit` at each pixel.
+    /// `shadow_planes`, which a reset tests) whose first ray was `lit` at each pixel.
     fn reset_listed_pixels(lit: [[bool; 4]; 3], shadow_planes: u32) -> std::vec::Vec<usize> {
-        let samples: std::vec::Vec<PackedSample> = lit
+        let values = lit.map(|row| row.map(|l| if l { 1.0 } else { 0.0 }));
+        let p = RefillParams {
+            shadow_planes,
+            reset_planes: 1,
+            ..Default::default()
+        };
+        reset_listed_values(values, p)
+    }
+
+    /// The work list of a reset frame over a 4×3 image of one plane whose first ray read
+    /// `values`, with `p`'s masks and contrast.
+    fn reset_listed_values(values: [[f32; 4]; 3], p: RefillParams) -> std::vec::Vec<usize> {
+        let samples: std::vec::Vec<PackedSample> = values
             .iter()
             .flatten()
-            .map(|&l| Sample::uniform(if l { 1.0 } else { 0.0 }, 1).pack())
+            .map(|&v| Sample::uniform(v, 1).pack())
             .collect();
         let (mut work, mut args) = ([0u32; 12], [0u32, 0, 1, 1]);
         let mut hist = [0u32; FIT_BINS as usize];
@@ -534,9 +566,8 @@ mod tests {
             width: 4,
             height: 3,
             planes: 1,
-            shadow_planes,
             rays: MAX_RATE,
-            ..Default::default()
+            ..p
         };
         for y in 0..3 {
             for x in 0..4 {
@@ -566,8 +597,36 @@ mod tests {
         assert_eq!(reset_listed_pixels(edge, 1), [0, 1, 4, 5, 8, 9]);
         assert!(reset_listed_pixels([[true; 4]; 3], 1).is_empty());
         assert!(reset_listed_pixels([[false; 4]; 3], 1).is_empty());
-        // Not a shadow plane: nothing.
-        assert!(reset_listed_pixels(edge, 0).is_empty());
+    }
+
+    #[test]
+    fn a_reset_frame_lists_the_reflections_contrasted_windows() {
+        // A highlight (8) in the left column of a floor at 1, and a floor whose rays differ
+        // by less than the contrast.
+        let highlight = [[8.0, 1.0, 1.0, 1.0]; 3];
+        let flat = [[1.0, 3.0, 1.0, 3.0]; 3];
+        let reflections = RefillParams {
+            reset_planes: 1,
+            reset_contrast: 4.0,
+            ..Default::default()
+        };
+        assert_eq!(
+            reset_listed_values(highlight, reflections),
+            [0, 1, 4, 5, 8, 9]
+        );
+        assert!(reset_listed_values(flat, reflections).is_empty());
+        // The same windows on a shadow plane are mixed; on a plane a reset does not test,
+        // nothing.
+        let shadows = RefillParams {
+            shadow_planes: 1,
+            ..reflections
+        };
+        assert_eq!(reset_listed_values(flat, shadows).len(), 12);
+        let untested = RefillParams {
+            reset_planes: 0,
+            ..reflections
+        };
+        assert!(reset_listed_values(highlight, untested).is_empty());
     }
 
     /// A list of `count` entries (pixels `0..count`) fitted into `room` rays at `rays` each,
