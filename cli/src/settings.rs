@@ -141,6 +141,8 @@ mod tests {
             shadow_reset_boost: 0.75,
             reset_payback: 3,
             reset_refill: 0.1 + 0.2,
+            ao_reset_refill: 0.875,
+            ao_reset_contrast: 1.5,
             undersample: false,
             undersample_after: 9.5,
             variance_threshold: [1.1e-5, 2.2e-4, 0.0, 0.0],

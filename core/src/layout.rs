@@ -79,7 +79,8 @@ impl Layout {
     }
 
     /// Every plane is AO ([`Self::ao_planes`] holds them all): a reset spends
-    /// `rates.ao_reset_boost` ahead instead of `rates.reset_boost`.
+    /// `rates.ao_reset_boost` ahead instead of `rates.reset_boost`, and `rates.ao_reset_refill`
+    /// of it on the pixels of contrasted windows.
     pub fn ao_alone(&self) -> bool {
         self.ao_planes == all_planes(self.planes)
     }

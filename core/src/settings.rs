@@ -167,9 +167,20 @@ pub struct RateSettings {
     /// window of rays is mixed are re-traced with it, up to 16 rays (`kernels::refill`; see
     /// `docs/algorithms/penumbra-guide.md`). The rest is a second ray for a tenth of the pixels
     /// at one ray per pixel: where the penumbrae are wide and the lists hit their 16 rays, it
-    /// keeps the boost from going unspent (`docs/algorithms/fresh-pixels.md`). Reflections alone
-    /// take `reflections.reset_refill` instead.
+    /// keeps the boost from going unspent (`docs/algorithms/fresh-pixels.md`). AO alone takes
+    /// `ao_reset_refill` instead, reflections alone `reflections.reset_refill`.
     pub reset_refill: f32,
+    /// Share of `ao_reset_boost` a reset frame of AO alone spends on the pixels whose 3×3
+    /// window of rays is contrasted (`ao_reset_contrast`) instead of on every pixel (0..=1,
+    /// 0 = off; default 0.35). Past four rays the filter, not the rays, sets a cut's error on
+    /// open surfaces; in the crevices and at the silhouettes the filter brightens the darkest
+    /// pixels from their neighbours, and there up to 16 rays of their own hold them (see
+    /// `docs/algorithms/fresh-pixels.md`).
+    pub ao_reset_refill: f32,
+    /// How many times the darkest ray mean of a reset pixel's 3×3 window its brightest must be
+    /// for the pixel to take `ao_reset_refill`'s rays (>= 1; default 2: a window that holds a
+    /// pixel with most of its rays occluded).
+    pub ao_reset_contrast: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
     /// History length (rays) from which a pixel counts as converged and may undersample

@@ -496,7 +496,9 @@ impl Denoiser {
             } else {
                 r.reset_payback
             },
-            reset_refill: if self.layout.reflections_alone {
+            reset_refill: if self.layout.ao_alone() {
+                r.ao_reset_refill
+            } else if self.layout.reflections_alone {
                 self.settings.reflections.reset_refill
             } else {
                 r.reset_refill
@@ -748,13 +750,14 @@ impl Denoiser {
         self.frame.reset && self.reset_share() > 0.0
     }
 
-    /// Whether reset frames make refill lists (`rates.reset_refill` for a denoiser of shadows
-    /// alone, `reflections.reset_refill` for one of reflections alone, and a host that traces
-    /// refill lists: `detector.refill`).
+    /// Whether reset frames make refill lists (a denoiser of one signal alone whose share,
+    /// `rates.reset_refill`, `rates.ao_reset_refill` or `reflections.reset_refill`, is above 0,
+    /// and a host that traces refill lists: `detector.refill`). In a shared frame the other
+    /// signals would pay for one signal's lists.
     pub(super) fn reset_refill_on(&self) -> bool {
         let l = &self.layout;
         self.rates().reset_refill > 0.0
-            && (l.shadows_alone() || l.reflections_alone)
+            && (l.shadows_alone() || l.reflections_alone || l.ao_alone())
             && self.settings.detector.refill
     }
 

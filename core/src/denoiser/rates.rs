@@ -347,7 +347,7 @@ fn boosts(r: &crate::settings::RateSettings) -> bool {
     r.load_balance && r.supersample_target > 0.0 && r.reset_payback != 0 && r.budget_ms <= 0.0
 }
 
-/// Rays per pixel a reset frame sets aside for the shadows' refill lists (with `refill`): the
+/// Rays per pixel a reset frame sets aside for its refill lists (with `refill`): the
 /// `reset_refill` share of its boost.
 pub(crate) fn reset_reserve(r: &crate::settings::RateSettings, refill: bool) -> f32 {
     if refill && boosts(r) {

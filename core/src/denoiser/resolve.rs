@@ -145,8 +145,13 @@ impl Denoiser {
                 Some(z) if s.detector.refill_fresh => 1 << z,
                 _ => 0,
             },
-            reset_planes: l.shadow_planes | l.parallax_plane.map_or(0, |z| 1 << z),
-            reset_contrast: s.reflections.reset_contrast,
+            reset_planes: l.shadow_planes | l.ao_planes | l.parallax_plane.map_or(0, |z| 1 << z),
+            // Reset lists are a signal's alone (`reset_refill_on`): one contrast.
+            reset_contrast: if l.ao_alone() {
+                s.rates.ao_reset_contrast
+            } else {
+                s.reflections.reset_contrast
+            },
         }
     }
 

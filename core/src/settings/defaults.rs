@@ -37,6 +37,8 @@ impl Default for RateSettings {
             shadow_reset_boost: 2.0,
             reset_payback: 8,
             reset_refill: 0.95,
+            ao_reset_refill: 0.35,
+            ao_reset_contrast: 2.0,
             undersample: true,
             undersample_after: 16.0,
             variance_threshold: [1e-4, 1e-3, 1e-2, 0.0],

@@ -206,6 +206,18 @@ impl RateSettings {
             "0..=64",
         )?;
         check(
+            (0.0..=1.0).contains(&self.ao_reset_refill),
+            "rates.ao_reset_refill",
+            self.ao_reset_refill,
+            "0..=1",
+        )?;
+        check(
+            self.ao_reset_contrast.is_finite() && self.ao_reset_contrast >= 1.0,
+            "rates.ao_reset_contrast",
+            self.ao_reset_contrast,
+            ">= 1",
+        )?;
+        check(
             (0.0..=1.0).contains(&self.reset_refill),
             "rates.reset_refill",
             self.reset_refill,

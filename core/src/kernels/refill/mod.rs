@@ -19,9 +19,11 @@
 //! ([`super::accumulate`]) drops the history if the rays together still disagree.
 //!
 //! A reset frame (first frame, camera cut) has no history and no detector; there the lists hold
-//! the shadow planes' pixels whose 3×3 window of rays is mixed, and [`fit`] shares the rays the
-//! frame set aside (`rates.reset_refill`) among them: the penumbrae get the cut's extra rays that
-//! a second ray everywhere would spend on lit and umbra pixels.
+//! the shadow planes' pixels whose 3×3 window of rays is mixed, or AO's and the reflections'
+//! whose window is contrasted, and [`fit`] shares the rays the frame set aside
+//! (`rates.reset_refill`, `rates.ao_reset_refill`, `reflections.reset_refill`) among them: the
+//! penumbrae, crevices and highlights' edges get the cut's extra rays that more rays everywhere
+//! would spend where the filter does as well without them.
 
 use super::balance::Balance;
 use super::buckets::{BUCKET_COUNT, MAX_RATE};
@@ -264,11 +266,12 @@ fn list<const N: usize>(
 /// - on a shadow plane, mixed (samples that differ): a penumbra or a shadow's edge, where one or
 ///   two binary rays are the noisiest and the filter has no history to lean on. Lit and umbra
 ///   windows (all 1, all 0) need no more (see `docs/algorithms/penumbra-guide.md`);
-/// - on another plane (the reflections'), contrasted: its brightest sample more than
+/// - on another plane (AO's, the reflections'), contrasted: its brightest sample more than
 ///   `p.reset_contrast` times its darkest. A highlight's or a reflected silhouette's edge, where
-///   the filter and ray reuse spread a neighbour's bright ray over dark pixels; a flat
-///   reflection's rays differ less, and its pixels keep the main pass's rays (see
-///   `docs/algorithms/reflections.md`).
+///   the filter and ray reuse spread a neighbour's bright ray over dark pixels, or AO's crevices
+///   and silhouettes, which the filter brightens from their neighbours; a flat reflection's or
+///   an open surface's rays differ less, and its pixels keep the main pass's rays (see
+///   `docs/algorithms/reflections.md`, `docs/algorithms/fresh-pixels.md`).
 #[inline(always)]
 fn reset_listed<const N: usize>(
     id: UVec3,
