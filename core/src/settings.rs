@@ -177,9 +177,9 @@ pub struct RateSettings {
     /// pixels from their neighbours, and there up to 16 rays of their own hold them (see
     /// `docs/algorithms/fresh-pixels.md`).
     pub ao_reset_refill: f32,
-    /// How many times the darkest ray mean of a reset pixel's 3×3 window its brightest must be
-    /// for the pixel to take `ao_reset_refill`'s rays (>= 1; default 2: a window that holds a
-    /// pixel with most of its rays occluded).
+    /// Factor by which the brightest ray mean of a reset pixel's 3×3 window must exceed its
+    /// darkest for the pixel to take `ao_reset_refill`'s rays (>= 1; default 2: a window that
+    /// holds a pixel with most of its rays occluded; at a few rays a pixel 3 lists the same).
     pub ao_reset_contrast: f32,
     /// VRRT undersampling of converged pixels by variance (default on).
     pub undersample: bool,
@@ -395,9 +395,9 @@ pub struct ReflectionSettings {
     /// where one ray in a neighbour leaks in: there the listed pixels add up to 16 rays to their
     /// sequences (`kernels::refill`; `docs/algorithms/reflections.md`).
     pub reset_refill: f32,
-    /// How many times the darkest ray of a reset pixel's 3×3 window its brightest must be for
-    /// the pixel to take `reset_refill`'s rays (>= 1; default 4: at 2 the dragon's flat glossy
-    /// floor took rays its highlights' edges needed, at 6 the edges kept too few).
+    /// Factor by which the brightest ray of a reset pixel's 3×3 window must exceed its darkest
+    /// for the pixel to take `reset_refill`'s rays (>= 1; default 4: at 2 the dragon's fresh
+    /// pixels kept less of the gain, at 6 every scene's did; `docs/algorithms/reflections.md`).
     pub reset_contrast: f32,
 }
 

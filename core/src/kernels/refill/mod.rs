@@ -72,9 +72,9 @@ pub struct RefillParams {
     /// Planes (bit per plane) whose windows a reset frame's lists test ([`refill`]): those in
     /// `shadow_planes` list a mixed window, the others a contrasted one (`reset_contrast`).
     pub reset_planes: u32,
-    /// How many times a window's darkest ray its brightest must be for a reset frame to list
-    /// the pixel on a plane of `reset_planes` outside `shadow_planes`
-    /// (`reflections.reset_contrast`).
+    /// Factor by which a window's brightest ray must exceed its darkest for a reset frame to
+    /// list the pixel on a plane of `reset_planes` outside `shadow_planes` (the signal's alone:
+    /// `rates.ao_reset_contrast` or `reflections.reset_contrast`).
     pub reset_contrast: f32,
 }
 
