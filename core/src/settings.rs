@@ -172,7 +172,8 @@ pub struct RateSettings {
     pub reset_refill: f32,
     /// Share of `ao_reset_boost` a reset frame of AO alone spends on the pixels whose 3×3
     /// window of rays is contrasted (`ao_reset_contrast`) instead of on every pixel (0..=1,
-    /// 0 = off; default 0.35). Past four rays the filter, not the rays, sets a cut's error on
+    /// 0 = off; default 0.35; on images at least `filter.wide_rows` tall, and at most what
+    /// leaves the main pass a ray per pixel). Past four rays the filter, not the rays, sets a cut's error on
     /// open surfaces; in the crevices and at the silhouettes the filter brightens the darkest
     /// pixels from their neighbours, and there up to 16 rays of their own hold them (see
     /// `docs/algorithms/fresh-pixels.md`).
@@ -390,7 +391,8 @@ pub struct ReflectionSettings {
     pub reset_payback: u32,
     /// Share of `rates.reset_boost` a reset frame of reflections alone spends on the pixels whose
     /// 3×3 window of rays is contrasted (`reset_contrast`) instead of on every pixel, in place of
-    /// `rates.reset_refill` (0..=1, 0 = off; default 0.75). At a cut the filter has no history
+    /// `rates.reset_refill` (0..=1, 0 = off; default 0.75; at most what leaves the main pass a
+    /// ray per pixel). At a cut the filter has no history
     /// to lean on, and its error lies at the highlights' and the reflected silhouettes' edges,
     /// where one ray in a neighbour leaks in: there the listed pixels add up to 16 rays to their
     /// sequences (`kernels::refill`; `docs/algorithms/reflections.md`).

@@ -479,31 +479,47 @@ impl Denoiser {
         Ok(())
     }
 
-    /// The rates stage as this frame runs it: the settings' with this frame's budget.
+    /// The rates stage as this frame runs it: the settings' with this frame's budget, and the
+    /// boost, payback and reset refill of the signal alone.
     pub(super) fn rates(&self) -> RateSettings {
         let r = self.settings.rates;
+        let reset_boost = if self.layout.ao_alone() {
+            rates::alone_boost(&r, r.ao_reset_boost, self.rays_per_pixel)
+        } else if self.layout.shadows_alone() {
+            rates::alone_boost(&r, r.shadow_reset_boost, self.rays_per_pixel)
+        } else {
+            r.reset_boost
+        };
         RateSettings {
             rays_per_pixel: self.rays_per_pixel,
-            reset_boost: if self.layout.ao_alone() {
-                rates::alone_boost(&r, r.ao_reset_boost, self.rays_per_pixel)
-            } else if self.layout.shadows_alone() {
-                rates::alone_boost(&r, r.shadow_reset_boost, self.rays_per_pixel)
-            } else {
-                r.reset_boost
-            },
+            reset_boost,
             reset_payback: if self.layout.reflections_alone {
                 self.settings.reflections.reset_payback
             } else {
                 r.reset_payback
             },
-            reset_refill: if self.layout.ao_alone() {
-                r.ao_reset_refill
-            } else if self.layout.reflections_alone {
-                self.settings.reflections.reset_refill
-            } else {
-                r.reset_refill
-            },
+            reset_refill: self.reset_refill_share(reset_boost),
             ..r
+        }
+    }
+
+    /// The share of a reset's boost its refill lists take: the shadows' `rates.reset_refill`,
+    /// or, for the contrasted windows of AO alone and of the reflections alone,
+    /// `rates.ao_reset_refill` and `reflections.reset_refill`, at most what leaves the main pass
+    /// one ray per pixel (`rates::contrast_share`). AO's only on images at least
+    /// `filter.wide_rows` tall, like its other rules for a cut's few-ray pixels.
+    fn reset_refill_share(&self, boost: f32) -> f32 {
+        let (s, rpp) = (&self.settings, self.rays_per_pixel);
+        if self.layout.ao_alone() {
+            if s.filter.tall(self.height) {
+                rates::contrast_share(s.rates.ao_reset_refill, boost, rpp)
+            } else {
+                0.0
+            }
+        } else if self.layout.reflections_alone {
+            rates::contrast_share(s.reflections.reset_refill, boost, rpp)
+        } else {
+            s.rates.reset_refill
         }
     }
 

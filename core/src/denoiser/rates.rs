@@ -347,6 +347,18 @@ fn boosts(r: &crate::settings::RateSettings) -> bool {
     r.load_balance && r.supersample_target > 0.0 && r.reset_payback != 0 && r.budget_ms <= 0.0
 }
 
+/// The share of a reset's `boost` that lists of contrasted windows take (`kernels::refill`):
+/// `share`, but at most what leaves the frame's main pass one ray per pixel at
+/// `rays_per_pixel`. A window's contrast compares its pixels' own means, and a pixel the main
+/// pass skips has none; at half a ray per pixel, where the boost leaves no more than that, the
+/// lists cost the meshes' fresh reflection pixels 29–33% and AO's whole sequences 1–2%
+/// (`docs/algorithms/fresh-pixels.md`).
+pub(crate) fn contrast_share(share: f32, boost: f32, rays_per_pixel: f32) -> f32 {
+    let reset = rays_per_pixel * (1.0 + boost);
+    let room = (reset - 1.0) / (rays_per_pixel * boost).max(1e-6);
+    share.min(room.max(0.0))
+}
+
 /// Rays per pixel a reset frame sets aside for its refill lists (with `refill`): the
 /// `reset_refill` share of its boost.
 pub(crate) fn reset_reserve(r: &crate::settings::RateSettings, refill: bool) -> f32 {
@@ -379,6 +391,19 @@ pub(crate) fn reset_least(r: &crate::settings::RateSettings, refill: bool) -> u3
 mod tests {
     use super::*;
     use crate::settings::RateSettings;
+
+    #[test]
+    fn contrast_lists_leave_the_main_pass_a_ray_per_pixel() {
+        // One ray per pixel: AO's boost of 3 and the reflections' of 1 keep their shares.
+        assert_eq!(contrast_share(0.35, 3.0, 1.0), 0.35);
+        assert_eq!(contrast_share(0.75, 1.0, 1.0), 0.75);
+        // Half a ray with a boost of 1: one ray per pixel in all, none for the lists.
+        assert_eq!(contrast_share(0.75, 1.0, 0.5), 0.0);
+        // In between, the share is cut to what leaves one ray: 0.8 · 2 − 1 of 0.8.
+        let share = contrast_share(1.0, 1.0, 0.8);
+        approx::assert_relative_eq!(share, 0.75, epsilon = 1e-6);
+        approx::assert_relative_eq!(0.8 * 2.0 - 0.8 * share, 1.0, epsilon = 1e-6);
+    }
 
     #[test]
     fn a_reset_spends_ahead_what_the_next_frames_pay_back() {
