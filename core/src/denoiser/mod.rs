@@ -503,23 +503,22 @@ impl Denoiser {
         }
     }
 
-    /// The share of a reset's boost its refill lists take: the shadows' `rates.reset_refill`,
-    /// or, for the contrasted windows of AO alone and of the reflections alone,
-    /// `rates.ao_reset_refill` and `reflections.reset_refill`, at most what leaves the main pass
-    /// one ray per pixel (`rates::contrast_share`). AO's only on images at least
-    /// `filter.wide_rows` tall, like its other rules for a cut's few-ray pixels.
+    /// The share of a reset's boost its refill lists take, for a denoiser of one signal alone:
+    /// the shadows' `rates.reset_refill`, or, for the contrasted windows of AO and of the
+    /// reflections, `rates.ao_reset_refill` and `reflections.reset_refill`, at most what leaves
+    /// the main pass one ray per pixel (`rates::contrast_share`); AO's only on images at least
+    /// `filter.wide_rows` tall, like its other rules for a cut's few-ray pixels. None in a shared
+    /// frame, where the other signals would pay for one signal's lists.
     fn reset_refill_share(&self, boost: f32) -> f32 {
-        let (s, rpp) = (&self.settings, self.rays_per_pixel);
-        if self.layout.ao_alone() {
-            if s.filter.tall(self.height) {
-                rates::contrast_share(s.rates.ao_reset_refill, boost, rpp)
-            } else {
-                0.0
-            }
-        } else if self.layout.reflections_alone {
+        let (s, l, rpp) = (&self.settings, &self.layout, self.rays_per_pixel);
+        if l.shadows_alone() {
+            s.rates.reset_refill
+        } else if l.ao_alone() && s.filter.tall(self.height) {
+            rates::contrast_share(s.rates.ao_reset_refill, boost, rpp)
+        } else if l.reflections_alone {
             rates::contrast_share(s.reflections.reset_refill, boost, rpp)
         } else {
-            s.rates.reset_refill
+            0.0
         }
     }
 
@@ -766,15 +765,10 @@ impl Denoiser {
         self.frame.reset && self.reset_share() > 0.0
     }
 
-    /// Whether reset frames make refill lists (a denoiser of one signal alone whose share,
-    /// `rates.reset_refill`, `rates.ao_reset_refill` or `reflections.reset_refill`, is above 0,
-    /// and a host that traces refill lists: `detector.refill`). In a shared frame the other
-    /// signals would pay for one signal's lists.
+    /// Whether reset frames make refill lists: a share of the boost for them
+    /// ([`Self::reset_refill_share`]) and a host that traces refill lists (`detector.refill`).
     pub(super) fn reset_refill_on(&self) -> bool {
-        let l = &self.layout;
-        self.rates().reset_refill > 0.0
-            && (l.shadows_alone() || l.reflections_alone || l.ao_alone())
-            && self.settings.detector.refill
+        self.rates().reset_refill > 0.0 && self.settings.detector.refill
     }
 
     /// A reset frame's refill reserve as a share of its main pass's budget
