@@ -146,7 +146,7 @@ impl Denoiser {
                 _ => 0,
             },
             reset_planes: l.shadow_planes | l.ao_planes | l.parallax_plane.map_or(0, |z| 1 << z),
-            // Reset lists are a signal's alone (`reset_refill_on`): one contrast.
+            // Reset lists are a signal's alone (`Denoiser::reset_refill_share`): one contrast.
             reset_contrast: if l.ao_alone() {
                 s.rates.ao_reset_contrast
             } else {
