@@ -173,10 +173,10 @@ pub struct RateSettings {
     /// Share of `ao_reset_boost` a reset frame of AO alone spends on the pixels whose 3×3
     /// window of rays is contrasted (`ao_reset_contrast`) instead of on every pixel (0..=1,
     /// 0 = off; default 0.35; on images at least `filter.wide_rows` tall, and at most what
-    /// leaves the main pass a ray per pixel). Past four rays the filter, not the rays, sets a cut's error on
-    /// open surfaces; in the crevices and at the silhouettes the filter brightens the darkest
-    /// pixels from their neighbours, and there up to 16 rays of their own hold them (see
-    /// `docs/algorithms/fresh-pixels.md`).
+    /// leaves the main pass a ray per pixel). Past four rays the filter, not the rays, sets a
+    /// cut's error on open surfaces; in the crevices and at the silhouettes the filter brightens
+    /// the darkest pixels from their neighbours, and there up to 16 rays of their own hold them
+    /// (see `docs/algorithms/fresh-pixels.md`).
     pub ao_reset_refill: f32,
     /// Factor by which the brightest ray mean of a reset pixel's 3×3 window must exceed its
     /// darkest for the pixel to take `ao_reset_refill`'s rays (>= 1; default 2: a window that
@@ -392,10 +392,10 @@ pub struct ReflectionSettings {
     /// Share of `rates.reset_boost` a reset frame of reflections alone spends on the pixels whose
     /// 3×3 window of rays is contrasted (`reset_contrast`) instead of on every pixel, in place of
     /// `rates.reset_refill` (0..=1, 0 = off; default 0.75; at most what leaves the main pass a
-    /// ray per pixel). At a cut the filter has no history
-    /// to lean on, and its error lies at the highlights' and the reflected silhouettes' edges,
-    /// where one ray in a neighbour leaks in: there the listed pixels add up to 16 rays to their
-    /// sequences (`kernels::refill`; `docs/algorithms/reflections.md`).
+    /// ray per pixel). At a cut the filter has no history to lean on, and its error lies at the
+    /// highlights' and the reflected silhouettes' edges, where one ray in a neighbour leaks in:
+    /// there the listed pixels add up to 16 rays to their sequences (`kernels::refill`;
+    /// `docs/algorithms/reflections.md`).
     pub reset_refill: f32,
     /// Factor by which the brightest ray of a reset pixel's 3×3 window must exceed its darkest
     /// for the pixel to take `reset_refill`'s rays (>= 1; default 4: at 2 the dragon's fresh
