@@ -106,12 +106,12 @@ pub enum SamplePattern {
     ScreenBlue,
 }
 
-/// Pattern code of a reference's replicates (not a setting): the per-pixel pattern with the
-/// low-discrepancy sequence's rotation drawn anew for each replicate (`Stream::new`'s `frame`
-/// names the replicate). A reference traced as one stratified sequence per pixel is more
-/// accurate than independent samples, and its samples' spread overstates its error; a few
-/// independently rotated replicates give an error estimate that does not (randomised
-/// quasi-Monte Carlo, `vrrt_scene::render::REPLICATES`).
+/// Pattern code of a reference's replicates (not a setting): every plane's first two random
+/// numbers from the per-pixel low-discrepancy sequence, its rotation drawn anew for each
+/// replicate (`Stream::new`'s `frame` names the replicate). A reference traced as one
+/// stratified sequence per pixel is more accurate than independent samples, and its samples'
+/// spread overstates its error; a few independently rotated replicates give an error estimate
+/// that does not (randomised quasi-Monte Carlo, `vrrt_scene::render::REPLICATES`).
 pub const REPLICATE_PATTERN: u32 = 2;
 
 impl SamplePattern {
@@ -190,11 +190,14 @@ impl Stream {
         )
     }
 
-    /// First two random numbers of ray `index` (AO, shadows): per pixel `rand` dimensions 0, 1.
+    /// First two random numbers of ray `index` (AO, shadows): per pixel `rand` dimensions 0, 1;
+    /// a reference's replicate ([`REPLICATE_PATTERN`]) takes [`Stream::point_ld`]'s.
     #[inline]
     pub fn point(&self, index: u32) -> (f32, f32) {
         if self.pattern == 1 {
             self.blue(index)
+        } else if self.pattern == REPLICATE_PATTERN {
+            low_discrepancy(self.seed ^ self.base_u, index)
         } else {
             (rand(self.seed, index, 0), rand(self.seed, index, 1))
         }
@@ -425,12 +428,12 @@ mod tests {
         let s = Stream::new(0, 4, 9, 1, 30, 100);
         assert_eq!(s.point(7), (rand(seed, 7, 0), rand(seed, 7, 1)));
         assert_eq!(s.point_ld(7), low_discrepancy(seed, 7));
-        // A replicate: the per-pixel numbers, but for the low-discrepancy sequence's rotation,
-        // which differs from the per-pixel pattern's and from every other replicate's.
+        // A replicate: the low-discrepancy sequence for both points, its rotation differing
+        // from the per-pixel pattern's and from every other replicate's.
         let replicates: [Stream; 8] =
             core::array::from_fn(|j| Stream::new(REPLICATE_PATTERN, 4, 9, 1, j as u32, 100));
         for (j, r) in replicates.iter().enumerate() {
-            assert_eq!(r.point(7), s.point(7));
+            assert_eq!(r.point(7), r.point_ld(7));
             assert_ne!(r.point_ld(7), s.point_ld(7));
             for other in &replicates[..j] {
                 assert_ne!(r.point_ld(7), other.point_ld(7));

@@ -554,21 +554,18 @@ fn unpack_samples(packed: &[PackedSample]) -> Vec<Sample> {
     packed.iter().map(|s| s.unpack()).collect()
 }
 
-/// Adds a batch's samples, weighted by their rays, to the per-cell sums of the ray results and
-/// of their squares. On a GPU backend this host-side loop over every pixel of every batch is
-/// most of a reference's time, so it runs on all cores.
-fn accumulate(samples: &[PackedSample], sum: &mut [f64], sum_sq: &mut [f64]) {
+/// Adds a batch's samples, weighted by their rays, to the per-cell sums of the ray results. On a
+/// GPU backend this host-side loop over every pixel of every batch is most of a reference's
+/// time, so it runs on all cores.
+fn accumulate(samples: &[PackedSample], sum: &mut [f64]) {
     const CHUNK: usize = 1 << 14;
     samples
         .par_chunks(CHUNK)
         .zip(sum.par_chunks_mut(CHUNK))
-        .zip(sum_sq.par_chunks_mut(CHUNK))
-        .for_each(|((samples, sum), sum_sq)| {
-            for ((packed, s), q) in samples.iter().zip(sum).zip(sum_sq) {
+        .for_each(|(samples, sum)| {
+            for (packed, s) in samples.iter().zip(sum) {
                 let sample = packed.unpack();
-                let rays = f64::from(sample.rays);
-                *s += f64::from(sample.m1) * rays;
-                *q += f64::from(sample.m2) * rays;
+                *s += f64::from(sample.m1) * f64::from(sample.rays);
             }
         });
 }
@@ -591,26 +588,26 @@ pub struct Reference {
 /// wrapping).
 pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 
-/// Independent replicates a reference traces its reflection plane in, when its samples divide
-/// into them (else as many as a power of two does). Reflection directions follow each pixel's
-/// low-discrepancy sequence, whose mean is more accurate than as many independent samples: the
-/// samples' own spread, the standard error's formula for independent samples, overstated the
-/// error of the reflections' 256-spp references about twofold. Replicate `j` rotates the
-/// sequence anew ([`REPLICATE_PATTERN`], `frame` = `j`) and takes the next `spp / REPLICATES`
-/// rng indices, so the replicates' means are independent and their spread is the mean's error
-/// (randomised quasi-Monte Carlo). AO and shadows draw independent samples and keep theirs.
+/// Independent replicates a reference traces its planes in, when its samples divide into them
+/// (else as many as a power of two does). A ray's first two random numbers follow each pixel's
+/// low-discrepancy sequence ([`REPLICATE_PATTERN`]: AO's hemisphere, a shadow's light point, a
+/// reflection's lobe), whose mean is more accurate than as many independent samples, and more
+/// so than the samples' own spread says (it overstated the reflections' 256-spp error about
+/// twofold). Replicate `j` rotates the sequence anew (`frame` = `j`) and takes the next
+/// `spp / REPLICATES` rng indices, so the replicates' means are independent and their spread is
+/// the mean's error (randomised quasi-Monte Carlo).
 pub const REPLICATES: u32 = 8;
 
-/// The replicates a reference of `spp` samples traces its reflection plane in: the largest
-/// power of two up to [`REPLICATES`] that divides `spp` (1: one sequence, its error unknown).
+/// The replicates a reference of `spp` samples traces its planes in: the largest
+/// power of two up to [`REPLICATES`] that divides `spp` (1, an odd `spp`: independent samples
+/// per pixel, the per-pixel pattern, whose error is not estimated).
 fn replicates(spp: u32) -> u32 {
     1 << spp.max(1).trailing_zeros().min(REPLICATES.trailing_zeros())
 }
 
-/// The reflection plane's replicates ([`replicates`] of them, `rays` samples each): its sums at
-/// the current replicate's start and the sum of the replicates' squared means, per pixel.
+/// A reference's replicates ([`replicates`] of them, `rays` samples each): the sums at the
+/// current replicate's start and the sum of the replicates' squared means, per pixel and plane.
 struct ReplicateSums {
-    plane: std::ops::Range<usize>,
     count: u32,
     rays: f64,
     start: Vec<f64>,
@@ -618,11 +615,9 @@ struct ReplicateSums {
 }
 
 impl ReplicateSums {
-    fn new(plane: std::ops::Range<usize>, spp: u32) -> Self {
-        let n = plane.len();
+    fn new(n: usize, spp: u32) -> Self {
         let count = replicates(spp);
         ReplicateSums {
-            plane,
             count,
             rays: f64::from(spp / count),
             start: vec![0.0; n],
@@ -633,18 +628,14 @@ impl ReplicateSums {
     /// Ends a replicate whose samples the sums `sum` now include.
     fn close(&mut self, sum: &[f64]) {
         let rays = self.rays;
-        for ((s, start), sq) in sum[self.plane.clone()]
-            .iter()
-            .zip(&mut self.start)
-            .zip(&mut self.squares)
-        {
+        for ((s, start), sq) in sum.iter().zip(&mut self.start).zip(&mut self.squares) {
             let mean = (s - *start) / rays;
             *sq += mean * mean;
             *start = *s;
         }
     }
 
-    /// The standard error of plane pixel `k`'s mean `mean` over the replicates (NaN below two:
+    /// The standard error of cell `k`'s mean `mean` over the replicates (NaN below two:
     /// one sequence has no spread to measure).
     fn stderr(&self, k: usize, mean: f64) -> f32 {
         if self.count < 2 {
@@ -722,7 +713,7 @@ pub struct ReferenceSpec<'a> {
 
 /// Traces `spec.spp` rays per pixel of frame `f` at `(width, height)` with the raygen kernels
 /// (the same estimator the denoiser sees) in passes of up to `MAX_RATE` (16) rays, calling
-/// `progress(done, spp)` after each; a reflection plane in [`REPLICATES`] replicates.
+/// `progress(done, spp)` after each, in [`REPLICATES`] replicates.
 /// Its buffers are new and stay on `exec`: for more than one reference on an executor use
 /// [`reference_with`].
 pub fn reference<E: Executor>(
@@ -772,11 +763,9 @@ pub fn reference_with<E: Executor>(
     exec.write_buffer(gbuffer.view, bytemuck::bytes_of(&view))?;
     gpu.gbuffer(exec, f, width, height, gbuffer)?;
     let layout = signal.layout(f.lights.len());
-    let (mut sum, mut sum_sq) = (vec![0.0f64; n], vec![0.0f64; n]);
-    let mut reflection = layout
-        .reflections
-        .map(|z| ReplicateSums::new(z as usize * pixels..(z as usize + 1) * pixels, spp));
-    let count = reflection.as_ref().map_or(1, |r| r.count);
+    let mut sum = vec![0.0f64; n];
+    let mut replicates = ReplicateSums::new(n, spp);
+    let count = replicates.count;
     let mut done = 0u32;
     // The work list changes only with the batch's size (the last batch may be smaller).
     let mut listed = 0;
@@ -818,47 +807,26 @@ pub fn reference_with<E: Executor>(
             };
             let scene = gpu.frame_scene(f);
             trace_planes(exec, signal, &layout, &scene, reflections, &target)?;
-            accumulate(&read(exec, out, n)?, &mut sum, &mut sum_sq);
+            accumulate(&read(exec, out, n)?, &mut sum);
             done += batch;
             progress(done, spp);
         }
-        if let Some(r) = reflection.as_mut() {
-            r.close(&sum);
-        }
+        replicates.close(&sum);
     }
-    Ok(Reference::from_sums(
-        spp,
-        (&sum, &sum_sq),
-        reflection.as_ref(),
-    ))
+    Ok(Reference::from_sums(spp, &sum, &replicates))
 }
 
 impl Reference {
-    /// The mean and standard error of `spp` samples per cell from the sums of the samples and
-    /// of their squares, the reflection plane's error from its replicates'.
-    fn from_sums(
-        spp: u32,
-        (sum, sum_sq): (&[f64], &[f64]),
-        reflection: Option<&ReplicateSums>,
-    ) -> Reference {
+    /// The mean of `spp` samples per cell from the sums of the samples, and its standard error
+    /// from the replicates'.
+    fn from_sums(spp: u32, sum: &[f64], replicates: &ReplicateSums) -> Reference {
         let k = spp.max(1) as f64;
-        let mean: Vec<f32> = sum.iter().map(|s| (s / k) as f32).collect();
-        // One sample has no spread to measure: its standard error is unknown (NaN), not 0.
-        let mut stderr: Vec<f32> = sum
+        let mean = sum.iter().map(|s| (s / k) as f32).collect();
+        let stderr = sum
             .iter()
-            .zip(sum_sq)
-            .map(|(s, q)| {
-                let m = s / k;
-                let var = (q / k - m * m).max(0.0);
-                (var / (k - 1.0)).sqrt() as f32
-            })
-            .map(|se| if spp < 2 { f32::NAN } else { se })
+            .enumerate()
+            .map(|(i, s)| replicates.stderr(i, s / k))
             .collect();
-        if let Some(r) = reflection {
-            for (j, i) in r.plane.clone().enumerate() {
-                stderr[i] = r.stderr(j, sum[i] / k);
-            }
-        }
         Reference { mean, stderr, spp }
     }
 }

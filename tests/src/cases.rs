@@ -178,6 +178,16 @@ pub const SIZES: &[(u32, u32)] = &[(1, 1), (37, 19), (130, 67)];
 /// Signal planes used by per-plane kernels.
 pub const PLANES: u32 = 2;
 
+/// A raygen case's sample pattern: both patterns across [`SIZES`] (odd, odd, even widths), or
+/// a third of the time a reference's replicate.
+pub fn sampling(rng: &mut Pcg32, w: u32) -> u32 {
+    if rng.random_range(0..3) == 0 {
+        vrrt_core::sampling::REPLICATE_PATTERN
+    } else {
+        w & 1
+    }
+}
+
 /// Deterministic generator for reproducible cases.
 pub fn rng(seed: u64) -> Pcg32 {
     Pcg32::seed_from_u64(seed)

@@ -112,13 +112,7 @@ pub fn raygen_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         lights: rng.random_range(0..=lights.len() as u32),
         frame: rng.random(),
         list: list.list,
-        // Both sample patterns across `cases::SIZES` (odd, odd, even widths), or a reference's
-        // replicate.
-        sampling: if rng.random_range(0..3) == 0 {
-            vrrt_core::sampling::REPLICATE_PATTERN
-        } else {
-            w & 1
-        },
+        sampling: crate::cases::sampling(rng, w),
         // The refill lists' pass adds to what the main pass wrote.
         merge: rng.random_range(0..2),
         shading: shading(rng, &frame),

@@ -204,8 +204,7 @@ pub fn raygen_ao_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         max_distance: rng.random_range(0.2..4.0),
         list: list.list,
         frame: rng.random(),
-        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
-        sampling: w & 1,
+        sampling: crate::cases::sampling(rng, w),
         _pad: 0,
     };
     let [work, args] = list.buffers();
@@ -258,8 +257,7 @@ pub fn raygen_shadow_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         first_plane,
         list: list.list,
         frame: rng.random(),
-        // Both sample patterns across `cases::SIZES` (odd, odd, even widths).
-        sampling: w & 1,
+        sampling: crate::cases::sampling(rng, w),
         // The blocker records of one shadow plane (some without a light), or of none (1×1).
         blocker_plane: if w == 1 {
             vrrt_core::kernels::reproject::NO_PLANE

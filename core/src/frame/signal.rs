@@ -176,9 +176,10 @@ pub struct SignalName<'a> {
 }
 
 impl SignalName<'_> {
-    /// Whether the signal has a reflection plane (whose references are traced in replicates).
-    pub fn has_reflections(&self) -> bool {
-        matches!(self.signal, Signal::Reflections | Signal::All { .. })
+    /// Whether the signal is reflections alone (whose references' cache key has its own
+    /// version).
+    pub fn is_reflections(&self) -> bool {
+        self.signal == Signal::Reflections
     }
 }
 

@@ -14,12 +14,13 @@ use crate::FrameGeometry;
 
 /// Version of the reference estimator ([`crate::render::reference`]: its rng stream, batching
 /// and standard-error formula) and of this key's layout. Bump it when either changes: older
-/// entries are then never looked up again.
-pub const ESTIMATOR_VERSION: u32 = 4;
+/// entries are then never looked up again. Since 6 every plane is traced in replicates
+/// ([`crate::render::REPLICATES`]); before, only the reflection plane was (5).
+pub const ESTIMATOR_VERSION: u32 = 6;
 
-/// [`ESTIMATOR_VERSION`] of the references with a reflection plane, traced in independent
-/// replicates since version 5 ([`crate::render::REPLICATES`]).
-pub const REPLICATED_ESTIMATOR_VERSION: u32 = 5;
+/// The version a signal of reflections alone is keyed with: its one plane has been traced the
+/// same way since version 5, so its entries stay valid.
+pub const REFLECTIONS_ESTIMATOR_VERSION: u32 = 5;
 
 /// BLAKE3 hash of everything of a frame that the reference renderer reads.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
@@ -76,8 +77,8 @@ pub struct ReferenceKey {
     pub signal: String,
     /// The caller's own version (e.g. the `vrrt` command's).
     pub version: u32,
-    /// The estimator's version: [`ESTIMATOR_VERSION`], or [`REPLICATED_ESTIMATOR_VERSION`]
-    /// for a signal with a reflection plane.
+    /// The estimator's version: [`ESTIMATOR_VERSION`], or [`REFLECTIONS_ESTIMATOR_VERSION`]
+    /// for a signal of reflections alone.
     pub estimator: u32,
 }
 
@@ -102,8 +103,8 @@ impl ReferenceKey {
             spp,
             signal: signal.to_string(),
             version,
-            estimator: if signal.has_reflections() {
-                REPLICATED_ESTIMATOR_VERSION
+            estimator: if signal.is_reflections() {
+                REFLECTIONS_ESTIMATOR_VERSION
             } else {
                 ESTIMATOR_VERSION
             },

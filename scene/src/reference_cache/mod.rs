@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use crate::image::{Image, ImageRef};
 use entry::{decode_entry, encode_entry, EncodeError};
-pub use key::{ReferenceKey, SceneHash, ESTIMATOR_VERSION, REPLICATED_ESTIMATOR_VERSION};
+pub use key::{ReferenceKey, SceneHash, ESTIMATOR_VERSION, REFLECTIONS_ESTIMATOR_VERSION};
 pub(crate) use store::write_atomically;
 pub use store::ORPHAN_AGE;
 
