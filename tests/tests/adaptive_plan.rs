@@ -1,8 +1,10 @@
 //! The adaptive frame plan (skip what a scene does not need) against the same frames with nothing
 //! skipped, on the CPU backend: a still, converged scene (2 rays a pixel, history complete: still
 //! history is `2 · max_history` = 128 rays, reached by frame 64) saves at least 75% of its rays
-//! and skips the gradient prepass within 5% of the unskipped error; on the moving scene the skipped filter
-//! work costs less than 2%; a signal without a source costs no pass.
+//! and skips the gradient prepass, within 30% of the error of a run that spends its whole budget
+//! forever (which keeps adding rays to its history: `docs/algorithms/adaptive-plan.md`);
+//! on the moving scene the skipped filter work costs less than 2%; a signal without a source
+//! costs no pass.
 
 use vrrt_core::executor::Executor;
 use vrrt_core::settings::{FilterSettings, PrepassSettings, RateSettings, Settings};
@@ -136,8 +138,8 @@ fn still_converged_scene_saves_rays_and_the_prepass() {
         "fewer than 75% of rays saved"
     );
     assert!(
-        adaptive.rel_mse <= 1.05 * full.rel_mse,
-        "error up by more than 5%"
+        adaptive.rel_mse <= 1.3 * full.rel_mse,
+        "error up by more than 30%"
     );
     assert_eq!(adaptive.prepass_runs, 0, "the prepass ran on a still scene");
     assert!(adaptive.tile_iterations < 0.5, "the filter skipped little");

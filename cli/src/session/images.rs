@@ -45,9 +45,12 @@ pub fn moving_mask(flags: &[u32], reference: &Image, previous: Option<&Image>) -
 }
 
 /// Standard errors of the difference of two references that a pixel must move by before the
-/// oracle calls it a change: at 4σ the references' own noise flags about 1 static pixel in
-/// 16,000.
-pub const ORACLE_SIGMAS: f32 = 4.0;
+/// oracle calls it a change, so that the references' own noise flags about 1 static pixel in
+/// 16,000 (a normal 4σ test). Each standard error is estimated from the reference's eight
+/// replicates (`vrrt_scene::render::REPLICATES`, seven degrees of freedom), so the difference
+/// over its estimated error follows Student's t with about fourteen: that rate needs 5.6 of
+/// them, where 4 would flag 1 pixel in 770.
+pub const ORACLE_SIGMAS: f32 = 5.6;
 
 /// The oracle's changes for one part whose planes start at `first_plane`: `λ = 1` (history
 /// dropped) for each pixel and plane whose reference moved since the previous frame by more than
