@@ -304,18 +304,20 @@ pub struct DetectorSettings {
     /// history as long as a converged pixel's, and the contact shadows of moving objects lagged
     /// (see `docs/algorithms/change-detector.md`).
     pub ao_gain: f32,
-    /// Verification of the shadow planes (>= 0, 0 = off; default 1.5): a pixel that traced fewer
+    /// Verification of the shadow planes (>= 0, 0 = off; default 0.75): a pixel that traced fewer
     /// than `refill_rays` and whose own rays lie this many standard deviations from its history
     /// (`kernels::detect::pixel_z`) joins the refill lists, and accumulation drops its history
     /// where the `refill_rays` then lie `shadow_drop_sigma` from it. A thin umbra that the camera
     /// slides under a pixel of lit history is one disagreeing ray, which the detector's window
-    /// dilutes; four rays decide it.
+    /// dilutes; four rays decide it. Against less noisy references the dragon's slow penumbra
+    /// changes showed that 0.75 here and in `shadow_drop_sigma` lag less than 1.5 (see
+    /// `docs/algorithms/change-detector.md`).
     pub shadow_verify_sigma: f32,
     /// History length (rays) from which that test trusts a pixel's history variance (>= 1;
     /// default 1: a younger history already asks for rays).
     pub shadow_verify_history: f32,
     /// Significance of two or more rays against their history from which accumulation drops
-    /// it on the shadow planes (> 0; default 1.5).
+    /// it on the shadow planes (> 0; default 0.75).
     pub shadow_drop_sigma: f32,
     /// Confirmation of the reflections' drops (on the
     /// `Layout::parallax_plane`; >= 0, 0 = off; default

@@ -264,7 +264,7 @@ fn refill_params(rng: &mut Pcg32, w: u32, h: u32, lists: u32) -> refill::RefillP
         shadow_threshold: 0.25,
         shadow_planes: rng.random_range(0..1 << PLANES),
         rays: rng.random_range(1..=16),
-        verify_sigma: [0.0, 1.0, 1.5][rng.random_range(0..3)],
+        verify_sigma: [0.0, 0.75, 1.5][rng.random_range(0..3)],
         verify_history: [1.0, 4.0][rng.random_range(0..2)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         frame_index: rng.random(),

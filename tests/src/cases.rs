@@ -325,7 +325,7 @@ fn accumulate_case(rng: &mut Pcg32, w: u32, h: u32) -> Case {
         change_threshold: 0.5,
         shadow_threshold: 0.25,
         shadow_planes: rng.random_range(1..1 << PLANES),
-        drop_sigma: [1.5, 3.0][rng.random_range(0..2)],
+        drop_sigma: [0.75, 1.5, 3.0][rng.random_range(0..3)],
         min_variance: [0.0, 1e-4][rng.random_range(0..2)],
         surface_clamp_planes: rng.random_range(0..1 << PLANES),
         surface_clamp_radius: rng.random_range(0..4),

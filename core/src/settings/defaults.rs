@@ -78,9 +78,9 @@ impl Default for DetectorSettings {
             refill_share: 0.1,
             shadow_radius: 1,
             shadow_threshold: 0.3,
-            shadow_verify_sigma: 1.5,
+            shadow_verify_sigma: 0.75,
             shadow_verify_history: 1.0,
-            shadow_drop_sigma: 1.5,
+            shadow_drop_sigma: 0.75,
             reflection_confirm_sigma: 1.25,
             workgroup_tiles: false,
         }
