@@ -598,9 +598,9 @@ pub const REFERENCE_RNG_BASE: u32 = 1 << 15;
 /// the mean's error (randomised quasi-Monte Carlo).
 pub const REPLICATES: u32 = 8;
 
-/// The replicates a reference of `spp` samples traces its planes in: the largest
-/// power of two up to [`REPLICATES`] that divides `spp` (1, an odd `spp`: independent samples
-/// per pixel, the per-pixel pattern, whose error is not estimated).
+/// The replicates a reference of `spp` samples traces its planes in: the largest power of two
+/// up to [`REPLICATES`] that divides `spp` (1, an odd `spp`: the per-pixel pattern in one run,
+/// whose error is not estimated).
 fn replicates(spp: u32) -> u32 {
     1 << spp.max(1).trailing_zeros().min(REPLICATES.trailing_zeros())
 }
